@@ -1,0 +1,28 @@
+//! Flockway's simulation core: a `bevy_ecs` world stepped at exactly 1/120 s per tick.
+//!
+//! Everything that happens in a Flockway run is a system in one of the ordered [`StepSet`]s of the
+//! fixed step. Simulated time is an integer tick count ([`SimClock`]); all randomness comes from
+//! ChaCha streams derived from the level seed and a [`StableId`] ([`RngStreams`]), so the same level
+//! and seed give the same run whether a command-line runner or a window drives the [`Sim`].
+
+mod clock;
+mod ids;
+mod rng;
+mod sim;
+mod stepper;
+mod units;
+
+pub use clock::{SimClock, Tick, DT_S, TICKS_PER_SECOND};
+pub use ids::{IdKind, StableId};
+pub use rng::{EntityRng, RngStreams};
+pub use sim::{Sim, SimPlugin, StepSet};
+pub use stepper::{FixedStepper, SpeedSetting};
+pub use units::{kmh_to_mps, mps_to_kmh, Speed};
+
+/// The types most users of the core need, for `use flockway_core::prelude::*`.
+pub mod prelude {
+    pub use crate::{
+        EntityRng, IdKind, RngStreams, Sim, SimClock, SimPlugin, Speed, StableId, StepSet, Tick,
+        DT_S, TICKS_PER_SECOND,
+    };
+}

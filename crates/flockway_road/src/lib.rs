@@ -1,0 +1,39 @@
+//! Flockway roads: smooth splines through the points a user places, with lanes, bank, width and
+//! guardrails, and the geometry queries every other system needs.
+//!
+//! A [`RoadSpec`] is what the user edits and the level stores. [`RoadGeometry`] evaluates it once
+//! per edit: a centripetal Catmull-Rom centre line (open or a seamless closed loop) with an
+//! arc-length table for O(log n) frames at an arc position, and a grid index for closest-point
+//! queries. [`RoadMeshes`] holds the surface, markings and guardrails for physics and rendering.
+//! In the ECS world, [`RoadPlugin`] keeps the [`RoadNetwork`] resource in step with [`Road`]
+//! components.
+//!
+//! Conventions: x east, y north, z up (metres); lateral offsets are positive to the left of the
+//! direction of travel; lane 0 is the rightmost lane.
+
+mod error;
+mod geometry;
+mod grid;
+mod mesh;
+mod network;
+mod spec;
+mod spline;
+mod validate;
+
+pub use error::RoadError;
+pub use geometry::{lane_offset, RoadFrame, RoadGeometry, RoadProjection};
+pub use mesh::{
+    GuardrailRun, Mesh, RoadMeshes, Side, DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M,
+    MARKING_WIDTH_M, STATION_STEP_M,
+};
+pub use network::{rebuild_roads, NetworkError, Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin, RoadShape, MAX_CONNECTION_GAP_M};
+pub use spec::{ControlPoint, RoadSpec, DEFAULT_LANE_WIDTH_M};
+pub use validate::{MAX_BANK_DEG, MAX_COORD_M, MAX_LANES, MAX_POINTS, MAX_POINT_SPACING_M, MAX_WIDTH_M, MIN_POINT_SPACING_M};
+
+/// The road types most users need.
+pub mod prelude {
+    pub use crate::{ControlPoint, Road, RoadFrame, RoadGeometry, RoadId, RoadNetwork, RoadPlugin, RoadProjection, RoadSpec};
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,298 @@
+//! Unit tests of road geometry against exact shapes.
+
+use crate::*;
+use glam::DVec3;
+use std::f64::consts::{PI, TAU};
+
+fn curved_road(lanes: u32) -> RoadGeometry {
+    // An S-bend with a hill: curves both ways, climbs and falls.
+    let pts = [
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(80.0, 10.0, 2.0),
+        DVec3::new(150.0, 70.0, 5.0),
+        DVec3::new(160.0, 160.0, 3.0),
+        DVec3::new(230.0, 220.0, 0.0),
+        DVec3::new(330.0, 210.0, 0.0),
+    ];
+    RoadGeometry::new(&RoadSpec::through("s-bend", lanes, 60.0, &pts)).expect("valid road")
+}
+
+/// A tiny deterministic generator for test inputs (no dependency, no global state).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+#[test]
+fn circle_arc_length_is_two_pi_r() {
+    for (radius, n) in [(36.6, 12), (100.0, 16), (500.0, 24)] {
+        let g = RoadGeometry::new(&RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, radius, n)).expect("ring");
+        let exact = TAU * radius;
+        let rel = (g.length_m() - exact).abs() / exact;
+        assert!(rel < 5e-4, "R={radius} n={n}: length {} vs {exact} ({:.4} %)", g.length_m(), rel * 100.0);
+        // And the curve stays on the circle, not just the right length.
+        for k in 0..200 {
+            let p = g.pos_at(g.length_m() * k as f64 / 200.0);
+            assert!((p.truncate().length() - radius).abs() / radius < 1e-4, "off the circle at {p}");
+        }
+    }
+}
+
+#[test]
+fn arc_length_parameterisation_is_unit_speed() {
+    let g = curved_road(2);
+    let h = 0.01;
+    let mut s = 0.0;
+    while s + h < g.length_m() {
+        let d = (g.pos_at(s + h) - g.pos_at(s)).length();
+        assert!((d - h).abs() < 1e-6, "at s={s}: |Δp| = {d} for Δs = {h}");
+        s += 3.7;
+    }
+}
+
+#[test]
+fn straight_road_length_and_frame_are_exact() {
+    let g = RoadGeometry::new(&RoadSpec::through("straight", 3, 60.0, &[DVec3::ZERO, DVec3::new(500.0, 0.0, 0.0)])).expect("road");
+    assert!((g.length_m() - 500.0).abs() < 1e-9);
+    let f = g.frame_at(123.0);
+    assert!((f.pos - DVec3::new(123.0, 0.0, 0.0)).length() < 1e-9);
+    assert!((f.tangent - DVec3::X).length() < 1e-12);
+    assert!((f.left - DVec3::Y).length() < 1e-12);
+    assert!((f.up - DVec3::Z).length() < 1e-12);
+    assert_eq!(f.width_m, 9.0);
+    // Lane 0 is the rightmost: negative lateral offset.
+    assert!((g.lane_offset_m(0, 10.0) + 3.0).abs() < 1e-12);
+    assert!((g.lane_offset_m(1, 10.0)).abs() < 1e-12);
+    assert!((g.lane_offset_m(2, 10.0) - 3.0).abs() < 1e-12);
+}
+
+#[test]
+fn lane_centre_lines_are_three_metres_apart_on_a_curved_road() {
+    let g = curved_road(4);
+    for s in g.stations(0.5) {
+        for lane in 0..3 {
+            let a = g.lane_point(lane, s);
+            let b = g.lane_point(lane + 1, s);
+            assert!(((a - b).length() - 3.0).abs() < 1e-9, "s={s} lanes {lane},{}", lane + 1);
+            // Parallel curves: lane `lane + 1`'s point projects onto the same arc position.
+            let p = g.project(b);
+            assert!(g.delta_s(s, p.s_m).abs() < 1e-6, "s={s} projected to {}", p.s_m);
+            assert_eq!(p.lane, lane + 1);
+        }
+    }
+}
+
+#[test]
+fn closest_point_round_trip_is_within_a_millimetre() {
+    let mut rng = Lcg(9);
+    for g in [curved_road(4), RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 10)).expect("ring")] {
+        let half = 0.5 * g.frame_at(0.0).width_m;
+        for _ in 0..5000 {
+            let s = rng.next() * g.length_m();
+            let lateral = (rng.next() * 2.0 - 1.0) * half;
+            let height = rng.next() * 2.0;
+            let f = g.frame_at(s);
+            let q = f.offset(lateral) + f.up * height;
+            let p = g.project(q);
+            let back = g.frame_at(p.s_m);
+            let q2 = back.offset(p.lateral_m) + back.up * p.height_m;
+            assert!((q2 - q).length() < 1e-3, "{}: s={s} lat={lateral}: {} mm off", g.name(), (q2 - q).length() * 1e3);
+            assert!(g.delta_s(s, p.s_m).abs() < 1e-3, "s={s} vs {}", p.s_m);
+            assert!((p.lateral_m - lateral).abs() < 1e-3 && (p.height_m - height).abs() < 1e-3);
+            assert!(p.on_road);
+            // The hinted query agrees.
+            let near = g.project_near(q, s + 3.0);
+            assert!(g.delta_s(near.s_m, p.s_m).abs() < 1e-6);
+        }
+    }
+}
+
+#[test]
+fn projection_matches_brute_force_for_points_anywhere() {
+    let g = curved_road(2);
+    let dense: Vec<(f64, DVec3)> = g.stations(0.05).into_iter().map(|s| (s, g.pos_at(s))).collect();
+    let mut rng = Lcg(3);
+    for _ in 0..300 {
+        let q = DVec3::new(rng.next() * 600.0 - 150.0, rng.next() * 600.0 - 150.0, rng.next() * 20.0 - 10.0);
+        let best = dense.iter().map(|(s, p)| ((*p - q).length(), *s)).min_by(|a, b| a.0.total_cmp(&b.0)).expect("samples");
+        let p = g.project(q);
+        assert!(p.distance_m <= best.0 + 1e-6, "q={q}: {} vs brute {}", p.distance_m, best.0);
+        assert!(p.distance_m >= best.0 - 0.01, "q={q}: {} vs brute {}", p.distance_m, best.0);
+    }
+}
+
+#[test]
+fn projection_past_the_end_of_an_open_road_clamps() {
+    let g = RoadGeometry::new(&RoadSpec::through("straight", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)])).expect("road");
+    let p = g.project(DVec3::new(130.0, 1.0, 0.0));
+    assert!((p.s_m - 100.0).abs() < 1e-9);
+    assert!((p.distance_m - (900.0f64 + 1.0).sqrt()).abs() < 1e-9);
+    let p = g.project(DVec3::new(-5.0, 0.0, 0.0));
+    assert!(p.s_m.abs() < 1e-9);
+}
+
+#[test]
+fn closed_loop_join_is_seamless() {
+    // An irregular loop so the join is not helped by symmetry.
+    let pts = [
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(120.0, -20.0, 3.0),
+        DVec3::new(160.0, 80.0, 6.0),
+        DVec3::new(60.0, 140.0, 2.0),
+        DVec3::new(-40.0, 70.0, 0.0),
+    ];
+    let mut spec = RoadSpec::through("loop", 2, 50.0, &pts);
+    spec.closed = true;
+    let g = RoadGeometry::new(&spec).expect("loop");
+    let l = g.length_m();
+    let eps = 1e-7;
+    let before = g.frame_at(l - eps);
+    let after = g.frame_at(0.0);
+    let wrapped = g.frame_at(l + eps);
+    assert!((before.pos - after.pos).length() < 1e-6);
+    assert!((wrapped.pos - after.pos).length() < 1e-6);
+    assert!(before.tangent.angle_between(after.tangent) < 1e-6, "kink at the join");
+    assert!((before.up - after.up).length() < 1e-6);
+    // Every control point, including the join, is G1: no kink anywhere.
+    for i in 0..pts.len() {
+        let s = g.point_s(i).expect("point");
+        let a = g.frame_at(s - 1e-6).tangent;
+        let b = g.frame_at(s + 1e-6).tangent;
+        assert!(a.angle_between(b) < 1e-5, "kink at point {i}");
+        assert!((g.pos_at(s) - pts[i]).length() < 1e-9, "spline misses point {i}");
+    }
+    assert_eq!(g.normalize_s(l), 0.0);
+    assert!((g.delta_s(l - 1.0, 1.0) - 2.0).abs() < 1e-9);
+}
+
+#[test]
+fn bank_tilts_the_surface_normal() {
+    let mut spec = RoadSpec::through("banked", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
+    for p in &mut spec.points {
+        p.bank_deg = 10.0;
+    }
+    let g = RoadGeometry::new(&spec).expect("road");
+    let f = g.frame_at(50.0);
+    let bank = 10f64.to_radians();
+    assert!((f.up.dot(DVec3::Z) - bank.cos()).abs() < 1e-12);
+    // Positive bank raises the left edge, so the normal leans to the right (−y here).
+    assert!((f.up.y + bank.sin()).abs() < 1e-12);
+    assert!(f.offset(2.0).z > 0.0 && f.offset(-2.0).z < 0.0);
+    assert!(f.up.dot(f.left).abs() < 1e-12 && f.up.dot(f.tangent).abs() < 1e-12);
+    assert!((f.bank_rad - bank).abs() < 1e-12);
+    // Bank blends smoothly from one point's value to the next.
+    spec.points[2].bank_deg = -10.0;
+    let g = RoadGeometry::new(&spec).expect("road");
+    assert!(g.frame_at(150.0).bank_rad.abs() < 1e-9);
+    assert!(g.frame_at(100.0).bank_rad > 0.0 && g.frame_at(199.0).bank_rad < 0.0);
+}
+
+#[test]
+fn tangent_override_sets_the_direction() {
+    let mut spec = RoadSpec::through("t", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 50.0, 0.0)]);
+    spec.points[1].tangent = Some(DVec3::new(1.0, 1.0, 0.0));
+    let g = RoadGeometry::new(&spec).expect("road");
+    let s1 = g.point_s(1).expect("point");
+    let t = g.frame_at(s1).tangent;
+    assert!((t - DVec3::new(1.0, 1.0, 0.0).normalize()).length() < 1e-9);
+}
+
+#[test]
+fn invalid_specs_are_errors() {
+    let ok = RoadSpec::through("r", 2, 60.0, &[DVec3::ZERO, DVec3::new(50.0, 0.0, 0.0)]);
+    let mut s = ok.clone();
+    s.points.pop();
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::TooFewPoints { .. })));
+    let mut s = ok.clone();
+    s.points[1].width_m = Some(f64::NAN);
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Width { .. })));
+    let mut s = ok.clone();
+    s.points[1].pos = s.points[0].pos;
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::PointsTooClose { .. })));
+    let mut s = ok.clone();
+    s.lanes = 0;
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Lanes { .. })));
+    let mut s = ok.clone();
+    s.speed_limit_kmh = -1.0;
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::SpeedLimit { .. })));
+    let mut s = ok;
+    s.points[0].pos.x = f64::INFINITY;
+    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Position { .. })));
+}
+
+#[test]
+fn meshes_cover_the_road_and_close_the_loop() {
+    let ring = RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 12)).expect("ring");
+    let m = RoadMeshes::build(&ring);
+    let stations = ring.stations(STATION_STEP_M).len();
+    assert_eq!(m.surface.triangle_count(), (stations - 1) * 2 * 2);
+    // Seamless: the last row of vertices coincides with the first.
+    let cols = 3;
+    let last = m.surface.positions.len() - cols;
+    for b in 0..cols {
+        let (p, q) = (m.surface.positions[b], m.surface.positions[last + b]);
+        let d = glam::Vec3::from(p) - glam::Vec3::from(q);
+        assert!(d.length() < 1e-3, "gap at the join: {d}");
+    }
+    // Surface normals point up and triangles wind counter-clockwise seen from above.
+    for tri in m.surface.indices.chunks(3) {
+        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| glam::Vec3::from(m.surface.positions[i as usize]));
+        assert!((b - a).cross(c - a).z > 0.0);
+    }
+    // Both guardrails run the whole way round, as one run each.
+    assert_eq!(m.guardrail_runs.len(), 2);
+    assert!(m.guardrail_runs.iter().all(|r| (r.to_s_m - ring.length_m()).abs() < 1e-9 && r.from_s_m == 0.0));
+    assert!(m.markings.triangle_count() > 0 && m.guardrails.triangle_count() > 0);
+    // The left rail sits outside the left edge.
+    let left = m.guardrail_runs.iter().find(|r| r.side == Side::Left).expect("left rail");
+    let p = ring.project(left.foot[10]);
+    assert!((p.lateral_m - (3.0 + GUARDRAIL_OFFSET_M)).abs() < 1e-6);
+}
+
+#[test]
+fn guardrail_flags_split_runs() {
+    let mut spec = RoadSpec::through("r", 1, 60.0, &[DVec3::ZERO, DVec3::new(50.0, 0.0, 0.0), DVec3::new(100.0, 0.0, 0.0), DVec3::new(150.0, 0.0, 0.0)]);
+    spec.points[1].guardrail_left = false;
+    let g = RoadGeometry::new(&spec).expect("road");
+    let m = RoadMeshes::build(&g);
+    let lefts: Vec<_> = m.guardrail_runs.iter().filter(|r| r.side == Side::Left).collect();
+    assert_eq!(lefts.len(), 2);
+    assert!((lefts[0].to_s_m - 50.0).abs() < 1e-6 && (lefts[1].from_s_m - 100.0).abs() < 1e-6);
+    assert_eq!(m.guardrail_runs.iter().filter(|r| r.side == Side::Right).count(), 1);
+}
+
+#[test]
+fn network_follows_connections() {
+    let a = RoadSpec { next: Some("b".into()), ..RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]) };
+    let b = RoadSpec::through("b", 2, 60.0, &[DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
+    let net = RoadNetwork::build(&[a.clone(), b.clone()]).expect("network");
+    let (ia, ib) = (net.id("a").expect("a"), net.id("b").expect("b"));
+    assert_eq!(net.next(ia), Some(ib));
+    let (road, s) = net.advance(ia, 90.0, 25.0).expect("continues");
+    assert_eq!(road, ib);
+    assert!((s - 15.0).abs() < 1e-9);
+    assert_eq!(net.advance(ib, 90.0, 25.0), None);
+    let (road, p) = net.project(DVec3::new(150.0, 1.0, 0.0)).expect("a road");
+    assert_eq!(road, ib);
+    assert!((p.s_m - 50.0).abs() < 1e-9);
+
+    let far = RoadSpec::through("b", 2, 60.0, &[DVec3::new(110.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
+    assert!(matches!(RoadNetwork::build(&[a.clone(), far]), Err(NetworkError::Gap { .. })));
+    assert!(matches!(RoadNetwork::build(&[a.clone()]), Err(NetworkError::UnknownNext { .. })));
+    assert!(matches!(RoadNetwork::build(&[b.clone(), b]), Err(NetworkError::DuplicateName(_))));
+}
+
+#[test]
+fn ring_advance_wraps() {
+    let net = RoadNetwork::build(&[RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.6, 12)]).expect("ring");
+    let id = net.id("ring").expect("ring");
+    let l = net.get(id).expect("ring").length_m();
+    let (_, s) = net.advance(id, l - 1.0, 3.0).expect("wraps");
+    assert!((s - 2.0).abs() < 1e-9);
+    let (_, s) = net.advance(id, 1.0, -3.0).expect("wraps back");
+    assert!((s - (l - 2.0)).abs() < 1e-9);
+    assert!(l > 0.0 && l < 2.0 * PI * 36.6 * 1.001);
+}
