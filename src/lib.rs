@@ -1,1 +1,21 @@
-//! Flockway
+//! Flockway: a deterministic traffic sandbox. Spline roads, rigid-body sedans, flocking and
+//! human-like drivers, stepped at a fixed 1/120 s, headless or in a window.
+//!
+//! This crate is the facade over the workspace's crates and holds the headless runner that the
+//! `flockway` command uses: [`run::Runner`] turns a [`level::Level`] into a world, steps it,
+//! streams telemetry and checks the level's expectations.
+
+pub mod run;
+pub mod telemetry;
+
+pub use flockway_core as core;
+pub use flockway_level as level;
+pub use flockway_road as road;
+
+/// The types most programs that drive Flockway need.
+pub mod prelude {
+    pub use crate::run::{build_sim, ExpectationResult, RunOptions, RunReport, Runner};
+    pub use flockway_core::prelude::*;
+    pub use flockway_level::{load_level, Level};
+    pub use flockway_road::prelude::*;
+}

@@ -9,20 +9,22 @@ mod clock;
 mod ids;
 mod rng;
 mod sim;
+mod stats;
 mod stepper;
 mod units;
 
 pub use clock::{SimClock, Tick, DT_S, TICKS_PER_SECOND};
 pub use ids::{IdKind, StableId};
 pub use rng::{EntityRng, RngStreams};
-pub use sim::{Sim, SimPlugin, StepSet};
+pub use sim::{FixedStep, Sim, SimPlugin, StepSet};
+pub use stats::{count_vehicles, RunStats, Vehicle};
 pub use stepper::{FixedStepper, SpeedSetting};
 pub use units::{kmh_to_mps, mps_to_kmh, Speed};
 
 /// The types most users of the core need, for `use flockway_core::prelude::*`.
 pub mod prelude {
     pub use crate::{
-        EntityRng, IdKind, RngStreams, Sim, SimClock, SimPlugin, Speed, StableId, StepSet, Tick,
+        EntityRng, IdKind, RngStreams, RunStats, Sim, SimClock, SimPlugin, Speed, StableId, StepSet, Tick, Vehicle,
         DT_S, TICKS_PER_SECOND,
     };
 }

@@ -1,6 +1,6 @@
 //! The simulation: a world, the fixed-step schedule and the plugins that fill it.
 
-use crate::{RngStreams, SimClock, Tick};
+use crate::{count_vehicles, RngStreams, RunStats, SimClock, Tick};
 use bevy_ecs::{
     schedule::{
         IntoScheduleConfigs, LogLevel, Schedule, ScheduleBuildSettings, ScheduleLabel, SystemSet,
@@ -77,6 +77,7 @@ impl Sim {
         let mut world = World::new();
         world.insert_resource(SimClock::default());
         world.insert_resource(RngStreams::new(seed));
+        world.init_resource::<RunStats>();
         let mut schedule = Schedule::new(FixedStep);
         // Two systems that touch the same data without an order between them could run either way
         // round, which would make results depend on the scheduler: refuse to build such a step.
@@ -99,6 +100,8 @@ impl Sim {
             )
                 .chain(),
         );
+        // Vehicles alive are counted once per step; systems reading RunStats order after it.
+        schedule.add_systems(count_vehicles.in_set(StepSet::Record));
         Sim { world, schedule, plugins: Vec::new() }
     }
 

@@ -1,1 +1,21 @@
-//! x
+//! Flockway's level format: versioned RON files holding roads, traffic, telemetry settings and
+//! the expectations a run must meet.
+//!
+//! [`load_level`] parses and validates a file; every problem comes back as a [`LevelError`] that
+//! names the file, line and column and says what was expected. [`save_level`] writes atomically,
+//! and load → save → load gives back an equal [`Level`].
+
+mod expect;
+mod io;
+mod locate;
+mod schema;
+mod validate;
+
+pub use expect::{metric_info, Check, Expectation, MetricInfo, Qualifier, METRICS};
+pub use io::{level_to_string, load_level, parse_level, save_level, write_atomic, Diagnostic, LevelError, MAX_FILE_BYTES};
+pub use locate::{locate, PathStep, Pos};
+pub use schema::{
+    DestroyerPlace, Destroyer, DriverModel, DriverProfile, InitialVehicles, Level, ProfileShare, Range, Spawner, Telemetry, Trigger,
+    TriggerEffect, VehicleType, CURRENT_VERSION,
+};
+pub use validate::{validate, Issue, MAX_DURATION_S, MAX_INITIAL_VEHICLES, MAX_LIST_LEN, MIN_INITIAL_SPACING_M, MIN_SPAWN_INTERVAL_S};

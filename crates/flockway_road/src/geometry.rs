@@ -126,7 +126,7 @@ impl RoadGeometry {
             });
             s0 += acc;
         }
-        let grid = SegmentGrid::build(&segments.iter().map(|s| (&s.cubic, s.subdivisions())).collect::<Vec<_>>());
+        let grid = SegmentGrid::build(&segments.iter().map(|s| (&s.cubic, s.len())).collect::<Vec<_>>());
         Ok(RoadGeometry { spec: spec.clone(), segments, length_m: s0, grid })
     }
 

@@ -4,8 +4,12 @@ use crate::geometry::SplineParam;
 use crate::spline::Cubic;
 use glam::{DVec2, DVec3};
 
-/// Aim for this many polyline pieces' worth of road per cell side, in metres.
-const TARGET_CELL_M: f64 = 12.0;
+/// Side of a grid cell, in metres, unless the road spans so much ground that `MAX_CELLS` binds.
+const TARGET_CELL_M: f64 = 16.0;
+/// Longest polyline piece, in metres. The polyline only seeds Newton's method on the exact spline,
+/// so it can be coarse; fewer pieces per cell is what makes a query fast (profiled: the grid scan
+/// was 62 % of a query with 2 m pieces in 12 m cells).
+const PIECE_M: f64 = 5.0;
 /// Upper bound on cells, so a road spanning a huge area cannot exhaust memory.
 const MAX_CELLS: f64 = 1_000_000.0;
 
@@ -32,11 +36,13 @@ pub(crate) struct SegmentGrid {
 }
 
 impl SegmentGrid {
-    pub(crate) fn build(segments: &[(&Cubic, usize)]) -> SegmentGrid {
+    /// Builds the index over segments given as (cubic, arc length in metres).
+    pub(crate) fn build(segments: &[(&Cubic, f64)]) -> SegmentGrid {
         let mut pieces = Vec::new();
-        for (seg, (cubic, n)) in segments.iter().enumerate() {
-            for k in 0..*n {
-                let (u0, u1) = (k as f64 / *n as f64, (k + 1) as f64 / *n as f64);
+        for (seg, (cubic, len)) in segments.iter().enumerate() {
+            let n = ((len / PIECE_M).ceil() as usize).clamp(2, 4096);
+            for k in 0..n {
+                let (u0, u1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
                 pieces.push(Piece { a: cubic.pos(u0), b: cubic.pos(u1), seg: seg as u32, u0, u1 });
             }
         }

@@ -119,7 +119,9 @@ fn projection_matches_brute_force_for_points_anywhere() {
         let q = DVec3::new(rng.next() * 600.0 - 150.0, rng.next() * 600.0 - 150.0, rng.next() * 20.0 - 10.0);
         let best = dense.iter().map(|(s, p)| ((*p - q).length(), *s)).min_by(|a, b| a.0.total_cmp(&b.0)).expect("samples");
         let p = g.project(q);
-        assert!(p.distance_m <= best.0 + 1e-6, "q={q}: {} vs brute {}", p.distance_m, best.0);
+        // Far from the road, near a centre of curvature, the distance is almost flat along the
+        // road: any point there is a fine answer, so allow a relative 1e-5 there.
+        assert!(p.distance_m <= best.0 * (1.0 + 1e-5) + 1e-6, "q={q}: {} vs brute {}", p.distance_m, best.0);
         assert!(p.distance_m >= best.0 - 0.01, "q={q}: {} vs brute {}", p.distance_m, best.0);
     }
 }
@@ -296,3 +298,4 @@ fn ring_advance_wraps() {
     assert!((s - (l - 2.0)).abs() < 1e-9);
     assert!(l > 0.0 && l < 2.0 * PI * 36.6 * 1.001);
 }
+

@@ -1,0 +1,248 @@
+//! Expectations: checks a level states about its own runs, written as short strings.
+//!
+//! Grammar: `METRIC[.NAME] OP VALUE` with OP one of `==`, `!=`, `<`, `<=`, `>`, `>=`, or
+//! `METRIC[.NAME] in LOW..HIGH` (both ends included). VALUE is a number, `true` or `false`.
+//! `NAME` picks a road or destroyer for metrics measured per road or per destroyer.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// What a metric's qualifier names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Qualifier {
+    /// The metric takes no qualifier.
+    None,
+    /// The qualifier is a road name (required).
+    Road,
+    /// The qualifier is a destroyer name (required).
+    Destroyer,
+}
+
+/// A metric that expectations may test, with its unit and meaning.
+#[derive(Debug, Clone, Copy)]
+pub struct MetricInfo {
+    /// Name as written in expectations and in the summary JSON.
+    pub name: &'static str,
+    /// What the qualifier after the dot names.
+    pub qualifier: Qualifier,
+    /// Unit, for messages and documentation.
+    pub unit: &'static str,
+    /// What it measures.
+    pub description: &'static str,
+}
+
+/// Every metric the level format knows. A run that does not measure a metric (no vehicles, no
+/// destroyers) fails an expectation on it with "not measured".
+pub const METRICS: &[MetricInfo] = &[
+    MetricInfo { name: "ticks", qualifier: Qualifier::None, unit: "steps", description: "fixed steps simulated" },
+    MetricInfo { name: "sim_seconds", qualifier: Qualifier::None, unit: "s", description: "simulated time" },
+    MetricInfo { name: "vehicle_steps", qualifier: Qualifier::None, unit: "vehicle-steps", description: "sum over steps of vehicles alive" },
+    MetricInfo { name: "road_length_m", qualifier: Qualifier::Road, unit: "m", description: "centre-line length of a road" },
+    MetricInfo { name: "vehicles_spawned", qualifier: Qualifier::None, unit: "vehicles", description: "vehicles created (initial and spawned)" },
+    MetricInfo { name: "vehicles_destroyed", qualifier: Qualifier::None, unit: "vehicles", description: "vehicles removed by destroyers" },
+    MetricInfo { name: "vehicles_alive_mean", qualifier: Qualifier::None, unit: "vehicles", description: "mean vehicles alive per step" },
+    MetricInfo { name: "collisions", qualifier: Qualifier::None, unit: "events", description: "guardrail plus vehicle-vehicle collisions" },
+    MetricInfo { name: "collisions_guardrail", qualifier: Qualifier::None, unit: "events", description: "vehicles removed after hitting a guardrail" },
+    MetricInfo { name: "collisions_vehicle", qualifier: Qualifier::None, unit: "events", description: "vehicle-vehicle contact episodes" },
+    MetricInfo { name: "mean_speed_kmh", qualifier: Qualifier::None, unit: "km/h", description: "mean sampled speed after the warm-up" },
+    MetricInfo { name: "speed_std_kmh", qualifier: Qualifier::None, unit: "km/h", description: "standard deviation of sampled speeds after the warm-up" },
+    MetricInfo { name: "flow_veh_per_h", qualifier: Qualifier::Destroyer, unit: "veh/h", description: "vehicles reaching a destroyer per hour" },
+    MetricInfo { name: "mean_travel_time_s", qualifier: Qualifier::None, unit: "s", description: "mean time from creation to a destroyer" },
+    MetricInfo { name: "wave_detected", qualifier: Qualifier::None, unit: "bool", description: "whether a stop-and-go wave was found" },
+    MetricInfo { name: "wave_speed_kmh", qualifier: Qualifier::None, unit: "km/h", description: "propagation speed of the wave (negative: against traffic)" },
+    MetricInfo { name: "wave_period_s", qualifier: Qualifier::None, unit: "s", description: "period of the wave at a fixed point" },
+];
+
+/// Looks a metric up by name.
+pub fn metric_info(name: &str) -> Option<&'static MetricInfo> {
+    METRICS.iter().find(|m| m.name == name)
+}
+
+/// The comparison an expectation makes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Check {
+    /// Equal (within 1e-9 relative).
+    Eq(f64),
+    /// Not equal.
+    Ne(f64),
+    /// Less than.
+    Lt(f64),
+    /// At most.
+    Le(f64),
+    /// Greater than.
+    Gt(f64),
+    /// At least.
+    Ge(f64),
+    /// Within `[low, high]`.
+    In(f64, f64),
+}
+
+/// One check a run must pass.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Expectation {
+    /// Metric name (one of [`METRICS`]).
+    pub metric: String,
+    /// Road or destroyer name, for metrics that need one.
+    pub qualifier: Option<String>,
+    /// The comparison.
+    pub check: Check,
+}
+
+impl Expectation {
+    /// The key of the measured value: `metric` or `metric.qualifier`.
+    pub fn key(&self) -> String {
+        match &self.qualifier {
+            Some(q) => format!("{}.{q}", self.metric),
+            None => self.metric.clone(),
+        }
+    }
+
+    /// Whether a measured value passes.
+    pub fn holds(&self, value: f64) -> bool {
+        let eq = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+        match self.check {
+            Check::Eq(x) => eq(value, x),
+            Check::Ne(x) => !eq(value, x),
+            Check::Lt(x) => value < x,
+            Check::Le(x) => value <= x,
+            Check::Gt(x) => value > x,
+            Check::Ge(x) => value >= x,
+            Check::In(lo, hi) => value >= lo && value <= hi,
+        }
+    }
+
+    /// Parses `METRIC[.NAME] OP VALUE`.
+    pub fn parse(text: &str) -> Result<Expectation, String> {
+        let text = text.trim();
+        let key_end = text.find(|c: char| c.is_whitespace() || "=!<>".contains(c)).unwrap_or(text.len());
+        let (key, rest) = text.split_at(key_end);
+        if key.is_empty() {
+            return Err(format!("expected `METRIC OP VALUE` (e.g. `collisions == 0`), found `{text}`"));
+        }
+        let (metric, qualifier) = match key.split_once('.') {
+            Some((m, q)) => (m, Some(q.to_owned())),
+            None => (key, None),
+        };
+        let info = metric_info(metric).ok_or_else(|| {
+            let names: Vec<&str> = METRICS.iter().map(|m| m.name).collect();
+            format!("unknown metric `{metric}`; known metrics: {}", names.join(", "))
+        })?;
+        match (info.qualifier, &qualifier) {
+            (Qualifier::None, Some(q)) => return Err(format!("metric `{metric}` takes no `.{q}`")),
+            (Qualifier::Road, None) => return Err(format!("metric `{metric}` needs a road: `{metric}.ROAD`")),
+            (Qualifier::Destroyer, None) => {
+                return Err(format!("metric `{metric}` needs a destroyer: `{metric}.DESTROYER`"));
+            }
+            (_, Some(q)) if q.is_empty() => return Err(format!("empty name after `{metric}.`")),
+            _ => {}
+        }
+        let rest = rest.trim_start();
+        let number = |s: &str| -> Result<f64, String> {
+            let s = s.trim();
+            let v = match s {
+                "true" => 1.0,
+                "false" => 0.0,
+                _ => s.parse::<f64>().map_err(|_| format!("expected a number, `true` or `false`, found `{s}`"))?,
+            };
+            if v.is_finite() { Ok(v) } else { Err(format!("expected a finite number, found `{s}`")) }
+        };
+        let check = if let Some(range) = rest.strip_prefix("in").filter(|r| r.starts_with(char::is_whitespace)) {
+            let (lo, hi) = range
+                .trim()
+                .split_once("..")
+                .ok_or_else(|| format!("expected `in LOW..HIGH`, found `in{range}`"))?;
+            let (lo, hi) = (number(lo)?, number(hi)?);
+            if lo > hi {
+                return Err(format!("empty range {lo}..{hi}: the low end must not exceed the high end"));
+            }
+            Check::In(lo, hi)
+        } else {
+            let ops: [(&str, fn(f64) -> Check); 6] =
+                [("==", Check::Eq), ("!=", Check::Ne), ("<=", Check::Le), (">=", Check::Ge), ("<", Check::Lt), (">", Check::Gt)];
+            let (op, make) = ops
+                .iter()
+                .find(|(op, _)| rest.starts_with(op))
+                .ok_or_else(|| format!("expected one of == != < <= > >= or `in` after `{key}`, found `{rest}`"))?;
+            make(number(&rest[op.len()..])?)
+        };
+        Ok(Expectation { metric: metric.to_owned(), qualifier, check })
+    }
+}
+
+impl fmt::Display for Expectation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let key = self.key();
+        match self.check {
+            Check::Eq(x) => write!(f, "{key} == {x}"),
+            Check::Ne(x) => write!(f, "{key} != {x}"),
+            Check::Lt(x) => write!(f, "{key} < {x}"),
+            Check::Le(x) => write!(f, "{key} <= {x}"),
+            Check::Gt(x) => write!(f, "{key} > {x}"),
+            Check::Ge(x) => write!(f, "{key} >= {x}"),
+            Check::In(lo, hi) => write!(f, "{key} in {lo}..{hi}"),
+        }
+    }
+}
+
+impl TryFrom<String> for Expectation {
+    type Error = String;
+    fn try_from(s: String) -> Result<Expectation, String> {
+        Expectation::parse(&s)
+    }
+}
+
+impl From<Expectation> for String {
+    fn from(e: Expectation) -> String {
+        e.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_form() {
+        let e = Expectation::parse("mean_speed_kmh in 57..63").expect("parses");
+        assert_eq!(e.check, Check::In(57.0, 63.0));
+        assert!(e.holds(57.0) && e.holds(63.0) && !e.holds(63.1));
+        let e = Expectation::parse("collisions==0").expect("parses");
+        assert!(e.holds(0.0) && !e.holds(1.0));
+        let e = Expectation::parse("road_length_m.ring >= 229.5").expect("parses");
+        assert_eq!(e.key(), "road_length_m.ring");
+        assert!(Expectation::parse("wave_detected == true").expect("parses").holds(1.0));
+        assert!(Expectation::parse("wave_speed_kmh in -25..-12").expect("parses").holds(-20.0));
+        for (text, check) in [("ticks < 5", Check::Lt(5.0)), ("ticks <= 5", Check::Le(5.0)), ("ticks > 5", Check::Gt(5.0)), ("ticks != 5", Check::Ne(5.0))] {
+            assert_eq!(Expectation::parse(text).expect("parses").check, check);
+        }
+    }
+
+    #[test]
+    fn display_round_trips() {
+        for text in ["mean_speed_kmh in 57..63.5", "collisions == 0", "flow_veh_per_h.exit >= 1000", "wave_speed_kmh in -25..-12"] {
+            let e = Expectation::parse(text).expect("parses");
+            assert_eq!(e.to_string(), text);
+            assert_eq!(Expectation::parse(&e.to_string()).expect("reparses"), e);
+        }
+    }
+
+    #[test]
+    fn rejects_nonsense_with_reasons() {
+        for (text, needle) in [
+            ("", "expected `METRIC OP VALUE`"),
+            ("speed == 3", "unknown metric `speed`"),
+            ("collisions ~ 3", "expected one of"),
+            ("collisions == fast", "expected a number"),
+            ("collisions == NaN", "finite"),
+            ("mean_speed_kmh in 63..57", "empty range"),
+            ("mean_speed_kmh in 57", "LOW..HIGH"),
+            ("road_length_m == 3", "needs a road"),
+            ("flow_veh_per_h > 3", "needs a destroyer"),
+            ("collisions.main == 0", "takes no"),
+        ] {
+            let err = Expectation::parse(text).expect_err(text);
+            assert!(err.contains(needle), "`{text}`: {err}");
+        }
+    }
+}

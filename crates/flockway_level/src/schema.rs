@@ -1,0 +1,305 @@
+//! The level file format, version 1. Every field a level can hold is defined here, including
+//! those whose systems arrive later, so the format is settled before files exist in the wild.
+
+use crate::expect::Expectation;
+use flockway_road::RoadSpec;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The level format version this build reads and writes.
+pub const CURRENT_VERSION: u32 = 1;
+
+/// A saved level: roads, traffic, telemetry settings and what a good run must show.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Level {
+    /// Format version; must be 1.
+    pub version: u32,
+    /// Human-readable name (defaults to the file name when empty).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    /// What the level shows, for people reading it.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    /// Seed of every random stream in the run (overridable with `--seed`).
+    pub seed: u64,
+    /// Simulated duration of a run, in seconds.
+    pub duration_s: f64,
+    /// Roads, in id order (road `i` has id `i`).
+    #[serde(default)]
+    pub roads: Vec<RoadSpec>,
+    /// Vehicle types by name, each a vehicle definition file under `assets/`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vehicle_types: Vec<VehicleType>,
+    /// Driver profiles by name: a driver model, its parameters and the vehicle it drives.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub driver_profiles: Vec<DriverProfile>,
+    /// Places that add vehicles during the run.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub spawners: Vec<Spawner>,
+    /// Places that remove vehicles that reach them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub destroyers: Vec<Destroyer>,
+    /// Stretches of road that change vehicles entering them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub triggers: Vec<Trigger>,
+    /// Vehicles present at the start, in groups spaced evenly along a lane.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vehicles: Vec<InitialVehicles>,
+    /// What is recorded, and how often.
+    #[serde(default, skip_serializing_if = "Telemetry::is_default")]
+    pub telemetry: Telemetry,
+    /// Checks a run must pass, e.g. `"collisions == 0"`, `"mean_speed_kmh in 57..63"`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub expect: Vec<Expectation>,
+}
+
+impl Level {
+    /// An empty level with the given seed and duration.
+    pub fn new(seed: u64, duration_s: f64) -> Level {
+        Level {
+            version: CURRENT_VERSION,
+            name: String::new(),
+            description: String::new(),
+            seed,
+            duration_s,
+            roads: Vec::new(),
+            vehicle_types: Vec::new(),
+            driver_profiles: Vec::new(),
+            spawners: Vec::new(),
+            destroyers: Vec::new(),
+            triggers: Vec::new(),
+            vehicles: Vec::new(),
+            telemetry: Telemetry::default(),
+            expect: Vec::new(),
+        }
+    }
+
+    /// The road with this name.
+    pub fn road(&self, name: &str) -> Option<&RoadSpec> {
+        self.roads.iter().find(|r| r.name == name)
+    }
+}
+
+/// A named vehicle type: a vehicle definition file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleType {
+    /// Name that driver profiles refer to.
+    pub name: String,
+    /// Path of the vehicle definition, relative to `assets/` (e.g. `"vehicles/sedan.ron"`).
+    pub path: String,
+}
+
+/// The driver models Flockway provides, plus any a plugin registers.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum DriverModel {
+    /// Reynolds flocking: speed matching, road following and collision avoidance.
+    Flock,
+    /// Flocking that keeps to its lane: avoidance only along the lane (the default autonomous car).
+    FlockLanes,
+    /// Human-like: shorter range, reaction delay, harsher inputs, a desired speed of its own.
+    Human,
+    /// The Intelligent Driver Model (Treiber 2000), as a reference.
+    Idm,
+    /// A driver a plugin registers under this name.
+    Custom(String),
+}
+
+/// A named driver profile: which model, with which parameters, in which vehicle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriverProfile {
+    /// Name that spawners and initial vehicles refer to.
+    pub name: String,
+    /// The driver model.
+    pub model: DriverModel,
+    /// Name of the vehicle type this driver drives.
+    pub vehicle: String,
+    /// Parameter file relative to `assets/` (e.g. `"drivers/flock_lanes.ron"`); `None` uses the
+    /// model's built-in defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<String>,
+    /// Parameter overrides by name, in the units the name states (e.g. `"target_speed_kmh": 60`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub set: BTreeMap<String, f64>,
+}
+
+/// A uniform range `[min, max]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Range {
+    /// Lower bound.
+    pub min: f64,
+    /// Upper bound (at least `min`).
+    pub max: f64,
+}
+
+/// One driver profile's share of a spawner's vehicles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileShare {
+    /// Driver profile name.
+    pub profile: String,
+    /// Relative weight (shares need not sum to 1).
+    pub weight: f64,
+}
+
+/// Adds a vehicle every T seconds, T uniform in `interval_s`, at a point of a lane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spawner {
+    /// Unique name (shown in the HUD and in the summary).
+    pub name: String,
+    /// Road to spawn on.
+    pub road: String,
+    /// Lane to spawn in (0 is the rightmost).
+    #[serde(default)]
+    pub lane: u32,
+    /// Arc position of the spawn point, in metres.
+    #[serde(default)]
+    pub s_m: f64,
+    /// Seconds between spawns, drawn uniformly from this range for each vehicle.
+    pub interval_s: Range,
+    /// Which driver profiles to spawn, by weight.
+    pub profiles: Vec<ProfileShare>,
+    /// Initial speed in km/h; `None` means the road's speed limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_kmh: Option<f64>,
+    /// Whether the spawner starts active.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub active: bool,
+    /// Stop after this many vehicles; `None` for no limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_vehicles: Option<u32>,
+}
+
+/// Where a destroyer removes vehicles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum DestroyerPlace {
+    /// Vehicles that pass this arc position of a road (all lanes).
+    OnRoad {
+        /// Road name.
+        road: String,
+        /// Arc position in metres.
+        s_m: f64,
+    },
+    /// Vehicles whose centre enters this axis-aligned box (world metres).
+    Volume {
+        /// Lower corner.
+        min: DVec3,
+        /// Upper corner.
+        max: DVec3,
+    },
+}
+
+/// Removes vehicles that reach it and records their travel times.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Destroyer {
+    /// Unique name (keys the flow figures in the summary).
+    pub name: String,
+    /// Where it acts.
+    pub place: DestroyerPlace,
+}
+
+/// What a trigger does to a vehicle entering it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum TriggerEffect {
+    /// Sets the vehicle's speed limit.
+    SpeedLimit {
+        /// New limit in km/h.
+        kmh: f64,
+    },
+    /// Scales tyre friction while the vehicle is inside (e.g. 0.6 for wet asphalt).
+    Friction {
+        /// Multiplier on the tyres' friction, in (0, 2].
+        scale: f64,
+    },
+}
+
+/// A stretch of road that changes vehicles entering it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Trigger {
+    /// Unique name.
+    pub name: String,
+    /// Road it lies on.
+    pub road: String,
+    /// Arc position where it starts, in metres.
+    pub from_m: f64,
+    /// Arc position where it ends, in metres (on a loop it may be below `from_m`: it wraps).
+    pub to_m: f64,
+    /// Lanes it covers; `None` for all.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lanes: Option<Vec<u32>>,
+    /// What it does.
+    pub effect: TriggerEffect,
+}
+
+/// `count` vehicles present at the start, evenly spaced along one lane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialVehicles {
+    /// Road to place them on.
+    pub road: String,
+    /// Lane to place them in.
+    #[serde(default)]
+    pub lane: u32,
+    /// How many.
+    pub count: u32,
+    /// Driver profile name.
+    pub profile: String,
+    /// First vehicle's arc position, in metres.
+    #[serde(default)]
+    pub from_m: f64,
+    /// End of the stretch they fill, in metres; `None` for the road's end (on a loop, the whole
+    /// loop, spaced length/count apart).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to_m: Option<f64>,
+    /// Initial speed in km/h; `None` for standing still.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_kmh: Option<f64>,
+    /// Each vehicle is moved along the lane by a uniform amount in ±this many metres, drawn from
+    /// the group's own random stream (breaks the symmetry of a perfectly even ring).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub jitter_m: f64,
+}
+
+/// Telemetry settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Telemetry {
+    /// Sampling period of the speed CSV in simulated seconds (a multiple of 1/120 s).
+    #[serde(default = "half_second")]
+    pub period_s: f64,
+    /// Samples before this simulated time are not used for the summary statistics (warm-up).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub stats_from_s: f64,
+}
+
+impl Default for Telemetry {
+    fn default() -> Telemetry {
+        Telemetry { period_s: 0.5, stats_from_s: 0.0 }
+    }
+}
+
+impl Telemetry {
+    fn is_default(&self) -> bool {
+        *self == Telemetry::default()
+    }
+}
+
+fn yes() -> bool {
+    true
+}
+fn is_true(b: &bool) -> bool {
+    *b
+}
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+fn half_second() -> f64 {
+    0.5
+}

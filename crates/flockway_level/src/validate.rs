@@ -1,0 +1,404 @@
+//! Semantic checks of a parsed level: references, ranges and counts, each tied to the place in
+//! the file it concerns.
+
+use crate::expect::{metric_info, Qualifier};
+use crate::locate::PathStep::{self, Field, Index};
+use crate::schema::*;
+use flockway_road::{RoadError, RoadGeometry};
+use std::collections::BTreeSet;
+
+/// Most vehicles a level may place at the start, over all groups.
+pub const MAX_INITIAL_VEHICLES: u64 = 100_000;
+/// Longest run a level may ask for, in simulated seconds (one week).
+pub const MAX_DURATION_S: f64 = 7.0 * 24.0 * 3600.0;
+/// Closest that initial vehicles may be placed, centre to centre, in metres.
+pub const MIN_INITIAL_SPACING_M: f64 = 5.0;
+/// Shortest spawn interval, in seconds.
+pub const MIN_SPAWN_INTERVAL_S: f64 = 0.1;
+/// Most entries of any one list (roads, spawners, …) in a level.
+pub const MAX_LIST_LEN: usize = 10_000;
+
+/// A problem found in a level, with the path of the value it concerns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Issue {
+    /// Path from the level root to the offending value.
+    pub path: Vec<PathStep>,
+    /// What is wrong, and what was expected.
+    pub message: String,
+}
+
+struct Checker<'a> {
+    level: &'a Level,
+    roads: Vec<Option<RoadGeometry>>,
+    issues: Vec<Issue>,
+}
+
+/// Checks everything that parsing alone cannot; returns every problem found, in file order.
+pub fn validate(level: &Level) -> Vec<Issue> {
+    let mut c = Checker { level, roads: Vec::new(), issues: Vec::new() };
+    c.run();
+    c.issues
+}
+
+fn finite_in(x: f64, lo: f64, hi: f64) -> bool {
+    x.is_finite() && x >= lo && x <= hi
+}
+
+impl Checker<'_> {
+    fn issue(&mut self, path: Vec<PathStep>, message: impl Into<String>) {
+        self.issues.push(Issue { path, message: message.into() });
+    }
+
+    fn run(&mut self) {
+        let l = self.level;
+        if l.version != CURRENT_VERSION {
+            self.issue(vec![Field("version")], format!("unsupported level version {}; this Flockway reads version {CURRENT_VERSION}", l.version));
+            return;
+        }
+        if !finite_in(l.duration_s, 1.0 / 120.0, MAX_DURATION_S) {
+            self.issue(vec![Field("duration_s")], format!("duration_s is {}; expected a number of seconds from 1/120 to {MAX_DURATION_S} (one week)", l.duration_s));
+        }
+        for (field, len) in [
+            ("roads", l.roads.len()),
+            ("vehicle_types", l.vehicle_types.len()),
+            ("driver_profiles", l.driver_profiles.len()),
+            ("spawners", l.spawners.len()),
+            ("destroyers", l.destroyers.len()),
+            ("triggers", l.triggers.len()),
+            ("vehicles", l.vehicles.len()),
+            ("expect", l.expect.len()),
+        ] {
+            if len > MAX_LIST_LEN {
+                self.issue(vec![Field(field)], format!("{len} entries in `{field}`; at most {MAX_LIST_LEN} are allowed"));
+                return;
+            }
+        }
+        self.roads();
+        self.vehicle_types();
+        self.driver_profiles();
+        self.spawners();
+        self.destroyers();
+        self.triggers();
+        self.initial_vehicles();
+        self.telemetry();
+        self.expectations();
+    }
+
+    fn unique<'n>(&mut self, list: &'static str, names: impl Iterator<Item = &'n str>) {
+        let mut seen = BTreeSet::new();
+        for (i, name) in names.enumerate() {
+            if name.trim().is_empty() {
+                self.issue(vec![Field(list), Index(i), Field("name")], "a name must not be empty");
+            } else if !seen.insert(name) {
+                self.issue(vec![Field(list), Index(i), Field("name")], format!("duplicate name `{name}` in `{list}`; names must be unique"));
+            }
+        }
+    }
+
+    fn roads(&mut self) {
+        let l = self.level;
+        self.unique("roads", l.roads.iter().map(|r| r.name.as_str()));
+        for (i, spec) in l.roads.iter().enumerate() {
+            let at = |rest: &[PathStep]| {
+                let mut p = vec![Field("roads"), Index(i)];
+                p.extend_from_slice(rest);
+                p
+            };
+            match RoadGeometry::new(spec) {
+                Ok(g) => self.roads.push(Some(g)),
+                Err(e) => {
+                    let path = match &e {
+                        RoadError::EmptyName => at(&[Field("name")]),
+                        RoadError::TooFewPoints { .. } | RoadError::TooManyPoints { .. } => at(&[Field("points")]),
+                        RoadError::Lanes { .. } => at(&[Field("lanes")]),
+                        RoadError::LaneWidth { .. } => at(&[Field("lane_width_m")]),
+                        RoadError::SpeedLimit { .. } => at(&[Field("speed_limit_kmh")]),
+                        RoadError::ClosedWithNext { .. } => at(&[Field("next")]),
+                        RoadError::Position { point, .. } => at(&[Field("points"), Index(*point), Field("pos")]),
+                        RoadError::Width { point, .. } if spec.points.get(*point).is_some_and(|p| p.width_m.is_some()) => {
+                            at(&[Field("points"), Index(*point), Field("width_m")])
+                        }
+                        RoadError::Width { .. } => at(&[Field("lane_width_m")]),
+                        RoadError::Bank { point, .. } => at(&[Field("points"), Index(*point), Field("bank_deg")]),
+                        RoadError::Tangent { point, .. } => at(&[Field("points"), Index(*point), Field("tangent")]),
+                        RoadError::PointsTooClose { b, .. } | RoadError::PointsTooFar { b, .. } => at(&[Field("points"), Index(*b)]),
+                    };
+                    self.issue(path, e.to_string());
+                    self.roads.push(None);
+                }
+            }
+        }
+        for (i, spec) in l.roads.iter().enumerate() {
+            let Some(next) = &spec.next else { continue };
+            let path = vec![Field("roads"), Index(i), Field("next")];
+            match l.roads.iter().position(|r| &r.name == next) {
+                None => self.issue(path, format!("unknown road `{next}`; {}", self.road_names())),
+                Some(j) => {
+                    if let (Some(a), Some(b)) = (&self.roads[i], &self.roads[j]) {
+                        let gap = (b.pos_at(0.0) - a.pos_at(a.length_m())).length();
+                        if gap > flockway_road::MAX_CONNECTION_GAP_M {
+                            self.issue(path, format!("road `{}` ends {gap:.2} m from the start of `{next}`; a connection needs them within 1 m", spec.name));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn road_names(&self) -> String {
+        if self.level.roads.is_empty() {
+            "the level has no roads".to_owned()
+        } else {
+            let names: Vec<String> = self.level.roads.iter().map(|r| format!("`{}`", r.name)).collect();
+            format!("the level's roads are {}", names.join(", "))
+        }
+    }
+
+    /// Checks a reference to a road and a lane; returns the road's geometry when both are fine.
+    fn road_lane(&mut self, base: &[PathStep], road: &str, lane: Option<(u32, &'static str)>) -> Option<usize> {
+        let path = |f: &'static str| {
+            let mut p = base.to_vec();
+            p.push(Field(f));
+            p
+        };
+        let Some(i) = self.level.roads.iter().position(|r| r.name == road) else {
+            let msg = format!("unknown road `{road}`; {}", self.road_names());
+            self.issue(path("road"), msg);
+            return None;
+        };
+        if let Some((lane, field)) = lane {
+            let lanes = self.level.roads[i].lanes;
+            if lane >= lanes {
+                self.issue(path(field), format!("lane {lane} is out of range: road `{road}` has {lanes} lane(s), numbered 0 to {}", lanes.saturating_sub(1)));
+                return None;
+            }
+        }
+        self.roads[i].as_ref().map(|_| i)
+    }
+
+    fn arc(&mut self, path: Vec<PathStep>, road: usize, s: f64, what: &str) {
+        let Some(g) = &self.roads[road] else { return };
+        let len = g.length_m();
+        if !finite_in(s, 0.0, len) {
+            self.issue(path, format!("{what} {s} m is outside road `{}`, which is {len:.1} m long", g.name()));
+        }
+    }
+
+    fn asset_path(&mut self, path: Vec<PathStep>, p: &str) {
+        let bad = p.is_empty()
+            || p.starts_with('/')
+            || p.starts_with('\\')
+            || p.contains(':')
+            || p.split(['/', '\\']).any(|c| c == "..")
+            || !p.ends_with(".ron");
+        if bad {
+            self.issue(path, format!("`{p}` is not a path inside assets/: expected a relative path to a .ron file, without `..`, e.g. \"vehicles/sedan.ron\""));
+        }
+    }
+
+    fn vehicle_types(&mut self) {
+        let l = self.level;
+        self.unique("vehicle_types", l.vehicle_types.iter().map(|v| v.name.as_str()));
+        for (i, v) in l.vehicle_types.iter().enumerate() {
+            self.asset_path(vec![Field("vehicle_types"), Index(i), Field("path")], &v.path);
+        }
+    }
+
+    fn driver_profiles(&mut self) {
+        let l = self.level;
+        self.unique("driver_profiles", l.driver_profiles.iter().map(|d| d.name.as_str()));
+        for (i, d) in l.driver_profiles.iter().enumerate() {
+            let base = [Field("driver_profiles"), Index(i)];
+            if !l.vehicle_types.iter().any(|v| v.name == d.vehicle) {
+                let known: Vec<String> = l.vehicle_types.iter().map(|v| format!("`{}`", v.name)).collect();
+                let list = if known.is_empty() { "the level defines no vehicle_types".to_owned() } else { format!("known: {}", known.join(", ")) };
+                self.issue([&base[..], &[Field("vehicle")]].concat(), format!("unknown vehicle type `{}`; {list}", d.vehicle));
+            }
+            if let Some(p) = &d.params {
+                self.asset_path([&base[..], &[Field("params")]].concat(), p);
+            }
+            if let DriverModel::Custom(name) = &d.model {
+                if name.trim().is_empty() {
+                    self.issue([&base[..], &[Field("model")]].concat(), "a custom driver model needs a name");
+                }
+            }
+            for (k, v) in &d.set {
+                if k.trim().is_empty() || !v.is_finite() {
+                    self.issue([&base[..], &[Field("set")]].concat(), format!("parameter `{k}` = {v}: expected a named, finite number"));
+                }
+            }
+        }
+    }
+
+    fn profile_ref(&mut self, path: Vec<PathStep>, name: &str) {
+        if !self.level.driver_profiles.iter().any(|d| d.name == name) {
+            let known: Vec<String> = self.level.driver_profiles.iter().map(|d| format!("`{}`", d.name)).collect();
+            let list = if known.is_empty() { "the level defines no driver_profiles".to_owned() } else { format!("known: {}", known.join(", ")) };
+            self.issue(path, format!("unknown driver profile `{name}`; {list}"));
+        }
+    }
+
+    fn speed(&mut self, path: Vec<PathStep>, kmh: Option<f64>) {
+        if let Some(v) = kmh {
+            if !finite_in(v, 0.0, 400.0) {
+                self.issue(path, format!("speed {v} km/h: expected a number from 0 to 400"));
+            }
+        }
+    }
+
+    fn spawners(&mut self) {
+        let l = self.level;
+        self.unique("spawners", l.spawners.iter().map(|s| s.name.as_str()));
+        for (i, s) in l.spawners.iter().enumerate() {
+            let base = vec![Field("spawners"), Index(i)];
+            let p = |f: &'static str| [&base[..], &[Field(f)]].concat();
+            if let Some(r) = self.road_lane(&base, &s.road, Some((s.lane, "lane"))) {
+                self.arc(p("s_m"), r, s.s_m, "spawn position");
+            }
+            let iv = s.interval_s;
+            if !(finite_in(iv.min, MIN_SPAWN_INTERVAL_S, 86_400.0) && finite_in(iv.max, iv.min, 86_400.0)) {
+                self.issue(p("interval_s"), format!("interval_s (min: {}, max: {}): expected {MIN_SPAWN_INTERVAL_S} ≤ min ≤ max ≤ 86400 seconds", iv.min, iv.max));
+            }
+            if s.profiles.is_empty() {
+                self.issue(p("profiles"), "a spawner needs at least one driver profile");
+            }
+            let mut total = 0.0;
+            for (k, share) in s.profiles.iter().enumerate() {
+                self.profile_ref([&base[..], &[Field("profiles"), Index(k), Field("profile")]].concat(), &share.profile);
+                if !finite_in(share.weight, 0.0, 1e9) {
+                    self.issue([&base[..], &[Field("profiles"), Index(k), Field("weight")]].concat(), format!("weight {}: expected a finite number ≥ 0", share.weight));
+                } else {
+                    total += share.weight;
+                }
+            }
+            if !s.profiles.is_empty() && total <= 0.0 {
+                self.issue(p("profiles"), "the profile weights sum to 0; at least one must be positive");
+            }
+            self.speed(p("speed_kmh"), s.speed_kmh);
+        }
+    }
+
+    fn destroyers(&mut self) {
+        let l = self.level;
+        self.unique("destroyers", l.destroyers.iter().map(|d| d.name.as_str()));
+        for (i, d) in l.destroyers.iter().enumerate() {
+            let base = vec![Field("destroyers"), Index(i), Field("place")];
+            match &d.place {
+                DestroyerPlace::OnRoad { road, s_m } => {
+                    if let Some(r) = self.road_lane(&base, road, None) {
+                        self.arc([&base[..], &[Field("s_m")]].concat(), r, *s_m, "destroyer position");
+                    }
+                }
+                DestroyerPlace::Volume { min, max } => {
+                    if !(min.is_finite() && max.is_finite() && min.cmplt(*max).all()) {
+                        self.issue(base, "a destroyer volume needs finite corners with min < max on every axis");
+                    }
+                }
+            }
+        }
+    }
+
+    fn triggers(&mut self) {
+        let l = self.level;
+        self.unique("triggers", l.triggers.iter().map(|t| t.name.as_str()));
+        for (i, t) in l.triggers.iter().enumerate() {
+            let base = vec![Field("triggers"), Index(i)];
+            let p = |f: &'static str| [&base[..], &[Field(f)]].concat();
+            if let Some(r) = self.road_lane(&base, &t.road, None) {
+                self.arc(p("from_m"), r, t.from_m, "trigger start");
+                self.arc(p("to_m"), r, t.to_m, "trigger end");
+                let closed = l.roads[r].closed;
+                if !closed && t.to_m <= t.from_m {
+                    self.issue(p("to_m"), format!("trigger ends at {} m, not after its start at {} m", t.to_m, t.from_m));
+                }
+                let lanes = l.roads[r].lanes;
+                for (k, lane) in t.lanes.iter().flatten().enumerate() {
+                    if *lane >= lanes {
+                        self.issue([&base[..], &[Field("lanes"), Index(k)]].concat(), format!("lane {lane} is out of range: road `{}` has {lanes} lane(s), numbered 0 to {}", t.road, lanes - 1));
+                    }
+                }
+            }
+            match t.effect {
+                TriggerEffect::SpeedLimit { kmh } if !finite_in(kmh, 1.0, 400.0) => {
+                    self.issue(p("effect"), format!("speed limit {kmh} km/h: expected a number from 1 to 400"));
+                }
+                TriggerEffect::Friction { scale } if !(scale.is_finite() && scale > 0.0 && scale <= 2.0) => {
+                    self.issue(p("effect"), format!("friction scale {scale}: expected a number above 0 and at most 2"));
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn initial_vehicles(&mut self) {
+        let l = self.level;
+        let mut total: u64 = 0;
+        let mut group_too_large = false;
+        for (i, v) in l.vehicles.iter().enumerate() {
+            let base = vec![Field("vehicles"), Index(i)];
+            let p = |f: &'static str| [&base[..], &[Field(f)]].concat();
+            total += u64::from(v.count);
+            if u64::from(v.count) > MAX_INITIAL_VEHICLES {
+                self.issue(p("count"), format!("{} vehicles in one group; a level may place at most {MAX_INITIAL_VEHICLES} at the start", v.count));
+                group_too_large = true;
+                continue;
+            }
+            self.profile_ref(p("profile"), &v.profile);
+            self.speed(p("speed_kmh"), v.speed_kmh);
+            if !finite_in(v.jitter_m, 0.0, 1e6) {
+                self.issue(p("jitter_m"), format!("jitter_m {}: expected a finite number ≥ 0", v.jitter_m));
+            }
+            let Some(r) = self.road_lane(&base, &v.road, Some((v.lane, "lane"))) else { continue };
+            self.arc(p("from_m"), r, v.from_m, "group start");
+            if let Some(to) = v.to_m {
+                self.arc(p("to_m"), r, to, "group end");
+            }
+            let Some(g) = &self.roads[r] else { continue };
+            let span = match v.to_m {
+                Some(to) if g.is_closed() => (to - v.from_m).rem_euclid(g.length_m()),
+                Some(to) => to - v.from_m,
+                None if g.is_closed() => g.length_m(),
+                None => g.length_m() - v.from_m,
+            };
+            if v.count > 0 {
+                let spacing = if g.is_closed() && v.to_m.is_none() { span / f64::from(v.count) } else { span / f64::from(v.count.max(2) - 1).max(1.0) };
+                if v.count > 1 && spacing < MIN_INITIAL_SPACING_M {
+                    self.issue(p("count"), format!("{} vehicles on {span:.1} m of lane are {spacing:.2} m apart; they need at least {MIN_INITIAL_SPACING_M} m each", v.count));
+                } else if v.jitter_m.is_finite() && v.count > 1 && v.jitter_m > 0.25 * spacing {
+                    self.issue(p("jitter_m"), format!("jitter_m {} could make neighbours overlap: at most a quarter of the {spacing:.2} m spacing is allowed", v.jitter_m));
+                }
+            }
+        }
+        if total > MAX_INITIAL_VEHICLES && !group_too_large {
+            self.issue(vec![Field("vehicles")], format!("{total} initial vehicles in all; at most {MAX_INITIAL_VEHICLES} are allowed"));
+        }
+    }
+
+    fn telemetry(&mut self) {
+        let t = &self.level.telemetry;
+        let ticks = t.period_s * 120.0;
+        if !(finite_in(t.period_s, 1.0 / 120.0, 3600.0) && (ticks - ticks.round()).abs() < 1e-6) {
+            self.issue(vec![Field("telemetry"), Field("period_s")], format!("period_s {}: expected a multiple of the 1/120 s step between 1/120 s and 1 hour (e.g. 0.5)", t.period_s));
+        }
+        if !finite_in(t.stats_from_s, 0.0, MAX_DURATION_S) {
+            self.issue(vec![Field("telemetry"), Field("stats_from_s")], format!("stats_from_s {}: expected a number of seconds ≥ 0", t.stats_from_s));
+        }
+    }
+
+    fn expectations(&mut self) {
+        let l = self.level;
+        for (i, e) in l.expect.iter().enumerate() {
+            let Some(info) = metric_info(&e.metric) else { continue };
+            let Some(q) = &e.qualifier else { continue };
+            let known = match info.qualifier {
+                Qualifier::Road => l.roads.iter().any(|r| &r.name == q),
+                Qualifier::Destroyer => l.destroyers.iter().any(|d| &d.name == q),
+                Qualifier::None => true,
+            };
+            if !known {
+                let kind = if info.qualifier == Qualifier::Road { "road" } else { "destroyer" };
+                self.issue(vec![Field("expect"), Index(i)], format!("`{}` names unknown {kind} `{q}`", e.key()));
+            }
+        }
+    }
+}

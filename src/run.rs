@@ -1,0 +1,300 @@
+//! The headless runner: level → world → fixed steps → telemetry, summary and expectations.
+
+use crate::telemetry::TelemetryWriter;
+use flockway_core::{IdKind, RunStats, Sim, StableId, TICKS_PER_SECOND};
+use flockway_level::{Expectation, Level, LevelError};
+use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Why a run could not be set up or completed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The level file is unreadable or invalid.
+    #[error(transparent)]
+    Level(#[from] LevelError),
+    /// The level's roads do not form a network.
+    #[error("{level}: {message}")]
+    Roads {
+        /// Level name.
+        level: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The systems of the step conflict (a bug in a plugin, not in the level).
+    #[error("the simulation step cannot be built: {0}")]
+    Schedule(String),
+    /// An output file could not be written.
+    #[error("{}: {source}", path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A command-line value is out of range.
+    #[error("{0}")]
+    Argument(String),
+}
+
+/// Longest run the command line accepts, in simulated seconds (one week).
+pub const MAX_RUN_SECONDS: f64 = flockway_level::MAX_DURATION_S;
+
+/// How to run a level.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Simulated seconds to run instead of the level's `duration_s`.
+    pub seconds: Option<f64>,
+    /// Seed to use instead of the level's.
+    pub seed: Option<u64>,
+    /// Where to stream the telemetry CSV.
+    pub csv: Option<PathBuf>,
+}
+
+/// The outcome of one expectation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExpectationResult {
+    /// The expectation as written in the level.
+    pub name: String,
+    /// Whether it held.
+    pub passed: bool,
+    /// The measured value; `None` if the run did not measure that metric.
+    pub value: Option<f64>,
+}
+
+/// What a run measured. Its JSON form is a documented contract (see the README).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunReport {
+    /// Level name.
+    pub level: String,
+    /// Seed used.
+    pub seed: u64,
+    /// Fixed steps simulated.
+    pub ticks: u64,
+    /// Simulated seconds (ticks / 120).
+    pub sim_seconds: f64,
+    /// Wall-clock seconds spent stepping.
+    pub wall_seconds: f64,
+    /// Simulated seconds per wall second.
+    pub realtime_factor: f64,
+    /// Sum over steps of vehicles alive.
+    pub vehicle_steps: u64,
+    /// Every measured metric by key (`metric` or `metric.name`).
+    pub metrics: BTreeMap<String, f64>,
+    /// Each expectation's outcome, in level order.
+    pub expectations: Vec<ExpectationResult>,
+    /// Whether every expectation held.
+    pub passed: bool,
+}
+
+impl RunReport {
+    /// The summary JSON: the contract keys, plus `metrics` with every measured value.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "level": self.level,
+            "seed": self.seed,
+            "ticks": self.ticks,
+            "sim_seconds": self.sim_seconds,
+            "wall_seconds": self.wall_seconds,
+            "realtime_factor": self.realtime_factor,
+            "vehicle_steps": self.vehicle_steps,
+            "passed": self.passed,
+            "expectations": self.expectations.iter().map(|e| json!({
+                "name": e.name,
+                "passed": e.passed,
+                "value": e.value,
+            })).collect::<Vec<_>>(),
+            "metrics": self.metrics,
+        })
+    }
+
+    /// The summary as text lines for a terminal.
+    pub fn to_text(&self) -> String {
+        let mut out = String::new();
+        out.push_str(&format!("level            {}\n", self.level));
+        out.push_str(&format!("seed             {}\n", self.seed));
+        out.push_str(&format!("ticks            {}\n", self.ticks));
+        out.push_str(&format!("simulated        {:.3} s\n", self.sim_seconds));
+        out.push_str(&format!("wall             {:.3} s\n", self.wall_seconds));
+        out.push_str(&format!("speed-up         {:.1}× real time\n", self.realtime_factor));
+        out.push_str(&format!("vehicle-steps    {}\n", self.vehicle_steps));
+        if !self.expectations.is_empty() {
+            out.push_str("expectations\n");
+            for e in &self.expectations {
+                let value = e.value.map_or("not measured".to_owned(), |v| format!("measured {}", fmt_value(v)));
+                out.push_str(&format!("  {} {}  ({value})\n", if e.passed { "PASS" } else { "FAIL" }, e.name));
+            }
+            let failed = self.expectations.iter().filter(|e| !e.passed).count();
+            out.push_str(&format!("{} passed, {} failed\n", self.expectations.len() - failed, failed));
+        }
+        out
+    }
+}
+
+fn fmt_value(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e15 { format!("{v:.0}") } else { format!("{v:.3}") }
+}
+
+/// Builds the world of a level: every plugin, and the level's entities, ready to step.
+pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
+    let mut sim = Sim::new(seed);
+    sim.add_plugin(RoadPlugin);
+    for (i, spec) in level.roads.iter().enumerate() {
+        sim.world_mut().spawn((RoadId(i as u32), StableId::new(IdKind::Road, i as u32), Road(spec.clone())));
+    }
+    sim.prepare().map_err(RunError::Schedule)?;
+    Ok(sim)
+}
+
+/// A run in progress: step it in chunks (for progress reporting), then finish it for the report.
+pub struct Runner {
+    sim: Sim,
+    level: Level,
+    name: String,
+    total_ticks: u64,
+    csv: Option<TelemetryWriter>,
+    stepping: Duration,
+}
+
+impl Runner {
+    /// Sets up a run of `level` (named `name` in reports).
+    pub fn new(level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
+        let seconds = options.seconds.unwrap_or(level.duration_s);
+        if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_RUN_SECONDS) {
+            return Err(RunError::Argument(format!("--seconds {seconds}: expected a number of seconds above 0 and at most {MAX_RUN_SECONDS}")));
+        }
+        let total_ticks = (seconds * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64;
+        let seed = options.seed.unwrap_or(level.seed);
+        let sim = build_sim(&level, seed)?;
+        let csv = match &options.csv {
+            Some(path) => Some(TelemetryWriter::create(path).map_err(|source| RunError::Output { path: path.clone(), source })?),
+            None => None,
+        };
+        Ok(Runner { sim, level, name: name.to_owned(), total_ticks, csv, stepping: Duration::ZERO })
+    }
+
+    /// Ticks the whole run takes.
+    pub fn total_ticks(&self) -> u64 {
+        self.total_ticks
+    }
+
+    /// Ticks done so far.
+    pub fn ticks_done(&self) -> u64 {
+        self.sim.tick().0
+    }
+
+    /// The world being run.
+    pub fn sim(&self) -> &Sim {
+        &self.sim
+    }
+
+    /// Runs up to `max_ticks` more steps (fewer at the end of the run); returns how many ran.
+    pub fn step(&mut self, max_ticks: u64) -> Result<u64, RunError> {
+        let n = max_ticks.min(self.total_ticks - self.ticks_done());
+        // Wall-clock time is measured for the report only; it never reaches the simulation.
+        let started = Instant::now();
+        self.sim.run_ticks(n);
+        self.stepping += started.elapsed();
+        if n > 0 && self.sim.tick().0 == n {
+            self.check_roads()?;
+        }
+        Ok(n)
+    }
+
+    /// Road edits are validated at load time; a network that still fails to build is reported.
+    fn check_roads(&self) -> Result<(), RunError> {
+        match &self.sim.world().resource::<RoadNetworkError>().0 {
+            Some(e) => Err(RunError::Roads { level: self.name.clone(), message: e.to_string() }),
+            None => Ok(()),
+        }
+    }
+
+    /// Runs to the end, then measures and checks the expectations.
+    pub fn finish(mut self) -> Result<RunReport, RunError> {
+        while self.ticks_done() < self.total_ticks {
+            self.step(u64::MAX)?;
+        }
+        if let Some(csv) = self.csv.take() {
+            let path = csv.path().to_owned();
+            csv.finish().map_err(|source| RunError::Output { path, source })?;
+        }
+        let world = self.sim.world();
+        let ticks = self.sim.tick().0;
+        let stats = *world.resource::<RunStats>();
+        let mut metrics = BTreeMap::new();
+        metrics.insert("ticks".to_owned(), ticks as f64);
+        metrics.insert("sim_seconds".to_owned(), self.sim.tick().seconds());
+        metrics.insert("vehicle_steps".to_owned(), stats.vehicle_steps as f64);
+        metrics.insert("vehicles_alive_mean".to_owned(), stats.vehicle_steps as f64 / ticks.max(1) as f64);
+        for (_, road) in world.resource::<RoadNetwork>().iter() {
+            metrics.insert(format!("road_length_m.{}", road.name()), road.length_m());
+        }
+        let expectations: Vec<ExpectationResult> = self.level.expect.iter().map(|e| evaluate(e, &metrics)).collect();
+        let wall_seconds = self.stepping.as_secs_f64();
+        let sim_seconds = self.sim.tick().seconds();
+        Ok(RunReport {
+            level: self.name,
+            seed: self.sim.seed(),
+            ticks,
+            sim_seconds,
+            wall_seconds,
+            realtime_factor: if wall_seconds > 0.0 { sim_seconds / wall_seconds } else { f64::INFINITY },
+            vehicle_steps: stats.vehicle_steps,
+            passed: expectations.iter().all(|e| e.passed),
+            metrics,
+            expectations,
+        })
+    }
+}
+
+fn evaluate(e: &Expectation, metrics: &BTreeMap<String, f64>) -> ExpectationResult {
+    let value = metrics.get(&e.key()).copied();
+    ExpectationResult { name: e.to_string(), passed: value.is_some_and(|v| e.holds(v)), value }
+}
+
+/// The name a level is reported under: its `name`, or the file stem.
+pub fn level_name(level: &Level, path: &Path) -> String {
+    if level.name.trim().is_empty() {
+        path.file_stem().map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned())
+    } else {
+        level.name.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_road::RoadSpec;
+    use glam::DVec3;
+
+    #[test]
+    fn a_road_level_runs_and_measures_its_roads() {
+        let mut level = Level::new(1, 2.0);
+        level.roads.push(RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.606, 12));
+        level.expect.push(Expectation::parse("road_length_m.ring in 229.5..230.5").expect("parses"));
+        level.expect.push(Expectation::parse("mean_speed_kmh > 0").expect("parses"));
+        let report = Runner::new(level, "t", &RunOptions::default()).expect("runner").finish().expect("runs");
+        assert_eq!(report.ticks, 240);
+        assert_eq!(report.sim_seconds, 2.0);
+        assert!(report.expectations[0].passed);
+        // A metric this run cannot measure fails rather than passing silently.
+        assert_eq!(report.expectations[1], ExpectationResult { name: "mean_speed_kmh > 0".into(), passed: false, value: None });
+        assert!(!report.passed);
+        let json = report.to_json();
+        for key in ["level", "seed", "ticks", "sim_seconds", "wall_seconds", "realtime_factor", "vehicle_steps", "passed", "expectations"] {
+            assert!(json.get(key).is_some(), "missing {key}");
+        }
+    }
+
+    #[test]
+    fn options_override_seed_and_duration() {
+        let level = Level::new(1, 10.0);
+        let options = RunOptions { seconds: Some(0.5), seed: Some(99), csv: None };
+        let report = Runner::new(level.clone(), "t", &options).expect("runner").finish().expect("runs");
+        assert_eq!((report.ticks, report.seed), (60, 99));
+        let bad = RunOptions { seconds: Some(f64::NAN), ..Default::default() };
+        assert!(matches!(Runner::new(level, "t", &bad), Err(RunError::Argument(_))));
+    }
+}

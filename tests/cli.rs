@@ -1,0 +1,161 @@
+//! The `flockway` command end to end: exit codes, error messages, summaries and determinism.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn flockway(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("the flockway binary runs")
+}
+
+fn shipped_levels() -> Vec<PathBuf> {
+    let mut levels: Vec<PathBuf> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels"))
+        .expect("levels/ exists")
+        .map(|e| e.expect("dir entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    levels.sort();
+    assert!(levels.len() >= 3, "expected the shipped levels, found {levels:?}");
+    levels
+}
+
+#[test]
+fn malformed_levels_exit_2_with_a_positioned_one_screen_error() {
+    // (fixture, line:col the error must point at, words the message must contain)
+    let cases = [
+        ("truncated.ron", "19:41", "expected closing"),
+        ("wrong_type.ron", "8:19", "expected integer"),
+        ("unknown_field.ron", "9:13", "speed_limt_kmh"),
+        ("unknown_road.ron", "13:19", "unknown road `mian`"),
+        ("lane_out_of_range.ron", "11:30", "lane 2 is out of range"),
+        ("nan_width.ron", "12:51", "width NaN"),
+        ("billion_vehicles.ron", "11:31", "1000000000 vehicles"),
+    ];
+    for (file, at, words) in cases {
+        let path = format!("tests/fixtures/bad/{file}");
+        for command in [&["check", path.as_str()][..], &["run", path.as_str()][..]] {
+            let out = flockway(command);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{command:?}: {stderr}");
+            assert!(stderr.contains(&format!("{path}:{at}: ")), "{command:?} should point at {at}: {stderr}");
+            assert!(stderr.contains(words), "{command:?} should say `{words}`: {stderr}");
+            assert!(!stderr.contains("panicked") && !stderr.contains("backtrace"), "{command:?} panicked: {stderr}");
+            assert!(stderr.lines().count() <= 20, "{command:?}: more than a screen: {stderr}");
+        }
+    }
+}
+
+#[test]
+fn missing_files_and_bad_arguments_exit_2() {
+    let out = flockway(&["run", "levels/no_such_level.ron"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no_such_level.ron"));
+    let out = flockway(&["run", "levels/dense_road.ron", "--seconds", "-3"]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = flockway(&["run", "levels/dense_road.ron", "--seed", "not-a-number"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = flockway(&["check"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn help_documents_every_run_option() {
+    let out = flockway(&["run", "--help"]);
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    for flag in ["--seconds", "--seed", "--csv", "--summary", "--quiet", "LEVEL", "Exit status"] {
+        assert!(help.contains(flag), "run --help lacks {flag}:\n{help}");
+    }
+}
+
+#[test]
+fn every_shipped_level_checks_and_runs_passing_its_expectations() {
+    for level in shipped_levels() {
+        let path = level.to_string_lossy().into_owned();
+        let out = flockway(&["check", &path]);
+        assert!(out.status.success(), "check {path}: {}", String::from_utf8_lossy(&out.stderr));
+        let out = flockway(&["run", &path, "--quiet"]);
+        assert_eq!(out.status.code(), Some(0), "run {path}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(out.stdout.is_empty(), "--quiet printed: {}", String::from_utf8_lossy(&out.stdout));
+    }
+}
+
+#[test]
+fn a_failed_expectation_exits_1_and_says_which() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let level = dir.path().join("short.ron");
+    let text = std::fs::read_to_string("levels/sugiyama_ring.ron").expect("level");
+    std::fs::write(&level, text.replace("road_length_m.ring in 229.5..230.5", "road_length_m.ring > 300")).expect("write");
+    let out = flockway(&["run", level.to_str().expect("utf-8 path"), "--seconds", "1"]);
+    assert_eq!(out.status.code(), Some(1));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("FAIL road_length_m.ring > 300  (measured 230.000)"), "{stdout}");
+    assert!(stdout.contains("FAIL ticks == 36000  (measured 120)"), "{stdout}");
+    assert!(stdout.contains("0 passed, 2 failed"), "{stdout}");
+}
+
+/// Runs a level with CSV and summary output into `dir`; returns (csv bytes, summary JSON).
+fn run_with_outputs(level: &Path, dir: &Path, tag: &str) -> (Vec<u8>, serde_json::Value) {
+    let csv = dir.join(format!("{tag}.csv"));
+    let summary = dir.join(format!("{tag}.json"));
+    let out = flockway(&[
+        "run",
+        level.to_str().expect("utf-8 path"),
+        "--quiet",
+        "--csv",
+        csv.to_str().expect("utf-8 path"),
+        "--summary",
+        summary.to_str().expect("utf-8 path"),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let json = serde_json::from_slice(&std::fs::read(&summary).expect("summary written")).expect("summary is JSON");
+    (std::fs::read(&csv).expect("csv written"), json)
+}
+
+#[test]
+fn runs_are_byte_identical_and_summaries_keep_their_contract() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for level in shipped_levels() {
+        let (csv_a, mut a) = run_with_outputs(&level, dir.path(), "a");
+        let (csv_b, mut b) = run_with_outputs(&level, dir.path(), "b");
+        assert_eq!(csv_a, csv_b, "{}: CSV differs between runs", level.display());
+        let header = String::from_utf8(csv_a).expect("utf-8");
+        assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm\n"));
+        for key in ["level", "seed", "ticks", "sim_seconds", "wall_seconds", "realtime_factor", "vehicle_steps", "passed", "expectations"] {
+            assert!(a.get(key).is_some(), "{}: summary lacks `{key}`", level.display());
+        }
+        assert_eq!(a["passed"], serde_json::Value::Bool(true));
+        for e in a["expectations"].as_array().expect("a list") {
+            assert!(e["name"].is_string() && e["passed"].is_boolean() && e["value"].is_number(), "{e}");
+        }
+        assert!(a["ticks"].as_u64().expect("integer") > 0);
+        // Everything but the wall-clock figures is identical.
+        for v in [&mut a, &mut b] {
+            let obj = v.as_object_mut().expect("an object");
+            obj.remove("wall_seconds");
+            obj.remove("realtime_factor");
+        }
+        assert_eq!(a, b, "{}: summaries differ", level.display());
+    }
+}
+
+#[test]
+fn the_summary_is_readable_by_jq_when_jq_is_installed() {
+    let Ok(jq) = Command::new("jq").arg("--version").output() else {
+        // jq is a user convenience, not a dependency: the JSON itself is checked above.
+        return;
+    };
+    assert!(jq.status.success());
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (_, _) = run_with_outputs(Path::new("levels/dense_road.ron"), dir.path(), "j");
+    let out = Command::new("jq")
+        .args(["-r", ".level, .ticks, .passed, (.expectations | length)"])
+        .arg(dir.path().join("j.json"))
+        .output()
+        .expect("jq runs");
+    assert_eq!(String::from_utf8_lossy(&out.stdout), "dense_road\n7200\ntrue\n2\n");
+}
