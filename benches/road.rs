@@ -3,7 +3,7 @@
 //! Each benchmark answers 10,000 queries, the order of magnitude one step of a large run needs
 //! (four wheel contacts plus a lane query for each of 2,000 vehicles).
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use flockway::level::load_level;
 use flockway::road::RoadGeometry;
 use glam::DVec3;
@@ -13,7 +13,9 @@ use std::path::Path;
 const QUERIES: usize = 10_000;
 
 fn road(level: &str) -> RoadGeometry {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels").join(level);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("levels")
+        .join(level);
     let level = load_level(&path).unwrap_or_else(|e| panic!("{e}"));
     RoadGeometry::new(&level.roads[0]).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -22,7 +24,9 @@ fn road(level: &str) -> RoadGeometry {
 fn positions(g: &RoadGeometry) -> Vec<(DVec3, f64)> {
     let mut state = 12345u64;
     let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     (0..QUERIES)
@@ -42,13 +46,25 @@ fn bench(c: &mut Criterion) {
         let g = road(level);
         let pts = positions(&g);
         group.bench_with_input(BenchmarkId::new("project", level), &pts, |b, pts| {
-            b.iter(|| pts.iter().map(|(p, _)| black_box(g.project(*p)).s_m).sum::<f64>())
+            b.iter(|| {
+                pts.iter()
+                    .map(|(p, _)| black_box(g.project(*p)).s_m)
+                    .sum::<f64>()
+            })
         });
         group.bench_with_input(BenchmarkId::new("project_near", level), &pts, |b, pts| {
-            b.iter(|| pts.iter().map(|(p, s)| black_box(g.project_near(*p, *s + 1.5)).s_m).sum::<f64>())
+            b.iter(|| {
+                pts.iter()
+                    .map(|(p, s)| black_box(g.project_near(*p, *s + 1.5)).s_m)
+                    .sum::<f64>()
+            })
         });
         group.bench_with_input(BenchmarkId::new("frame_at", level), &pts, |b, pts| {
-            b.iter(|| pts.iter().map(|(_, s)| black_box(g.frame_at(*s)).pos.x).sum::<f64>())
+            b.iter(|| {
+                pts.iter()
+                    .map(|(_, s)| black_box(g.frame_at(*s)).pos.x)
+                    .sum::<f64>()
+            })
         });
     }
     group.finish();

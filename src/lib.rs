@@ -14,8 +14,8 @@ pub use flockway_road as road;
 
 /// The types most programs that drive Flockway need.
 pub mod prelude {
-    pub use crate::run::{build_sim, ExpectationResult, RunOptions, RunReport, Runner};
+    pub use crate::run::{ExpectationResult, RunOptions, RunReport, Runner, build_sim};
     pub use flockway_core::prelude::*;
-    pub use flockway_level::{load_level, Level};
+    pub use flockway_level::{Level, load_level};
     pub use flockway_road::prelude::*;
 }

@@ -1,7 +1,7 @@
 //! The `flockway` command: run, check and (in later releases) edit and plot levels.
 
 use clap::{Args, Parser, Subcommand};
-use flockway::run::{level_name, RunError, RunOptions, Runner};
+use flockway::run::{RunError, RunOptions, Runner, level_name};
 use flockway_level::{load_level, write_atomic};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -60,7 +60,10 @@ struct RunArgs {
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("FLOCKWAY_LOG").unwrap_or_else(|_| "warn".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("FLOCKWAY_LOG")
+                .unwrap_or_else(|_| "warn".into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
@@ -79,14 +82,23 @@ fn check(levels: &[PathBuf]) -> ExitCode {
     let mut bad = 0;
     for path in levels {
         match load_level(path) {
-            Ok(level) => println!("ok    {} ({}, {} road(s))", path.display(), level_name(&level, path), level.roads.len()),
+            Ok(level) => println!(
+                "ok    {} ({}, {} road(s))",
+                path.display(),
+                level_name(&level, path),
+                level.roads.len()
+            ),
             Err(e) => {
                 bad += 1;
                 eprintln!("error: {e}");
             }
         }
     }
-    if bad == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) }
+    if bad == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    }
 }
 
 fn run(args: RunArgs) -> ExitCode {
@@ -95,7 +107,11 @@ fn run(args: RunArgs) -> ExitCode {
         Err(e) => return fail(e),
     };
     let name = level_name(&level, &args.level);
-    let options = RunOptions { seconds: args.seconds, seed: args.seed, csv: args.csv.clone() };
+    let options = RunOptions {
+        seconds: args.seconds,
+        seed: args.seed,
+        csv: args.csv.clone(),
+    };
     let mut runner = match Runner::new(level, &name, &options) {
         Ok(r) => r,
         Err(e) => return fail(e),
@@ -121,9 +137,18 @@ fn run(args: RunArgs) -> ExitCode {
         let done = runner.ticks_done();
         if let Some(bar) = &bar {
             bar.set_position(done);
-            bar.set_message(format!("{:.0}/{:.0} s", done as f64 / 120.0, total as f64 / 120.0));
+            bar.set_message(format!(
+                "{:.0}/{:.0} s",
+                done as f64 / 120.0,
+                total as f64 / 120.0
+            ));
         } else if !args.quiet && done * 10 >= next_line * total {
-            eprintln!("{name}: {}% ({:.1} of {:.1} simulated s)", done * 100 / total, done as f64 / 120.0, total as f64 / 120.0);
+            eprintln!(
+                "{name}: {}% ({:.1} of {:.1} simulated s)",
+                done * 100 / total,
+                done as f64 / 120.0,
+                total as f64 / 120.0
+            );
             next_line = done * 10 / total + 1;
         }
     }
@@ -147,5 +172,9 @@ fn run(args: RunArgs) -> ExitCode {
     if !args.quiet {
         print!("{}", report.to_text());
     }
-    if report.passed { ExitCode::SUCCESS } else { ExitCode::from(1) }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
 }

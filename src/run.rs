@@ -4,7 +4,7 @@ use crate::telemetry::TelemetryWriter;
 use flockway_core::{IdKind, RunStats, Sim, StableId, TICKS_PER_SECOND};
 use flockway_level::{Expectation, Level, LevelError};
 use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -118,23 +118,40 @@ impl RunReport {
         out.push_str(&format!("ticks            {}\n", self.ticks));
         out.push_str(&format!("simulated        {:.3} s\n", self.sim_seconds));
         out.push_str(&format!("wall             {:.3} s\n", self.wall_seconds));
-        out.push_str(&format!("speed-up         {:.1}× real time\n", self.realtime_factor));
+        out.push_str(&format!(
+            "speed-up         {:.1}× real time\n",
+            self.realtime_factor
+        ));
         out.push_str(&format!("vehicle-steps    {}\n", self.vehicle_steps));
         if !self.expectations.is_empty() {
             out.push_str("expectations\n");
             for e in &self.expectations {
-                let value = e.value.map_or("not measured".to_owned(), |v| format!("measured {}", fmt_value(v)));
-                out.push_str(&format!("  {} {}  ({value})\n", if e.passed { "PASS" } else { "FAIL" }, e.name));
+                let value = e.value.map_or("not measured".to_owned(), |v| {
+                    format!("measured {}", fmt_value(v))
+                });
+                out.push_str(&format!(
+                    "  {} {}  ({value})\n",
+                    if e.passed { "PASS" } else { "FAIL" },
+                    e.name
+                ));
             }
             let failed = self.expectations.iter().filter(|e| !e.passed).count();
-            out.push_str(&format!("{} passed, {} failed\n", self.expectations.len() - failed, failed));
+            out.push_str(&format!(
+                "{} passed, {} failed\n",
+                self.expectations.len() - failed,
+                failed
+            ));
         }
         out
     }
 }
 
 fn fmt_value(v: f64) -> String {
-    if v.fract() == 0.0 && v.abs() < 1e15 { format!("{v:.0}") } else { format!("{v:.3}") }
+    if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.3}")
+    }
 }
 
 /// Builds the world of a level: every plugin, and the level's entities, ready to step.
@@ -142,7 +159,11 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     let mut sim = Sim::new(seed);
     sim.add_plugin(RoadPlugin);
     for (i, spec) in level.roads.iter().enumerate() {
-        sim.world_mut().spawn((RoadId(i as u32), StableId::new(IdKind::Road, i as u32), Road(spec.clone())));
+        sim.world_mut().spawn((
+            RoadId(i as u32),
+            StableId::new(IdKind::Road, i as u32),
+            Road(spec.clone()),
+        ));
     }
     sim.prepare().map_err(RunError::Schedule)?;
     Ok(sim)
@@ -163,16 +184,32 @@ impl Runner {
     pub fn new(level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
         let seconds = options.seconds.unwrap_or(level.duration_s);
         if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_RUN_SECONDS) {
-            return Err(RunError::Argument(format!("--seconds {seconds}: expected a number of seconds above 0 and at most {MAX_RUN_SECONDS}")));
+            return Err(RunError::Argument(format!(
+                "--seconds {seconds}: expected a number of seconds above 0 and at most {MAX_RUN_SECONDS}"
+            )));
         }
         let total_ticks = (seconds * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64;
         let seed = options.seed.unwrap_or(level.seed);
         let sim = build_sim(&level, seed)?;
         let csv = match &options.csv {
-            Some(path) => Some(TelemetryWriter::create(path).map_err(|source| RunError::Output { path: path.clone(), source })?),
+            Some(path) => {
+                Some(
+                    TelemetryWriter::create(path).map_err(|source| RunError::Output {
+                        path: path.clone(),
+                        source,
+                    })?,
+                )
+            }
             None => None,
         };
-        Ok(Runner { sim, level, name: name.to_owned(), total_ticks, csv, stepping: Duration::ZERO })
+        Ok(Runner {
+            sim,
+            level,
+            name: name.to_owned(),
+            total_ticks,
+            csv,
+            stepping: Duration::ZERO,
+        })
     }
 
     /// Ticks the whole run takes.
@@ -206,7 +243,10 @@ impl Runner {
     /// Road edits are validated at load time; a network that still fails to build is reported.
     fn check_roads(&self) -> Result<(), RunError> {
         match &self.sim.world().resource::<RoadNetworkError>().0 {
-            Some(e) => Err(RunError::Roads { level: self.name.clone(), message: e.to_string() }),
+            Some(e) => Err(RunError::Roads {
+                level: self.name.clone(),
+                message: e.to_string(),
+            }),
             None => Ok(()),
         }
     }
@@ -218,7 +258,8 @@ impl Runner {
         }
         if let Some(csv) = self.csv.take() {
             let path = csv.path().to_owned();
-            csv.finish().map_err(|source| RunError::Output { path, source })?;
+            csv.finish()
+                .map_err(|source| RunError::Output { path, source })?;
         }
         let world = self.sim.world();
         let ticks = self.sim.tick().0;
@@ -227,11 +268,19 @@ impl Runner {
         metrics.insert("ticks".to_owned(), ticks as f64);
         metrics.insert("sim_seconds".to_owned(), self.sim.tick().seconds());
         metrics.insert("vehicle_steps".to_owned(), stats.vehicle_steps as f64);
-        metrics.insert("vehicles_alive_mean".to_owned(), stats.vehicle_steps as f64 / ticks.max(1) as f64);
+        metrics.insert(
+            "vehicles_alive_mean".to_owned(),
+            stats.vehicle_steps as f64 / ticks.max(1) as f64,
+        );
         for (_, road) in world.resource::<RoadNetwork>().iter() {
             metrics.insert(format!("road_length_m.{}", road.name()), road.length_m());
         }
-        let expectations: Vec<ExpectationResult> = self.level.expect.iter().map(|e| evaluate(e, &metrics)).collect();
+        let expectations: Vec<ExpectationResult> = self
+            .level
+            .expect
+            .iter()
+            .map(|e| evaluate(e, &metrics))
+            .collect();
         let wall_seconds = self.stepping.as_secs_f64();
         let sim_seconds = self.sim.tick().seconds();
         Ok(RunReport {
@@ -240,7 +289,11 @@ impl Runner {
             ticks,
             sim_seconds,
             wall_seconds,
-            realtime_factor: if wall_seconds > 0.0 { sim_seconds / wall_seconds } else { f64::INFINITY },
+            realtime_factor: if wall_seconds > 0.0 {
+                sim_seconds / wall_seconds
+            } else {
+                f64::INFINITY
+            },
             vehicle_steps: stats.vehicle_steps,
             passed: expectations.iter().all(|e| e.passed),
             metrics,
@@ -251,13 +304,18 @@ impl Runner {
 
 fn evaluate(e: &Expectation, metrics: &BTreeMap<String, f64>) -> ExpectationResult {
     let value = metrics.get(&e.key()).copied();
-    ExpectationResult { name: e.to_string(), passed: value.is_some_and(|v| e.holds(v)), value }
+    ExpectationResult {
+        name: e.to_string(),
+        passed: value.is_some_and(|v| e.holds(v)),
+        value,
+    }
 }
 
 /// The name a level is reported under: its `name`, or the file stem.
 pub fn level_name(level: &Level, path: &Path) -> String {
     if level.name.trim().is_empty() {
-        path.file_stem().map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned())
+        path.file_stem()
+            .map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned())
     } else {
         level.name.clone()
     }
@@ -272,18 +330,44 @@ mod tests {
     #[test]
     fn a_road_level_runs_and_measures_its_roads() {
         let mut level = Level::new(1, 2.0);
-        level.roads.push(RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.606, 12));
-        level.expect.push(Expectation::parse("road_length_m.ring in 229.5..230.5").expect("parses"));
-        level.expect.push(Expectation::parse("mean_speed_kmh > 0").expect("parses"));
-        let report = Runner::new(level, "t", &RunOptions::default()).expect("runner").finish().expect("runs");
+        level
+            .roads
+            .push(RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.606, 12));
+        level
+            .expect
+            .push(Expectation::parse("road_length_m.ring in 229.5..230.5").expect("parses"));
+        level
+            .expect
+            .push(Expectation::parse("mean_speed_kmh > 0").expect("parses"));
+        let report = Runner::new(level, "t", &RunOptions::default())
+            .expect("runner")
+            .finish()
+            .expect("runs");
         assert_eq!(report.ticks, 240);
         assert_eq!(report.sim_seconds, 2.0);
         assert!(report.expectations[0].passed);
         // A metric this run cannot measure fails rather than passing silently.
-        assert_eq!(report.expectations[1], ExpectationResult { name: "mean_speed_kmh > 0".into(), passed: false, value: None });
+        assert_eq!(
+            report.expectations[1],
+            ExpectationResult {
+                name: "mean_speed_kmh > 0".into(),
+                passed: false,
+                value: None
+            }
+        );
         assert!(!report.passed);
         let json = report.to_json();
-        for key in ["level", "seed", "ticks", "sim_seconds", "wall_seconds", "realtime_factor", "vehicle_steps", "passed", "expectations"] {
+        for key in [
+            "level",
+            "seed",
+            "ticks",
+            "sim_seconds",
+            "wall_seconds",
+            "realtime_factor",
+            "vehicle_steps",
+            "passed",
+            "expectations",
+        ] {
             assert!(json.get(key).is_some(), "missing {key}");
         }
     }
@@ -291,10 +375,23 @@ mod tests {
     #[test]
     fn options_override_seed_and_duration() {
         let level = Level::new(1, 10.0);
-        let options = RunOptions { seconds: Some(0.5), seed: Some(99), csv: None };
-        let report = Runner::new(level.clone(), "t", &options).expect("runner").finish().expect("runs");
+        let options = RunOptions {
+            seconds: Some(0.5),
+            seed: Some(99),
+            csv: None,
+        };
+        let report = Runner::new(level.clone(), "t", &options)
+            .expect("runner")
+            .finish()
+            .expect("runs");
         assert_eq!((report.ticks, report.seed), (60, 99));
-        let bad = RunOptions { seconds: Some(f64::NAN), ..Default::default() };
-        assert!(matches!(Runner::new(level, "t", &bad), Err(RunError::Argument(_))));
+        let bad = RunOptions {
+            seconds: Some(f64::NAN),
+            ..Default::default()
+        };
+        assert!(matches!(
+            Runner::new(level, "t", &bad),
+            Err(RunError::Argument(_))
+        ));
     }
 }

@@ -6,8 +6,21 @@ use std::path::{Path, PathBuf};
 /// The CSV columns, in order. A documented contract: columns may be added at the end, never
 /// renamed or reordered.
 pub const CSV_COLUMNS: [&str; 15] = [
-    "time_s", "vehicle_id", "driver", "road", "lane", "s_m", "x_m", "y_m", "z_m", "speed_kmh", "accel_mps2", "throttle", "steering",
-    "gear", "rpm",
+    "time_s",
+    "vehicle_id",
+    "driver",
+    "road",
+    "lane",
+    "s_m",
+    "x_m",
+    "y_m",
+    "z_m",
+    "speed_kmh",
+    "accel_mps2",
+    "throttle",
+    "steering",
+    "gear",
+    "rpm",
 ];
 
 /// One vehicle at one sample time.
@@ -57,7 +70,11 @@ impl TelemetryWriter {
         let mut out = csv::Writer::from_writer(file);
         out.write_record(CSV_COLUMNS)?;
         out.flush()?;
-        Ok(TelemetryWriter { path: path.to_owned(), out, rows: 0 })
+        Ok(TelemetryWriter {
+            path: path.to_owned(),
+            out,
+            rows: 0,
+        })
     }
 
     /// The file being written.
@@ -99,7 +116,10 @@ impl TelemetryWriter {
     /// Flushes everything and syncs the file to disk.
     pub fn finish(mut self) -> std::io::Result<()> {
         self.out.flush()?;
-        let file = self.out.into_inner().map_err(|e| std::io::Error::other(e.to_string()))?;
+        let file = self
+            .out
+            .into_inner()
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
         file.sync_all()
     }
 }

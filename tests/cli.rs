@@ -13,13 +13,17 @@ fn flockway(args: &[&str]) -> Output {
 }
 
 fn shipped_levels() -> Vec<PathBuf> {
-    let mut levels: Vec<PathBuf> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels"))
-        .expect("levels/ exists")
-        .map(|e| e.expect("dir entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
-        .collect();
+    let mut levels: Vec<PathBuf> =
+        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels"))
+            .expect("levels/ exists")
+            .map(|e| e.expect("dir entry").path())
+            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+            .collect();
     levels.sort();
-    assert!(levels.len() >= 3, "expected the shipped levels, found {levels:?}");
+    assert!(
+        levels.len() >= 3,
+        "expected the shipped levels, found {levels:?}"
+    );
     levels
 }
 
@@ -41,10 +45,22 @@ fn malformed_levels_exit_2_with_a_positioned_one_screen_error() {
             let out = flockway(command);
             let stderr = String::from_utf8_lossy(&out.stderr);
             assert_eq!(out.status.code(), Some(2), "{command:?}: {stderr}");
-            assert!(stderr.contains(&format!("{path}:{at}: ")), "{command:?} should point at {at}: {stderr}");
-            assert!(stderr.contains(words), "{command:?} should say `{words}`: {stderr}");
-            assert!(!stderr.contains("panicked") && !stderr.contains("backtrace"), "{command:?} panicked: {stderr}");
-            assert!(stderr.lines().count() <= 20, "{command:?}: more than a screen: {stderr}");
+            assert!(
+                stderr.contains(&format!("{path}:{at}: ")),
+                "{command:?} should point at {at}: {stderr}"
+            );
+            assert!(
+                stderr.contains(words),
+                "{command:?} should say `{words}`: {stderr}"
+            );
+            assert!(
+                !stderr.contains("panicked") && !stderr.contains("backtrace"),
+                "{command:?} panicked: {stderr}"
+            );
+            assert!(
+                stderr.lines().count() <= 20,
+                "{command:?}: more than a screen: {stderr}"
+            );
         }
     }
 }
@@ -55,7 +71,12 @@ fn missing_files_and_bad_arguments_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no_such_level.ron"));
     let out = flockway(&["run", "levels/dense_road.ron", "--seconds", "-3"]);
-    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let out = flockway(&["run", "levels/dense_road.ron", "--seed", "not-a-number"]);
     assert_eq!(out.status.code(), Some(2));
     let out = flockway(&["check"]);
@@ -67,7 +88,15 @@ fn help_documents_every_run_option() {
     let out = flockway(&["run", "--help"]);
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
-    for flag in ["--seconds", "--seed", "--csv", "--summary", "--quiet", "LEVEL", "Exit status"] {
+    for flag in [
+        "--seconds",
+        "--seed",
+        "--csv",
+        "--summary",
+        "--quiet",
+        "LEVEL",
+        "Exit status",
+    ] {
         assert!(help.contains(flag), "run --help lacks {flag}:\n{help}");
     }
 }
@@ -77,10 +106,23 @@ fn every_shipped_level_checks_and_runs_passing_its_expectations() {
     for level in shipped_levels() {
         let path = level.to_string_lossy().into_owned();
         let out = flockway(&["check", &path]);
-        assert!(out.status.success(), "check {path}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "check {path}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let out = flockway(&["run", &path, "--quiet"]);
-        assert_eq!(out.status.code(), Some(0), "run {path}: {}", String::from_utf8_lossy(&out.stderr));
-        assert!(out.stdout.is_empty(), "--quiet printed: {}", String::from_utf8_lossy(&out.stdout));
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "run {path}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            out.stdout.is_empty(),
+            "--quiet printed: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
     }
 }
 
@@ -89,12 +131,25 @@ fn a_failed_expectation_exits_1_and_says_which() {
     let dir = tempfile::tempdir().expect("tempdir");
     let level = dir.path().join("short.ron");
     let text = std::fs::read_to_string("levels/sugiyama_ring.ron").expect("level");
-    std::fs::write(&level, text.replace("road_length_m.ring in 229.5..230.5", "road_length_m.ring > 300")).expect("write");
+    std::fs::write(
+        &level,
+        text.replace(
+            "road_length_m.ring in 229.5..230.5",
+            "road_length_m.ring > 300",
+        ),
+    )
+    .expect("write");
     let out = flockway(&["run", level.to_str().expect("utf-8 path"), "--seconds", "1"]);
     assert_eq!(out.status.code(), Some(1));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("FAIL road_length_m.ring > 300  (measured 230.000)"), "{stdout}");
-    assert!(stdout.contains("FAIL ticks == 36000  (measured 120)"), "{stdout}");
+    assert!(
+        stdout.contains("FAIL road_length_m.ring > 300  (measured 230.000)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("FAIL ticks == 36000  (measured 120)"),
+        "{stdout}"
+    );
     assert!(stdout.contains("0 passed, 2 failed"), "{stdout}");
 }
 
@@ -111,8 +166,14 @@ fn run_with_outputs(level: &Path, dir: &Path, tag: &str) -> (Vec<u8>, serde_json
         "--summary",
         summary.to_str().expect("utf-8 path"),
     ]);
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
-    let json = serde_json::from_slice(&std::fs::read(&summary).expect("summary written")).expect("summary is JSON");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = serde_json::from_slice(&std::fs::read(&summary).expect("summary written"))
+        .expect("summary is JSON");
     (std::fs::read(&csv).expect("csv written"), json)
 }
 
@@ -122,15 +183,37 @@ fn runs_are_byte_identical_and_summaries_keep_their_contract() {
     for level in shipped_levels() {
         let (csv_a, mut a) = run_with_outputs(&level, dir.path(), "a");
         let (csv_b, mut b) = run_with_outputs(&level, dir.path(), "b");
-        assert_eq!(csv_a, csv_b, "{}: CSV differs between runs", level.display());
+        assert_eq!(
+            csv_a,
+            csv_b,
+            "{}: CSV differs between runs",
+            level.display()
+        );
         let header = String::from_utf8(csv_a).expect("utf-8");
         assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm\n"));
-        for key in ["level", "seed", "ticks", "sim_seconds", "wall_seconds", "realtime_factor", "vehicle_steps", "passed", "expectations"] {
-            assert!(a.get(key).is_some(), "{}: summary lacks `{key}`", level.display());
+        for key in [
+            "level",
+            "seed",
+            "ticks",
+            "sim_seconds",
+            "wall_seconds",
+            "realtime_factor",
+            "vehicle_steps",
+            "passed",
+            "expectations",
+        ] {
+            assert!(
+                a.get(key).is_some(),
+                "{}: summary lacks `{key}`",
+                level.display()
+            );
         }
         assert_eq!(a["passed"], serde_json::Value::Bool(true));
         for e in a["expectations"].as_array().expect("a list") {
-            assert!(e["name"].is_string() && e["passed"].is_boolean() && e["value"].is_number(), "{e}");
+            assert!(
+                e["name"].is_string() && e["passed"].is_boolean() && e["value"].is_number(),
+                "{e}"
+            );
         }
         assert!(a["ticks"].as_u64().expect("integer") > 0);
         // Everything but the wall-clock figures is identical.
@@ -157,5 +240,8 @@ fn the_summary_is_readable_by_jq_when_jq_is_installed() {
         .arg(dir.path().join("j.json"))
         .output()
         .expect("jq runs");
-    assert_eq!(String::from_utf8_lossy(&out.stdout), "dense_road\n7200\ntrue\n2\n");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "dense_road\n7200\ntrue\n2\n"
+    );
 }

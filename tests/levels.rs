@@ -7,7 +7,9 @@ use std::path::Path;
 fn load_save_load_is_identical_for_every_shipped_level() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut count = 0;
-    for entry in std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels")).expect("levels/") {
+    for entry in
+        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels")).expect("levels/")
+    {
         let path = entry.expect("entry").path();
         if path.extension().is_none_or(|e| e != "ron") {
             continue;
@@ -19,7 +21,10 @@ fn load_save_load_is_identical_for_every_shipped_level() {
         let second = load_level(&saved).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(first, second, "{} changed through save", path.display());
         // The saved text is a fixed point: saving again writes the same bytes.
-        assert_eq!(std::fs::read_to_string(&saved).expect("read"), level_to_string(&second).expect("text"));
+        assert_eq!(
+            std::fs::read_to_string(&saved).expect("read"),
+            level_to_string(&second).expect("text")
+        );
     }
     assert!(count >= 3);
 }
@@ -55,7 +60,8 @@ fn a_saved_level_keeps_every_optional_part() {
     )"#;
     let level = parse_level(text, Path::new("everything.ron")).unwrap_or_else(|e| panic!("{e}"));
     let saved = level_to_string(&level).expect("text");
-    let again = parse_level(&saved, Path::new("saved.ron")).unwrap_or_else(|e| panic!("{e}\n{saved}"));
+    let again =
+        parse_level(&saved, Path::new("saved.ron")).unwrap_or_else(|e| panic!("{e}\n{saved}"));
     assert_eq!(level, again, "{saved}");
 }
 
@@ -64,11 +70,18 @@ fn saving_replaces_the_file_atomically() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("level.ron");
     std::fs::write(&path, "old contents").expect("write");
-    let level = load_level(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/levels/sugiyama_ring.ron"))).expect("load");
+    let level = load_level(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/levels/sugiyama_ring.ron"
+    )))
+    .expect("load");
     save_level(&level, &path).expect("save");
     assert_eq!(load_level(&path).expect("reload"), level);
     // No temporary file is left behind.
-    let names: Vec<_> = std::fs::read_dir(dir.path()).expect("dir").map(|e| e.expect("entry").file_name()).collect();
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name())
+        .collect();
     assert_eq!(names, vec![std::ffi::OsString::from("level.ron")]);
     // Saving into a missing directory fails cleanly and leaves nothing.
     assert!(save_level(&level, &dir.path().join("missing/level.ron")).is_err());

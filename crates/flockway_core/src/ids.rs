@@ -26,7 +26,9 @@ pub enum IdKind {
 }
 
 /// A stable identity: a kind plus an index assigned deterministically (file order, spawn order).
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Component, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct StableId {
     /// What the id names.
     pub kind: IdKind,

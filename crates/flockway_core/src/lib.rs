@@ -13,18 +13,18 @@ mod stats;
 mod stepper;
 mod units;
 
-pub use clock::{SimClock, Tick, DT_S, TICKS_PER_SECOND};
+pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use rng::{EntityRng, RngStreams};
 pub use sim::{FixedStep, Sim, SimPlugin, StepSet};
-pub use stats::{count_vehicles, RunStats, Vehicle};
+pub use stats::{RunStats, Vehicle, count_vehicles};
 pub use stepper::{FixedStepper, SpeedSetting};
-pub use units::{kmh_to_mps, mps_to_kmh, Speed};
+pub use units::{Speed, kmh_to_mps, mps_to_kmh};
 
 /// The types most users of the core need, for `use flockway_core::prelude::*`.
 pub mod prelude {
     pub use crate::{
-        EntityRng, IdKind, RngStreams, RunStats, Sim, SimClock, SimPlugin, Speed, StableId, StepSet, Tick, Vehicle,
-        DT_S, TICKS_PER_SECOND,
+        DT_S, EntityRng, IdKind, RngStreams, RunStats, Sim, SimClock, SimPlugin, Speed, StableId,
+        StepSet, TICKS_PER_SECOND, Tick, Vehicle,
     };
 }

@@ -109,7 +109,9 @@ mod tests {
         let a = s.stream(StableId::new(IdKind::Vehicle, 3)).next_u64();
         let b = s.stream(StableId::new(IdKind::Vehicle, 4)).next_u64();
         let c = s.stream(StableId::new(IdKind::Spawner, 3)).next_u64();
-        let d = RngStreams::new(43).stream(StableId::new(IdKind::Vehicle, 3)).next_u64();
+        let d = RngStreams::new(43)
+            .stream(StableId::new(IdKind::Vehicle, 3))
+            .next_u64();
         assert!(a != b && a != c && a != d && b != c);
     }
 

@@ -1,6 +1,6 @@
 //! The simulation: a world, the fixed-step schedule and the plugins that fill it.
 
-use crate::{count_vehicles, RngStreams, RunStats, SimClock, Tick};
+use crate::{RngStreams, RunStats, SimClock, Tick, count_vehicles};
 use bevy_ecs::{
     schedule::{
         IntoScheduleConfigs, LogLevel, Schedule, ScheduleBuildSettings, ScheduleLabel, SystemSet,
@@ -102,7 +102,11 @@ impl Sim {
         );
         // Vehicles alive are counted once per step; systems reading RunStats order after it.
         schedule.add_systems(count_vehicles.in_set(StepSet::Record));
-        Sim { world, schedule, plugins: Vec::new() }
+        Sim {
+            world,
+            schedule,
+            plugins: Vec::new(),
+        }
     }
 
     /// Adds a plugin unless one of the same name is already there.
@@ -204,8 +208,9 @@ mod tests {
         sim.prepare().expect("schedule builds");
         sim.run_ticks(2);
         let log = &sim.world().resource::<Log>().0;
-        let expected: Vec<(u64, StepSet)> =
-            (0..2).flat_map(|t| StepSet::ALL.iter().map(move |s| (t, *s))).collect();
+        let expected: Vec<(u64, StepSet)> = (0..2)
+            .flat_map(|t| StepSet::ALL.iter().map(move |s| (t, *s)))
+            .collect();
         assert_eq!(log, &expected);
         assert_eq!(sim.tick(), Tick(2));
     }
@@ -226,7 +231,9 @@ mod tests {
         let mut sim = Sim::new(1);
         sim.world_mut().init_resource::<Counter>();
         sim.add_systems(StepSet::Decide, (bump_a, bump_b));
-        let err = sim.prepare().expect_err("two unordered writers of one resource");
+        let err = sim
+            .prepare()
+            .expect_err("two unordered writers of one resource");
         assert!(err.to_lowercase().contains("ambigu"), "{err}");
 
         let mut ordered = Sim::new(1);

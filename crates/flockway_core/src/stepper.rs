@@ -32,7 +32,11 @@ const UNITS_PER_TICK: u128 = 1_000_000_000;
 impl FixedStepper {
     /// A stepper at the given speed.
     pub fn new(speed: SpeedSetting) -> FixedStepper {
-        FixedStepper { speed, accumulated: 0, max_ticks_per_frame: 240 }
+        FixedStepper {
+            speed,
+            accumulated: 0,
+            max_ticks_per_frame: 240,
+        }
     }
 
     /// The current speed.
@@ -53,9 +57,8 @@ impl FixedStepper {
             SpeedSetting::Paused => 0,
             SpeedSetting::Max => self.max_ticks_per_frame,
             SpeedSetting::Times(factor) => {
-                self.accumulated += wall.as_nanos()
-                    * u128::from(factor)
-                    * u128::from(crate::TICKS_PER_SECOND);
+                self.accumulated +=
+                    wall.as_nanos() * u128::from(factor) * u128::from(crate::TICKS_PER_SECOND);
                 let due = self.accumulated / UNITS_PER_TICK;
                 let capped = due.min(u128::from(self.max_ticks_per_frame));
                 self.accumulated -= capped * UNITS_PER_TICK;

@@ -21,7 +21,9 @@ pub struct Speed {
 impl Speed {
     /// A speed given in km/h.
     pub fn kmh(kmh: f64) -> Speed {
-        Speed { mps: kmh_to_mps(kmh) }
+        Speed {
+            mps: kmh_to_mps(kmh),
+        }
     }
 
     /// A speed given in m/s.

@@ -34,23 +34,108 @@ pub struct MetricInfo {
 /// Every metric the level format knows. A run that does not measure a metric (no vehicles, no
 /// destroyers) fails an expectation on it with "not measured".
 pub const METRICS: &[MetricInfo] = &[
-    MetricInfo { name: "ticks", qualifier: Qualifier::None, unit: "steps", description: "fixed steps simulated" },
-    MetricInfo { name: "sim_seconds", qualifier: Qualifier::None, unit: "s", description: "simulated time" },
-    MetricInfo { name: "vehicle_steps", qualifier: Qualifier::None, unit: "vehicle-steps", description: "sum over steps of vehicles alive" },
-    MetricInfo { name: "road_length_m", qualifier: Qualifier::Road, unit: "m", description: "centre-line length of a road" },
-    MetricInfo { name: "vehicles_spawned", qualifier: Qualifier::None, unit: "vehicles", description: "vehicles created (initial and spawned)" },
-    MetricInfo { name: "vehicles_destroyed", qualifier: Qualifier::None, unit: "vehicles", description: "vehicles removed by destroyers" },
-    MetricInfo { name: "vehicles_alive_mean", qualifier: Qualifier::None, unit: "vehicles", description: "mean vehicles alive per step" },
-    MetricInfo { name: "collisions", qualifier: Qualifier::None, unit: "events", description: "guardrail plus vehicle-vehicle collisions" },
-    MetricInfo { name: "collisions_guardrail", qualifier: Qualifier::None, unit: "events", description: "vehicles removed after hitting a guardrail" },
-    MetricInfo { name: "collisions_vehicle", qualifier: Qualifier::None, unit: "events", description: "vehicle-vehicle contact episodes" },
-    MetricInfo { name: "mean_speed_kmh", qualifier: Qualifier::None, unit: "km/h", description: "mean sampled speed after the warm-up" },
-    MetricInfo { name: "speed_std_kmh", qualifier: Qualifier::None, unit: "km/h", description: "standard deviation of sampled speeds after the warm-up" },
-    MetricInfo { name: "flow_veh_per_h", qualifier: Qualifier::Destroyer, unit: "veh/h", description: "vehicles reaching a destroyer per hour" },
-    MetricInfo { name: "mean_travel_time_s", qualifier: Qualifier::None, unit: "s", description: "mean time from creation to a destroyer" },
-    MetricInfo { name: "wave_detected", qualifier: Qualifier::None, unit: "bool", description: "whether a stop-and-go wave was found" },
-    MetricInfo { name: "wave_speed_kmh", qualifier: Qualifier::None, unit: "km/h", description: "propagation speed of the wave (negative: against traffic)" },
-    MetricInfo { name: "wave_period_s", qualifier: Qualifier::None, unit: "s", description: "period of the wave at a fixed point" },
+    MetricInfo {
+        name: "ticks",
+        qualifier: Qualifier::None,
+        unit: "steps",
+        description: "fixed steps simulated",
+    },
+    MetricInfo {
+        name: "sim_seconds",
+        qualifier: Qualifier::None,
+        unit: "s",
+        description: "simulated time",
+    },
+    MetricInfo {
+        name: "vehicle_steps",
+        qualifier: Qualifier::None,
+        unit: "vehicle-steps",
+        description: "sum over steps of vehicles alive",
+    },
+    MetricInfo {
+        name: "road_length_m",
+        qualifier: Qualifier::Road,
+        unit: "m",
+        description: "centre-line length of a road",
+    },
+    MetricInfo {
+        name: "vehicles_spawned",
+        qualifier: Qualifier::None,
+        unit: "vehicles",
+        description: "vehicles created (initial and spawned)",
+    },
+    MetricInfo {
+        name: "vehicles_destroyed",
+        qualifier: Qualifier::None,
+        unit: "vehicles",
+        description: "vehicles removed by destroyers",
+    },
+    MetricInfo {
+        name: "vehicles_alive_mean",
+        qualifier: Qualifier::None,
+        unit: "vehicles",
+        description: "mean vehicles alive per step",
+    },
+    MetricInfo {
+        name: "collisions",
+        qualifier: Qualifier::None,
+        unit: "events",
+        description: "guardrail plus vehicle-vehicle collisions",
+    },
+    MetricInfo {
+        name: "collisions_guardrail",
+        qualifier: Qualifier::None,
+        unit: "events",
+        description: "vehicles removed after hitting a guardrail",
+    },
+    MetricInfo {
+        name: "collisions_vehicle",
+        qualifier: Qualifier::None,
+        unit: "events",
+        description: "vehicle-vehicle contact episodes",
+    },
+    MetricInfo {
+        name: "mean_speed_kmh",
+        qualifier: Qualifier::None,
+        unit: "km/h",
+        description: "mean sampled speed after the warm-up",
+    },
+    MetricInfo {
+        name: "speed_std_kmh",
+        qualifier: Qualifier::None,
+        unit: "km/h",
+        description: "standard deviation of sampled speeds after the warm-up",
+    },
+    MetricInfo {
+        name: "flow_veh_per_h",
+        qualifier: Qualifier::Destroyer,
+        unit: "veh/h",
+        description: "vehicles reaching a destroyer per hour",
+    },
+    MetricInfo {
+        name: "mean_travel_time_s",
+        qualifier: Qualifier::None,
+        unit: "s",
+        description: "mean time from creation to a destroyer",
+    },
+    MetricInfo {
+        name: "wave_detected",
+        qualifier: Qualifier::None,
+        unit: "bool",
+        description: "whether a stop-and-go wave was found",
+    },
+    MetricInfo {
+        name: "wave_speed_kmh",
+        qualifier: Qualifier::None,
+        unit: "km/h",
+        description: "propagation speed of the wave (negative: against traffic)",
+    },
+    MetricInfo {
+        name: "wave_period_s",
+        qualifier: Qualifier::None,
+        unit: "s",
+        description: "period of the wave at a fixed point",
+    },
 ];
 
 /// Looks a metric up by name.
@@ -115,10 +200,14 @@ impl Expectation {
     /// Parses `METRIC[.NAME] OP VALUE`.
     pub fn parse(text: &str) -> Result<Expectation, String> {
         let text = text.trim();
-        let key_end = text.find(|c: char| c.is_whitespace() || "=!<>".contains(c)).unwrap_or(text.len());
+        let key_end = text
+            .find(|c: char| c.is_whitespace() || "=!<>".contains(c))
+            .unwrap_or(text.len());
         let (key, rest) = text.split_at(key_end);
         if key.is_empty() {
-            return Err(format!("expected `METRIC OP VALUE` (e.g. `collisions == 0`), found `{text}`"));
+            return Err(format!(
+                "expected `METRIC OP VALUE` (e.g. `collisions == 0`), found `{text}`"
+            ));
         }
         let (metric, qualifier) = match key.split_once('.') {
             Some((m, q)) => (m, Some(q.to_owned())),
@@ -126,13 +215,20 @@ impl Expectation {
         };
         let info = metric_info(metric).ok_or_else(|| {
             let names: Vec<&str> = METRICS.iter().map(|m| m.name).collect();
-            format!("unknown metric `{metric}`; known metrics: {}", names.join(", "))
+            format!(
+                "unknown metric `{metric}`; known metrics: {}",
+                names.join(", ")
+            )
         })?;
         match (info.qualifier, &qualifier) {
             (Qualifier::None, Some(q)) => return Err(format!("metric `{metric}` takes no `.{q}`")),
-            (Qualifier::Road, None) => return Err(format!("metric `{metric}` needs a road: `{metric}.ROAD`")),
+            (Qualifier::Road, None) => {
+                return Err(format!("metric `{metric}` needs a road: `{metric}.ROAD`"));
+            }
             (Qualifier::Destroyer, None) => {
-                return Err(format!("metric `{metric}` needs a destroyer: `{metric}.DESTROYER`"));
+                return Err(format!(
+                    "metric `{metric}` needs a destroyer: `{metric}.DESTROYER`"
+                ));
             }
             (_, Some(q)) if q.is_empty() => return Err(format!("empty name after `{metric}.`")),
             _ => {}
@@ -143,30 +239,54 @@ impl Expectation {
             let v = match s {
                 "true" => 1.0,
                 "false" => 0.0,
-                _ => s.parse::<f64>().map_err(|_| format!("expected a number, `true` or `false`, found `{s}`"))?,
+                _ => s
+                    .parse::<f64>()
+                    .map_err(|_| format!("expected a number, `true` or `false`, found `{s}`"))?,
             };
-            if v.is_finite() { Ok(v) } else { Err(format!("expected a finite number, found `{s}`")) }
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(format!("expected a finite number, found `{s}`"))
+            }
         };
-        let check = if let Some(range) = rest.strip_prefix("in").filter(|r| r.starts_with(char::is_whitespace)) {
+        let check = if let Some(range) = rest
+            .strip_prefix("in")
+            .filter(|r| r.starts_with(char::is_whitespace))
+        {
             let (lo, hi) = range
                 .trim()
                 .split_once("..")
                 .ok_or_else(|| format!("expected `in LOW..HIGH`, found `in{range}`"))?;
             let (lo, hi) = (number(lo)?, number(hi)?);
             if lo > hi {
-                return Err(format!("empty range {lo}..{hi}: the low end must not exceed the high end"));
+                return Err(format!(
+                    "empty range {lo}..{hi}: the low end must not exceed the high end"
+                ));
             }
             Check::In(lo, hi)
         } else {
-            let ops: [(&str, fn(f64) -> Check); 6] =
-                [("==", Check::Eq), ("!=", Check::Ne), ("<=", Check::Le), (">=", Check::Ge), ("<", Check::Lt), (">", Check::Gt)];
+            type Make = fn(f64) -> Check;
+            let ops: [(&str, Make); 6] = [
+                ("==", Check::Eq),
+                ("!=", Check::Ne),
+                ("<=", Check::Le),
+                (">=", Check::Ge),
+                ("<", Check::Lt),
+                (">", Check::Gt),
+            ];
             let (op, make) = ops
                 .iter()
                 .find(|(op, _)| rest.starts_with(op))
-                .ok_or_else(|| format!("expected one of == != < <= > >= or `in` after `{key}`, found `{rest}`"))?;
+                .ok_or_else(|| {
+                    format!("expected one of == != < <= > >= or `in` after `{key}`, found `{rest}`")
+                })?;
             make(number(&rest[op.len()..])?)
         };
-        Ok(Expectation { metric: metric.to_owned(), qualifier, check })
+        Ok(Expectation {
+            metric: metric.to_owned(),
+            qualifier,
+            check,
+        })
     }
 }
 
@@ -211,16 +331,34 @@ mod tests {
         assert!(e.holds(0.0) && !e.holds(1.0));
         let e = Expectation::parse("road_length_m.ring >= 229.5").expect("parses");
         assert_eq!(e.key(), "road_length_m.ring");
-        assert!(Expectation::parse("wave_detected == true").expect("parses").holds(1.0));
-        assert!(Expectation::parse("wave_speed_kmh in -25..-12").expect("parses").holds(-20.0));
-        for (text, check) in [("ticks < 5", Check::Lt(5.0)), ("ticks <= 5", Check::Le(5.0)), ("ticks > 5", Check::Gt(5.0)), ("ticks != 5", Check::Ne(5.0))] {
+        assert!(
+            Expectation::parse("wave_detected == true")
+                .expect("parses")
+                .holds(1.0)
+        );
+        assert!(
+            Expectation::parse("wave_speed_kmh in -25..-12")
+                .expect("parses")
+                .holds(-20.0)
+        );
+        for (text, check) in [
+            ("ticks < 5", Check::Lt(5.0)),
+            ("ticks <= 5", Check::Le(5.0)),
+            ("ticks > 5", Check::Gt(5.0)),
+            ("ticks != 5", Check::Ne(5.0)),
+        ] {
             assert_eq!(Expectation::parse(text).expect("parses").check, check);
         }
     }
 
     #[test]
     fn display_round_trips() {
-        for text in ["mean_speed_kmh in 57..63.5", "collisions == 0", "flow_veh_per_h.exit >= 1000", "wave_speed_kmh in -25..-12"] {
+        for text in [
+            "mean_speed_kmh in 57..63.5",
+            "collisions == 0",
+            "flow_veh_per_h.exit >= 1000",
+            "wave_speed_kmh in -25..-12",
+        ] {
             let e = Expectation::parse(text).expect("parses");
             assert_eq!(e.to_string(), text);
             assert_eq!(Expectation::parse(&e.to_string()).expect("reparses"), e);

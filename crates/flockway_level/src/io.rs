@@ -1,6 +1,6 @@
 //! Reading and writing level files: positioned errors on the way in, atomic writes on the way out.
 
-use crate::locate::{locate, Pos};
+use crate::locate::{Pos, locate};
 use crate::schema::Level;
 use crate::validate::validate;
 use serde::Deserialize;
@@ -72,15 +72,29 @@ fn render(path: &Path, src: &str, diagnostics: &[Diagnostic]) -> String {
         if k > 0 {
             out.push('\n');
         }
-        out.push_str(&format!("{}:{}:{}: {}", path.display(), d.pos.line, d.pos.col, d.message));
+        out.push_str(&format!(
+            "{}:{}:{}: {}",
+            path.display(),
+            d.pos.line,
+            d.pos.col,
+            d.message
+        ));
         if let Some(line) = src.lines().nth(d.pos.line.saturating_sub(1)) {
             let text: String = line.chars().take(120).collect();
             let gutter = d.pos.line.to_string().len();
-            out.push_str(&format!("\n {:>gutter$} | {text}\n {:>gutter$} | {}^", d.pos.line, "", " ".repeat(d.pos.col.saturating_sub(1).min(120))));
+            out.push_str(&format!(
+                "\n {:>gutter$} | {text}\n {:>gutter$} | {}^",
+                d.pos.line,
+                "",
+                " ".repeat(d.pos.col.saturating_sub(1).min(120))
+            ));
         }
     }
     if diagnostics.len() > MAX_REPORTED {
-        out.push_str(&format!("\n… and {} more problem(s)", diagnostics.len() - MAX_REPORTED));
+        out.push_str(&format!(
+            "\n… and {} more problem(s)",
+            diagnostics.len() - MAX_REPORTED
+        ));
     }
     out
 }
@@ -100,26 +114,45 @@ struct VersionProbe {
 
 /// Parses and validates level text; `path` is only used in messages.
 pub fn parse_level(src: &str, path: &Path) -> Result<Level, LevelError> {
-    let invalid = |diagnostics: Vec<Diagnostic>| LevelError::Invalid { path: path.to_owned(), source_text: src.to_owned(), diagnostics };
+    let invalid = |diagnostics: Vec<Diagnostic>| LevelError::Invalid {
+        path: path.to_owned(),
+        source_text: src.to_owned(),
+        diagnostics,
+    };
     let options = ron_options();
-    if let Ok(VersionProbe { version: Some(v) }) = options.from_str::<VersionProbe>(src) {
-        if v != crate::CURRENT_VERSION {
-            let pos = locate(src, &[crate::locate::PathStep::Field("version")]);
-            return Err(invalid(vec![Diagnostic {
-                pos,
-                message: format!("unsupported level version {v}; this Flockway reads version {}", crate::CURRENT_VERSION),
-            }]));
-        }
+    if let Ok(VersionProbe { version: Some(v) }) = options.from_str::<VersionProbe>(src)
+        && v != crate::CURRENT_VERSION
+    {
+        let pos = locate(src, &[crate::locate::PathStep::Field("version")]);
+        return Err(invalid(vec![Diagnostic {
+            pos,
+            message: format!(
+                "unsupported level version {v}; this Flockway reads version {}",
+                crate::CURRENT_VERSION
+            ),
+        }]));
     }
     let level: Level = options.from_str(src).map_err(|e| {
-        let pos = Pos { line: e.span.start.line.max(1), col: e.span.start.col.max(1) };
-        invalid(vec![Diagnostic { pos, message: describe_ron_error(&e.code) }])
+        let pos = Pos {
+            line: e.span.start.line.max(1),
+            col: e.span.start.col.max(1),
+        };
+        invalid(vec![Diagnostic {
+            pos,
+            message: describe_ron_error(&e.code),
+        }])
     })?;
     let issues = validate(&level);
     if issues.is_empty() {
         Ok(level)
     } else {
-        let mut diagnostics: Vec<Diagnostic> = issues.into_iter().map(|i| Diagnostic { pos: locate(src, &i.path), message: i.message }).collect();
+        let mut diagnostics: Vec<Diagnostic> = issues
+            .into_iter()
+            .map(|i| Diagnostic {
+                pos: locate(src, &i.path),
+                message: i.message,
+            })
+            .collect();
         diagnostics.sort_by_key(|d| d.pos);
         Err(invalid(diagnostics))
     }
@@ -128,7 +161,9 @@ pub fn parse_level(src: &str, path: &Path) -> Result<Level, LevelError> {
 /// RON's messages, with the ones users meet most often reworded to say what was expected.
 fn describe_ron_error(code: &ron::Error) -> String {
     match code {
-        ron::Error::Eof => "the file ends too early: a value or a closing bracket is missing".to_owned(),
+        ron::Error::Eof => {
+            "the file ends too early: a value or a closing bracket is missing".to_owned()
+        }
         other => {
             let text = other.to_string();
             let mut chars = text.chars();
@@ -148,10 +183,16 @@ fn ron_options() -> ron::Options {
 
 /// Reads, parses and validates a level file.
 pub fn load_level(path: &Path) -> Result<Level, LevelError> {
-    let io = |source| LevelError::Io { path: path.to_owned(), source };
+    let io = |source| LevelError::Io {
+        path: path.to_owned(),
+        source,
+    };
     let meta = std::fs::metadata(path).map_err(io)?;
     if meta.len() > MAX_FILE_BYTES {
-        return Err(LevelError::TooLarge { path: path.to_owned(), bytes: meta.len() });
+        return Err(LevelError::TooLarge {
+            path: path.to_owned(),
+            bytes: meta.len(),
+        });
     }
     let bytes = std::fs::read(path).map_err(io)?;
     let src = String::from_utf8(bytes).map_err(|e| {
@@ -162,7 +203,10 @@ pub fn load_level(path: &Path) -> Result<Level, LevelError> {
         LevelError::Invalid {
             path: path.to_owned(),
             source_text: text.into_owned(),
-            diagnostics: vec![Diagnostic { pos: Pos { line, col }, message: "the file is not UTF-8 text".to_owned() }],
+            diagnostics: vec![Diagnostic {
+                pos: Pos { line, col },
+                message: "the file is not UTF-8 text".to_owned(),
+            }],
         }
     })?;
     parse_level(&src, path)
@@ -176,7 +220,8 @@ pub fn level_to_string(level: &Level) -> Result<String, LevelError> {
         .struct_names(false)
         .separate_tuple_members(false)
         .extensions(ron::extensions::Extensions::IMPLICIT_SOME);
-    let mut text = ron::ser::to_string_pretty(level, config).map_err(|e| LevelError::Serialize(e.to_string()))?;
+    let mut text = ron::ser::to_string_pretty(level, config)
+        .map_err(|e| LevelError::Serialize(e.to_string()))?;
     text.push('\n');
     Ok(text)
 }
@@ -190,13 +235,25 @@ pub fn save_level(level: &Level, path: &Path) -> Result<(), LevelError> {
 
 /// Writes `bytes` to `path` atomically (temporary file, sync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LevelError> {
-    let io = |source| LevelError::Io { path: path.to_owned(), source };
+    let io = |source| LevelError::Io {
+        path: path.to_owned(),
+        source,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().ok_or_else(|| io(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path")))?;
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let name = path.file_name().ok_or_else(|| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file path",
+        ))
+    })?;
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;

@@ -11,11 +11,17 @@ mod locate;
 mod schema;
 mod validate;
 
-pub use expect::{metric_info, Check, Expectation, MetricInfo, Qualifier, METRICS};
-pub use io::{level_to_string, load_level, parse_level, save_level, write_atomic, Diagnostic, LevelError, MAX_FILE_BYTES};
-pub use locate::{locate, PathStep, Pos};
-pub use schema::{
-    DestroyerPlace, Destroyer, DriverModel, DriverProfile, InitialVehicles, Level, ProfileShare, Range, Spawner, Telemetry, Trigger,
-    TriggerEffect, VehicleType, CURRENT_VERSION,
+pub use expect::{Check, Expectation, METRICS, MetricInfo, Qualifier, metric_info};
+pub use io::{
+    Diagnostic, LevelError, MAX_FILE_BYTES, level_to_string, load_level, parse_level, save_level,
+    write_atomic,
 };
-pub use validate::{validate, Issue, MAX_DURATION_S, MAX_INITIAL_VEHICLES, MAX_LIST_LEN, MIN_INITIAL_SPACING_M, MIN_SPAWN_INTERVAL_S};
+pub use locate::{PathStep, Pos, locate};
+pub use schema::{
+    CURRENT_VERSION, Destroyer, DestroyerPlace, DriverModel, DriverProfile, InitialVehicles, Level,
+    ProfileShare, Range, Spawner, Telemetry, Trigger, TriggerEffect, VehicleType,
+};
+pub use validate::{
+    Issue, MAX_DURATION_S, MAX_INITIAL_VEHICLES, MAX_LIST_LEN, MIN_INITIAL_SPACING_M,
+    MIN_SPAWN_INTERVAL_S, validate,
+};

@@ -22,7 +22,11 @@ pub struct Pos {
 /// The position of the value at `path`, or of the deepest enclosing value that exists (a missing
 /// optional field points at the struct that lacks it).
 pub fn locate(src: &str, path: &[PathStep]) -> Pos {
-    let mut c = Cursor { chars: src.char_indices().collect(), i: 0, src };
+    let mut c = Cursor {
+        chars: src.char_indices().collect(),
+        i: 0,
+        src,
+    };
     c.skip_trivia();
     let mut pos = c.pos();
     for step in path {
@@ -81,7 +85,10 @@ impl Cursor<'_> {
         let before = &self.src[..byte];
         let line = before.matches('\n').count() + 1;
         let line_start = before.rfind('\n').map_or(0, |n| n + 1);
-        Pos { line, col: before[line_start..].chars().count() + 1 }
+        Pos {
+            line,
+            col: before[line_start..].chars().count() + 1,
+        }
     }
 
     fn skip_trivia(&mut self) {
@@ -298,15 +305,39 @@ mod tests {
     #[test]
     fn finds_fields_and_indices() {
         assert_eq!(locate(SRC, &[Field("version")]), Pos { line: 2, col: 14 });
-        assert_eq!(locate(SRC, &[Field("roads"), Index(1), Field("name")]), Pos { line: 6, col: 20 });
-        assert_eq!(locate(SRC, &[Field("roads"), Index(0), Field("points"), Index(1), Field("pos")]), Pos { line: 5, col: 63 });
-        assert_eq!(locate(SRC, &[Field("spawners"), Index(0), Field("lane")]), Pos { line: 8, col: 34 });
+        assert_eq!(
+            locate(SRC, &[Field("roads"), Index(1), Field("name")]),
+            Pos { line: 6, col: 20 }
+        );
+        assert_eq!(
+            locate(
+                SRC,
+                &[
+                    Field("roads"),
+                    Index(0),
+                    Field("points"),
+                    Index(1),
+                    Field("pos")
+                ]
+            ),
+            Pos { line: 5, col: 63 }
+        );
+        assert_eq!(
+            locate(SRC, &[Field("spawners"), Index(0), Field("lane")]),
+            Pos { line: 8, col: 34 }
+        );
     }
 
     #[test]
     fn missing_steps_point_at_the_deepest_existing_value() {
         // No `speed` field in the spawner: point at the spawner.
-        assert_eq!(locate(SRC, &[Field("spawners"), Index(0), Field("speed")]), Pos { line: 8, col: 16 });
-        assert_eq!(locate(SRC, &[Field("spawners"), Index(5)]), Pos { line: 8, col: 15 });
+        assert_eq!(
+            locate(SRC, &[Field("spawners"), Index(0), Field("speed")]),
+            Pos { line: 8, col: 16 }
+        );
+        assert_eq!(
+            locate(SRC, &[Field("spawners"), Index(5)]),
+            Pos { line: 8, col: 15 }
+        );
     }
 }

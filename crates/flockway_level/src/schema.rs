@@ -281,7 +281,10 @@ pub struct Telemetry {
 
 impl Default for Telemetry {
     fn default() -> Telemetry {
-        Telemetry { period_s: 0.5, stats_from_s: 0.0 }
+        Telemetry {
+            period_s: 0.5,
+            stats_from_s: 0.0,
+        }
     }
 }
 

@@ -1,7 +1,7 @@
 //! Semantic checks of a parsed level: references, ranges and counts, each tied to the place in
 //! the file it concerns.
 
-use crate::expect::{metric_info, Qualifier};
+use crate::expect::{Qualifier, metric_info};
 use crate::locate::PathStep::{self, Field, Index};
 use crate::schema::*;
 use flockway_road::{RoadError, RoadGeometry};
@@ -35,7 +35,11 @@ struct Checker<'a> {
 
 /// Checks everything that parsing alone cannot; returns every problem found, in file order.
 pub fn validate(level: &Level) -> Vec<Issue> {
-    let mut c = Checker { level, roads: Vec::new(), issues: Vec::new() };
+    let mut c = Checker {
+        level,
+        roads: Vec::new(),
+        issues: Vec::new(),
+    };
     c.run();
     c.issues
 }
@@ -46,13 +50,22 @@ fn finite_in(x: f64, lo: f64, hi: f64) -> bool {
 
 impl Checker<'_> {
     fn issue(&mut self, path: Vec<PathStep>, message: impl Into<String>) {
-        self.issues.push(Issue { path, message: message.into() });
+        self.issues.push(Issue {
+            path,
+            message: message.into(),
+        });
     }
 
     fn run(&mut self) {
         let l = self.level;
         if l.version != CURRENT_VERSION {
-            self.issue(vec![Field("version")], format!("unsupported level version {}; this Flockway reads version {CURRENT_VERSION}", l.version));
+            self.issue(
+                vec![Field("version")],
+                format!(
+                    "unsupported level version {}; this Flockway reads version {CURRENT_VERSION}",
+                    l.version
+                ),
+            );
             return;
         }
         if !finite_in(l.duration_s, 1.0 / 120.0, MAX_DURATION_S) {
@@ -69,7 +82,10 @@ impl Checker<'_> {
             ("expect", l.expect.len()),
         ] {
             if len > MAX_LIST_LEN {
-                self.issue(vec![Field(field)], format!("{len} entries in `{field}`; at most {MAX_LIST_LEN} are allowed"));
+                self.issue(
+                    vec![Field(field)],
+                    format!("{len} entries in `{field}`; at most {MAX_LIST_LEN} are allowed"),
+                );
                 return;
             }
         }
@@ -88,9 +104,15 @@ impl Checker<'_> {
         let mut seen = BTreeSet::new();
         for (i, name) in names.enumerate() {
             if name.trim().is_empty() {
-                self.issue(vec![Field(list), Index(i), Field("name")], "a name must not be empty");
+                self.issue(
+                    vec![Field(list), Index(i), Field("name")],
+                    "a name must not be empty",
+                );
             } else if !seen.insert(name) {
-                self.issue(vec![Field(list), Index(i), Field("name")], format!("duplicate name `{name}` in `{list}`; names must be unique"));
+                self.issue(
+                    vec![Field(list), Index(i), Field("name")],
+                    format!("duplicate name `{name}` in `{list}`; names must be unique"),
+                );
             }
         }
     }
@@ -109,19 +131,31 @@ impl Checker<'_> {
                 Err(e) => {
                     let path = match &e {
                         RoadError::EmptyName => at(&[Field("name")]),
-                        RoadError::TooFewPoints { .. } | RoadError::TooManyPoints { .. } => at(&[Field("points")]),
+                        RoadError::TooFewPoints { .. } | RoadError::TooManyPoints { .. } => {
+                            at(&[Field("points")])
+                        }
                         RoadError::Lanes { .. } => at(&[Field("lanes")]),
                         RoadError::LaneWidth { .. } => at(&[Field("lane_width_m")]),
                         RoadError::SpeedLimit { .. } => at(&[Field("speed_limit_kmh")]),
                         RoadError::ClosedWithNext { .. } => at(&[Field("next")]),
-                        RoadError::Position { point, .. } => at(&[Field("points"), Index(*point), Field("pos")]),
-                        RoadError::Width { point, .. } if spec.points.get(*point).is_some_and(|p| p.width_m.is_some()) => {
+                        RoadError::Position { point, .. } => {
+                            at(&[Field("points"), Index(*point), Field("pos")])
+                        }
+                        RoadError::Width { point, .. }
+                            if spec.points.get(*point).is_some_and(|p| p.width_m.is_some()) =>
+                        {
                             at(&[Field("points"), Index(*point), Field("width_m")])
                         }
                         RoadError::Width { .. } => at(&[Field("lane_width_m")]),
-                        RoadError::Bank { point, .. } => at(&[Field("points"), Index(*point), Field("bank_deg")]),
-                        RoadError::Tangent { point, .. } => at(&[Field("points"), Index(*point), Field("tangent")]),
-                        RoadError::PointsTooClose { b, .. } | RoadError::PointsTooFar { b, .. } => at(&[Field("points"), Index(*b)]),
+                        RoadError::Bank { point, .. } => {
+                            at(&[Field("points"), Index(*point), Field("bank_deg")])
+                        }
+                        RoadError::Tangent { point, .. } => {
+                            at(&[Field("points"), Index(*point), Field("tangent")])
+                        }
+                        RoadError::PointsTooClose { b, .. } | RoadError::PointsTooFar { b, .. } => {
+                            at(&[Field("points"), Index(*b)])
+                        }
                     };
                     self.issue(path, e.to_string());
                     self.roads.push(None);
@@ -132,7 +166,10 @@ impl Checker<'_> {
             let Some(next) = &spec.next else { continue };
             let path = vec![Field("roads"), Index(i), Field("next")];
             match l.roads.iter().position(|r| &r.name == next) {
-                None => self.issue(path, format!("unknown road `{next}`; {}", self.road_names())),
+                None => self.issue(
+                    path,
+                    format!("unknown road `{next}`; {}", self.road_names()),
+                ),
                 Some(j) => {
                     if let (Some(a), Some(b)) = (&self.roads[i], &self.roads[j]) {
                         let gap = (b.pos_at(0.0) - a.pos_at(a.length_m())).length();
@@ -149,13 +186,23 @@ impl Checker<'_> {
         if self.level.roads.is_empty() {
             "the level has no roads".to_owned()
         } else {
-            let names: Vec<String> = self.level.roads.iter().map(|r| format!("`{}`", r.name)).collect();
+            let names: Vec<String> = self
+                .level
+                .roads
+                .iter()
+                .map(|r| format!("`{}`", r.name))
+                .collect();
             format!("the level's roads are {}", names.join(", "))
         }
     }
 
     /// Checks a reference to a road and a lane; returns the road's geometry when both are fine.
-    fn road_lane(&mut self, base: &[PathStep], road: &str, lane: Option<(u32, &'static str)>) -> Option<usize> {
+    fn road_lane(
+        &mut self,
+        base: &[PathStep],
+        road: &str,
+        lane: Option<(u32, &'static str)>,
+    ) -> Option<usize> {
         let path = |f: &'static str| {
             let mut p = base.to_vec();
             p.push(Field(f));
@@ -180,7 +227,13 @@ impl Checker<'_> {
         let Some(g) = &self.roads[road] else { return };
         let len = g.length_m();
         if !finite_in(s, 0.0, len) {
-            self.issue(path, format!("{what} {s} m is outside road `{}`, which is {len:.1} m long", g.name()));
+            self.issue(
+                path,
+                format!(
+                    "{what} {s} m is outside road `{}`, which is {len:.1} m long",
+                    g.name()
+                ),
+            );
         }
     }
 
@@ -198,33 +251,59 @@ impl Checker<'_> {
 
     fn vehicle_types(&mut self) {
         let l = self.level;
-        self.unique("vehicle_types", l.vehicle_types.iter().map(|v| v.name.as_str()));
+        self.unique(
+            "vehicle_types",
+            l.vehicle_types.iter().map(|v| v.name.as_str()),
+        );
         for (i, v) in l.vehicle_types.iter().enumerate() {
-            self.asset_path(vec![Field("vehicle_types"), Index(i), Field("path")], &v.path);
+            self.asset_path(
+                vec![Field("vehicle_types"), Index(i), Field("path")],
+                &v.path,
+            );
         }
     }
 
     fn driver_profiles(&mut self) {
         let l = self.level;
-        self.unique("driver_profiles", l.driver_profiles.iter().map(|d| d.name.as_str()));
+        self.unique(
+            "driver_profiles",
+            l.driver_profiles.iter().map(|d| d.name.as_str()),
+        );
         for (i, d) in l.driver_profiles.iter().enumerate() {
             let base = [Field("driver_profiles"), Index(i)];
             if !l.vehicle_types.iter().any(|v| v.name == d.vehicle) {
-                let known: Vec<String> = l.vehicle_types.iter().map(|v| format!("`{}`", v.name)).collect();
-                let list = if known.is_empty() { "the level defines no vehicle_types".to_owned() } else { format!("known: {}", known.join(", ")) };
-                self.issue([&base[..], &[Field("vehicle")]].concat(), format!("unknown vehicle type `{}`; {list}", d.vehicle));
+                let known: Vec<String> = l
+                    .vehicle_types
+                    .iter()
+                    .map(|v| format!("`{}`", v.name))
+                    .collect();
+                let list = if known.is_empty() {
+                    "the level defines no vehicle_types".to_owned()
+                } else {
+                    format!("known: {}", known.join(", "))
+                };
+                self.issue(
+                    [&base[..], &[Field("vehicle")]].concat(),
+                    format!("unknown vehicle type `{}`; {list}", d.vehicle),
+                );
             }
             if let Some(p) = &d.params {
                 self.asset_path([&base[..], &[Field("params")]].concat(), p);
             }
-            if let DriverModel::Custom(name) = &d.model {
-                if name.trim().is_empty() {
-                    self.issue([&base[..], &[Field("model")]].concat(), "a custom driver model needs a name");
-                }
+            if let DriverModel::Custom(name) = &d.model
+                && name.trim().is_empty()
+            {
+                self.issue(
+                    [&base[..], &[Field("model")]].concat(),
+                    "a custom driver model needs a name",
+                );
             }
             for (k, v) in &d.set {
                 if k.trim().is_empty() || !v.is_finite() {
-                    self.issue([&base[..], &[Field("set")]].concat(), format!("parameter `{k}` = {v}: expected a named, finite number"));
+                    self.issue(
+                        [&base[..], &[Field("set")]].concat(),
+                        format!("parameter `{k}` = {v}: expected a named, finite number"),
+                    );
                 }
             }
         }
@@ -232,17 +311,29 @@ impl Checker<'_> {
 
     fn profile_ref(&mut self, path: Vec<PathStep>, name: &str) {
         if !self.level.driver_profiles.iter().any(|d| d.name == name) {
-            let known: Vec<String> = self.level.driver_profiles.iter().map(|d| format!("`{}`", d.name)).collect();
-            let list = if known.is_empty() { "the level defines no driver_profiles".to_owned() } else { format!("known: {}", known.join(", ")) };
+            let known: Vec<String> = self
+                .level
+                .driver_profiles
+                .iter()
+                .map(|d| format!("`{}`", d.name))
+                .collect();
+            let list = if known.is_empty() {
+                "the level defines no driver_profiles".to_owned()
+            } else {
+                format!("known: {}", known.join(", "))
+            };
             self.issue(path, format!("unknown driver profile `{name}`; {list}"));
         }
     }
 
     fn speed(&mut self, path: Vec<PathStep>, kmh: Option<f64>) {
-        if let Some(v) = kmh {
-            if !finite_in(v, 0.0, 400.0) {
-                self.issue(path, format!("speed {v} km/h: expected a number from 0 to 400"));
-            }
+        if let Some(v) = kmh
+            && !finite_in(v, 0.0, 400.0)
+        {
+            self.issue(
+                path,
+                format!("speed {v} km/h: expected a number from 0 to 400"),
+            );
         }
     }
 
@@ -256,7 +347,9 @@ impl Checker<'_> {
                 self.arc(p("s_m"), r, s.s_m, "spawn position");
             }
             let iv = s.interval_s;
-            if !(finite_in(iv.min, MIN_SPAWN_INTERVAL_S, 86_400.0) && finite_in(iv.max, iv.min, 86_400.0)) {
+            if !(finite_in(iv.min, MIN_SPAWN_INTERVAL_S, 86_400.0)
+                && finite_in(iv.max, iv.min, 86_400.0))
+            {
                 self.issue(p("interval_s"), format!("interval_s (min: {}, max: {}): expected {MIN_SPAWN_INTERVAL_S} ≤ min ≤ max ≤ 86400 seconds", iv.min, iv.max));
             }
             if s.profiles.is_empty() {
@@ -264,15 +357,24 @@ impl Checker<'_> {
             }
             let mut total = 0.0;
             for (k, share) in s.profiles.iter().enumerate() {
-                self.profile_ref([&base[..], &[Field("profiles"), Index(k), Field("profile")]].concat(), &share.profile);
+                self.profile_ref(
+                    [&base[..], &[Field("profiles"), Index(k), Field("profile")]].concat(),
+                    &share.profile,
+                );
                 if !finite_in(share.weight, 0.0, 1e9) {
-                    self.issue([&base[..], &[Field("profiles"), Index(k), Field("weight")]].concat(), format!("weight {}: expected a finite number ≥ 0", share.weight));
+                    self.issue(
+                        [&base[..], &[Field("profiles"), Index(k), Field("weight")]].concat(),
+                        format!("weight {}: expected a finite number ≥ 0", share.weight),
+                    );
                 } else {
                     total += share.weight;
                 }
             }
             if !s.profiles.is_empty() && total <= 0.0 {
-                self.issue(p("profiles"), "the profile weights sum to 0; at least one must be positive");
+                self.issue(
+                    p("profiles"),
+                    "the profile weights sum to 0; at least one must be positive",
+                );
             }
             self.speed(p("speed_kmh"), s.speed_kmh);
         }
@@ -286,12 +388,20 @@ impl Checker<'_> {
             match &d.place {
                 DestroyerPlace::OnRoad { road, s_m } => {
                     if let Some(r) = self.road_lane(&base, road, None) {
-                        self.arc([&base[..], &[Field("s_m")]].concat(), r, *s_m, "destroyer position");
+                        self.arc(
+                            [&base[..], &[Field("s_m")]].concat(),
+                            r,
+                            *s_m,
+                            "destroyer position",
+                        );
                     }
                 }
                 DestroyerPlace::Volume { min, max } => {
                     if !(min.is_finite() && max.is_finite() && min.cmplt(*max).all()) {
-                        self.issue(base, "a destroyer volume needs finite corners with min < max on every axis");
+                        self.issue(
+                            base,
+                            "a destroyer volume needs finite corners with min < max on every axis",
+                        );
                     }
                 }
             }
@@ -309,7 +419,13 @@ impl Checker<'_> {
                 self.arc(p("to_m"), r, t.to_m, "trigger end");
                 let closed = l.roads[r].closed;
                 if !closed && t.to_m <= t.from_m {
-                    self.issue(p("to_m"), format!("trigger ends at {} m, not after its start at {} m", t.to_m, t.from_m));
+                    self.issue(
+                        p("to_m"),
+                        format!(
+                            "trigger ends at {} m, not after its start at {} m",
+                            t.to_m, t.from_m
+                        ),
+                    );
                 }
                 let lanes = l.roads[r].lanes;
                 for (k, lane) in t.lanes.iter().flatten().enumerate() {
@@ -320,10 +436,18 @@ impl Checker<'_> {
             }
             match t.effect {
                 TriggerEffect::SpeedLimit { kmh } if !finite_in(kmh, 1.0, 400.0) => {
-                    self.issue(p("effect"), format!("speed limit {kmh} km/h: expected a number from 1 to 400"));
+                    self.issue(
+                        p("effect"),
+                        format!("speed limit {kmh} km/h: expected a number from 1 to 400"),
+                    );
                 }
-                TriggerEffect::Friction { scale } if !(scale.is_finite() && scale > 0.0 && scale <= 2.0) => {
-                    self.issue(p("effect"), format!("friction scale {scale}: expected a number above 0 and at most 2"));
+                TriggerEffect::Friction { scale }
+                    if !(scale.is_finite() && scale > 0.0 && scale <= 2.0) =>
+                {
+                    self.issue(
+                        p("effect"),
+                        format!("friction scale {scale}: expected a number above 0 and at most 2"),
+                    );
                 }
                 _ => {}
             }
@@ -346,9 +470,14 @@ impl Checker<'_> {
             self.profile_ref(p("profile"), &v.profile);
             self.speed(p("speed_kmh"), v.speed_kmh);
             if !finite_in(v.jitter_m, 0.0, 1e6) {
-                self.issue(p("jitter_m"), format!("jitter_m {}: expected a finite number ≥ 0", v.jitter_m));
+                self.issue(
+                    p("jitter_m"),
+                    format!("jitter_m {}: expected a finite number ≥ 0", v.jitter_m),
+                );
             }
-            let Some(r) = self.road_lane(&base, &v.road, Some((v.lane, "lane"))) else { continue };
+            let Some(r) = self.road_lane(&base, &v.road, Some((v.lane, "lane"))) else {
+                continue;
+            };
             self.arc(p("from_m"), r, v.from_m, "group start");
             if let Some(to) = v.to_m {
                 self.arc(p("to_m"), r, to, "group end");
@@ -361,7 +490,11 @@ impl Checker<'_> {
                 None => g.length_m() - v.from_m,
             };
             if v.count > 0 {
-                let spacing = if g.is_closed() && v.to_m.is_none() { span / f64::from(v.count) } else { span / f64::from(v.count.max(2) - 1).max(1.0) };
+                let spacing = if g.is_closed() && v.to_m.is_none() {
+                    span / f64::from(v.count)
+                } else {
+                    span / f64::from(v.count.max(2) - 1).max(1.0)
+                };
                 if v.count > 1 && spacing < MIN_INITIAL_SPACING_M {
                     self.issue(p("count"), format!("{} vehicles on {span:.1} m of lane are {spacing:.2} m apart; they need at least {MIN_INITIAL_SPACING_M} m each", v.count));
                 } else if v.jitter_m.is_finite() && v.count > 1 && v.jitter_m > 0.25 * spacing {
@@ -370,7 +503,12 @@ impl Checker<'_> {
             }
         }
         if total > MAX_INITIAL_VEHICLES && !group_too_large {
-            self.issue(vec![Field("vehicles")], format!("{total} initial vehicles in all; at most {MAX_INITIAL_VEHICLES} are allowed"));
+            self.issue(
+                vec![Field("vehicles")],
+                format!(
+                    "{total} initial vehicles in all; at most {MAX_INITIAL_VEHICLES} are allowed"
+                ),
+            );
         }
     }
 
@@ -381,14 +519,22 @@ impl Checker<'_> {
             self.issue(vec![Field("telemetry"), Field("period_s")], format!("period_s {}: expected a multiple of the 1/120 s step between 1/120 s and 1 hour (e.g. 0.5)", t.period_s));
         }
         if !finite_in(t.stats_from_s, 0.0, MAX_DURATION_S) {
-            self.issue(vec![Field("telemetry"), Field("stats_from_s")], format!("stats_from_s {}: expected a number of seconds ≥ 0", t.stats_from_s));
+            self.issue(
+                vec![Field("telemetry"), Field("stats_from_s")],
+                format!(
+                    "stats_from_s {}: expected a number of seconds ≥ 0",
+                    t.stats_from_s
+                ),
+            );
         }
     }
 
     fn expectations(&mut self) {
         let l = self.level;
         for (i, e) in l.expect.iter().enumerate() {
-            let Some(info) = metric_info(&e.metric) else { continue };
+            let Some(info) = metric_info(&e.metric) else {
+                continue;
+            };
             let Some(q) = &e.qualifier else { continue };
             let known = match info.qualifier {
                 Qualifier::Road => l.roads.iter().any(|r| &r.name == q),
@@ -396,9 +542,95 @@ impl Checker<'_> {
                 Qualifier::None => true,
             };
             if !known {
-                let kind = if info.qualifier == Qualifier::Road { "road" } else { "destroyer" };
-                self.issue(vec![Field("expect"), Index(i)], format!("`{}` names unknown {kind} `{q}`", e.key()));
+                let kind = if info.qualifier == Qualifier::Road {
+                    "road"
+                } else {
+                    "destroyer"
+                };
+                self.issue(
+                    vec![Field("expect"), Index(i)],
+                    format!("`{}` names unknown {kind} `{q}`", e.key()),
+                );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse_level;
+    use std::path::Path;
+
+    const BASE: &str = r#"(
+    version: 1,
+    seed: 1,
+    duration_s: 10.0,
+    roads: [(name: "main", lanes: 2, speed_limit_kmh: 60.0, points: [(pos: (0.0, 0.0, 0.0)), (pos: (100.0, 0.0, 0.0))])],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "auto", model: FlockLanes, vehicle: "sedan")],
+    EXTRA
+)"#;
+
+    /// The messages a level with `extra` fields gives, as "line:col: message".
+    fn problems(extra: &str) -> Vec<String> {
+        match parse_level(&BASE.replace("EXTRA", extra), Path::new("t.ron")) {
+            Ok(_) => Vec::new(),
+            Err(e) => e.diagnostics().iter().map(|d| d.to_string()).collect(),
+        }
+    }
+
+    #[test]
+    fn a_consistent_level_has_no_problems() {
+        assert!(problems("").is_empty());
+        assert!(problems(r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, effect: SpeedLimit(kmh: 100.0))],"#).is_empty());
+    }
+
+    #[test]
+    fn each_inconsistency_is_reported_where_it_is() {
+        let cases = [
+            (r#"spawners: [(name: "s", road: "main", lane: 0, interval_s: (min: 2.0, max: 1.0), profiles: [(profile: "auto", weight: 1.0)])],"#, "8:63: interval_s"),
+            (r#"spawners: [(name: "s", road: "main", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "robot", weight: 1.0)])],"#, "unknown driver profile `robot`; known: `auto`"),
+            (r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#, "spawn position 500 m is outside road `main`"),
+            (r#"destroyers: [(name: "d", place: OnRoad(road: "side", s_m: 1.0))],"#, "unknown road `side`"),
+            (r#"triggers: [(name: "t", road: "main", from_m: 20.0, to_m: 10.0, effect: Friction(scale: 5.0))],"#, "not after its start"),
+            (r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, lanes: [0, 3], effect: SpeedLimit(kmh: 90.0))],"#, "lane 3 is out of range"),
+            (r#"vehicles: [(road: "main", count: 50, profile: "auto")],"#, "50 vehicles on 100.0 m of lane are 2.04 m apart"),
+            (r#"vehicles: [(road: "main", count: 5, profile: "auto", jitter_m: 10.0)],"#, "jitter_m 10 could make neighbours overlap"),
+            (r#"telemetry: (period_s: 0.3333),"#, "period_s 0.3333"),
+            (r#"expect: ["road_length_m.side > 1"],"#, "unknown road `side`"),
+            (r#"expect: ["flow_veh_per_h.exit > 1"],"#, "unknown destroyer `exit`"),
+        ];
+        for (extra, needle) in cases {
+            let found = problems(extra);
+            assert!(found.iter().any(|p| p.contains(needle)), "`{extra}` should report `{needle}`, got {found:?}");
+            assert!(found.iter().all(|p| p.starts_with("8:")), "`{extra}` should point into line 8: {found:?}");
+        }
+        // Zero total weight is its own problem, besides the position one.
+        let found = problems(r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#);
+        assert!(found.iter().any(|p| p.contains("weights sum to 0")), "{found:?}");
+    }
+
+    #[test]
+    fn duplicate_names_and_bad_asset_paths_are_reported() {
+        let found = problems(r#"destroyers: [(name: "d", place: OnRoad(road: "main", s_m: 1.0)), (name: "d", place: OnRoad(road: "main", s_m: 2.0))],"#);
+        assert!(found.iter().any(|p| p.contains("duplicate name `d`")), "{found:?}");
+        let text = BASE.replace(r#""vehicles/sedan.ron""#, r#""../../etc/passwd""#).replace("EXTRA", "");
+        let err = parse_level(&text, Path::new("t.ron")).expect_err("path escapes assets/");
+        assert!(err.to_string().contains("not a path inside assets/"), "{err}");
+    }
+
+    #[test]
+    fn a_newer_version_is_named_as_such() {
+        let err = parse_level(&BASE.replace("version: 1", "version: 2").replace("EXTRA", "future_field: 3,"), Path::new("t.ron"))
+            .expect_err("version 2");
+        assert_eq!(err.diagnostics()[0].to_string(), "2:14: unsupported level version 2; this Flockway reads version 1");
+    }
+
+    #[test]
+    fn absurd_durations_are_rejected() {
+        let err = parse_level(&BASE.replace("duration_s: 10.0", "duration_s: 1e12").replace("EXTRA", ""), Path::new("t.ron"))
+            .expect_err("too long");
+        assert!(err.to_string().starts_with("t.ron:4:17: duration_s is 1000000000000"), "{err}");
     }
 }

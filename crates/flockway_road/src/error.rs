@@ -69,7 +69,9 @@ pub enum RoadError {
         point: usize,
     },
     /// A width is not finite or out of range.
-    #[error("road `{road}` point {point}: width {got} m; expected a number above 0 and at most 100")]
+    #[error(
+        "road `{road}` point {point}: width {got} m; expected a number above 0 and at most 100"
+    )]
     Width {
         /// Road name.
         road: String,
@@ -99,7 +101,9 @@ pub enum RoadError {
         point: usize,
     },
     /// Two consecutive points (nearly) coincide.
-    #[error("road `{road}`: points {a} and {b} are {distance_m:.3} m apart; they must be at least 0.1 m apart")]
+    #[error(
+        "road `{road}`: points {a} and {b} are {distance_m:.3} m apart; they must be at least 0.1 m apart"
+    )]
     PointsTooClose {
         /// Road name.
         road: String,
@@ -111,7 +115,9 @@ pub enum RoadError {
         distance_m: f64,
     },
     /// Two consecutive points are too far apart.
-    #[error("road `{road}`: points {a} and {b} are {distance_m:.0} m apart; at most 2000 m is allowed")]
+    #[error(
+        "road `{road}`: points {a} and {b} are {distance_m:.0} m apart; at most 2000 m is allowed"
+    )]
     PointsTooFar {
         /// Road name.
         road: String,

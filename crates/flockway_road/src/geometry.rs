@@ -1,9 +1,9 @@
 //! A road's evaluated geometry: arc-length parameterisation, frames, lanes and projection.
 
+use crate::RoadError;
 use crate::grid::SegmentGrid;
 use crate::spec::RoadSpec;
-use crate::spline::{centre_line, Cubic};
-use crate::RoadError;
+use crate::spline::{Cubic, centre_line};
 use glam::DVec3;
 
 /// Longest stretch of centre line one arc-length table entry covers, in metres.
@@ -106,12 +106,16 @@ impl RoadGeometry {
             let j = (i + 1) % n;
             let chord = (spec.points[j].pos - spec.points[i].pos).length();
             // Quadrature on ≤ 2 m pieces: the length error is far below a micrometre.
-            let subdivisions = ((chord * 1.5 / TABLE_STEP_M).ceil() as usize).clamp(4, MAX_SUBDIVISIONS);
+            let subdivisions =
+                ((chord * 1.5 / TABLE_STEP_M).ceil() as usize).clamp(4, MAX_SUBDIVISIONS);
             let mut table = Vec::with_capacity(subdivisions + 1);
             let mut acc = 0.0;
             table.push(0.0);
             for k in 0..subdivisions {
-                let (u0, u1) = (k as f64 / subdivisions as f64, (k + 1) as f64 / subdivisions as f64);
+                let (u0, u1) = (
+                    k as f64 / subdivisions as f64,
+                    (k + 1) as f64 / subdivisions as f64,
+                );
                 acc += cubic.length(u0, u1);
                 table.push(acc);
             }
@@ -126,8 +130,18 @@ impl RoadGeometry {
             });
             s0 += acc;
         }
-        let grid = SegmentGrid::build(&segments.iter().map(|s| (&s.cubic, s.len())).collect::<Vec<_>>());
-        Ok(RoadGeometry { spec: spec.clone(), segments, length_m: s0, grid })
+        let grid = SegmentGrid::build(
+            &segments
+                .iter()
+                .map(|s| (&s.cubic, s.len()))
+                .collect::<Vec<_>>(),
+        );
+        Ok(RoadGeometry {
+            spec: spec.clone(),
+            segments,
+            length_m: s0,
+            grid,
+        })
     }
 
     /// The spec this geometry was built from.
@@ -198,15 +212,26 @@ impl RoadGeometry {
 
     pub(crate) fn param_at(&self, s_m: f64) -> SplineParam {
         let s = self.normalize_s(s_m);
-        let seg = self.segments.partition_point(|g| g.s0 <= s).saturating_sub(1);
+        let seg = self
+            .segments
+            .partition_point(|g| g.s0 <= s)
+            .saturating_sub(1);
         let g = &self.segments[seg];
         let local = (s - g.s0).clamp(0.0, g.len());
         let n = g.subdivisions();
-        let k = g.table.partition_point(|&t| t <= local).saturating_sub(1).min(n - 1);
+        let k = g
+            .table
+            .partition_point(|&t| t <= local)
+            .saturating_sub(1)
+            .min(n - 1);
         let (t0, t1) = (g.table[k], g.table[k + 1]);
         let du = 1.0 / n as f64;
         let u_k = k as f64 * du;
-        let frac = if t1 > t0 { (local - t0) / (t1 - t0) } else { 0.0 };
+        let frac = if t1 > t0 {
+            (local - t0) / (t1 - t0)
+        } else {
+            0.0
+        };
         let mut u = u_k + frac * du;
         // One Newton step on L(u) = local makes the linear guess accurate to well under a micrometre.
         let speed = g.cubic.d1(u).length();
@@ -233,7 +258,15 @@ impl RoadGeometry {
         let bank_rad = g.bank0_rad + (g.bank1_rad - g.bank0_rad) * blend;
         let width_m = g.width0_m + (g.width1_m - g.width0_m) * blend;
         let (left, up) = banked_axes(tangent, bank_rad);
-        RoadFrame { s_m, pos, tangent, left, up, bank_rad, width_m }
+        RoadFrame {
+            s_m,
+            pos,
+            tangent,
+            left,
+            up,
+            bank_rad,
+            width_m,
+        }
     }
 
     /// The road's frame at arc position `s_m` (wrapped or clamped into the road). O(log n).
@@ -286,7 +319,11 @@ impl RoadGeometry {
     /// last one): skips the index, and falls back to it if the hint is more than 25 m off.
     pub fn project_near(&self, pos: DVec3, s_hint_m: f64) -> RoadProjection {
         let proj = self.refine(pos, self.param_at(s_hint_m));
-        if self.delta_s(s_hint_m, proj.s_m).abs() > 25.0 { self.project(pos) } else { proj }
+        if self.delta_s(s_hint_m, proj.s_m).abs() > 25.0 {
+            self.project(pos)
+        } else {
+            proj
+        }
     }
 
     /// Newton's method on the squared distance in the spline parameter, moving across segments.
@@ -301,7 +338,11 @@ impl RoadGeometry {
             let hess = d1.length_squared() + r.dot(d2);
             // Where the distance function is not convex (beyond the centre of curvature) Newton
             // would climb; fall back to a gradient step scaled by the parameter speed.
-            let step = if hess > 1e-9 * d1.length_squared() { grad / hess } else { grad / d1.length_squared().max(1e-12) };
+            let step = if hess > 1e-9 * d1.length_squared() {
+                grad / hess
+            } else {
+                grad / d1.length_squared().max(1e-12)
+            };
             let mut u = p.u - step.clamp(-0.5, 0.5);
             let mut seg = p.seg;
             if u < 0.0 {
@@ -319,7 +360,11 @@ impl RoadGeometry {
                     u = 1.0;
                 }
             }
-            let moved_m = if seg == p.seg { (u - p.u).abs() * d1.length() } else { f64::INFINITY };
+            let moved_m = if seg == p.seg {
+                (u - p.u).abs() * d1.length()
+            } else {
+                f64::INFINITY
+            };
             let stuck = seg == p.seg && u == p.u;
             p = SplineParam { seg, u };
             if moved_m < 1e-9 || stuck {

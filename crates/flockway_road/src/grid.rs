@@ -43,7 +43,13 @@ impl SegmentGrid {
             let n = ((len / PIECE_M).ceil() as usize).clamp(2, 4096);
             for k in 0..n {
                 let (u0, u1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
-                pieces.push(Piece { a: cubic.pos(u0), b: cubic.pos(u1), seg: seg as u32, u0, u1 });
+                pieces.push(Piece {
+                    a: cubic.pos(u0),
+                    b: cubic.pos(u1),
+                    seg: seg as u32,
+                    u0,
+                    u1,
+                });
             }
         }
         let mut lo = DVec2::splat(f64::INFINITY);
@@ -56,7 +62,15 @@ impl SegmentGrid {
         let cell_m = TARGET_CELL_M.max((extent.x * extent.y / MAX_CELLS).sqrt());
         let nx = (extent.x / cell_m).floor() as usize + 1;
         let ny = (extent.y / cell_m).floor() as usize + 1;
-        let mut grid = SegmentGrid { pieces, origin: lo, cell_m, nx, ny, starts: Vec::new(), items: Vec::new() };
+        let mut grid = SegmentGrid {
+            pieces,
+            origin: lo,
+            cell_m,
+            nx,
+            ny,
+            starts: Vec::new(),
+            items: Vec::new(),
+        };
 
         // Two passes (count, then fill) build the CSR arrays without a Vec per cell.
         let mut counts = vec![0u32; nx * ny + 1];
@@ -113,7 +127,9 @@ impl SegmentGrid {
                 while x <= x1 {
                     if x >= 0 && x < self.nx as isize {
                         let cell = y as usize * self.nx + x as usize;
-                        for &i in &self.items[self.starts[cell] as usize..self.starts[cell + 1] as usize] {
+                        for &i in
+                            &self.items[self.starts[cell] as usize..self.starts[cell + 1] as usize]
+                        {
                             let p = &self.pieces[i as usize];
                             let (d2, t) = point_segment(q, p.a, p.b);
                             if d2 < best.0 {
@@ -135,7 +151,10 @@ impl SegmentGrid {
             }
         }
         let p = &self.pieces[best.1];
-        SplineParam { seg: p.seg as usize, u: p.u0 + (p.u1 - p.u0) * best.2 }
+        SplineParam {
+            seg: p.seg as usize,
+            u: p.u0 + (p.u1 - p.u0) * best.2,
+        }
     }
 
     /// A lower bound on the horizontal distance from `q` to any cell outside the square
@@ -163,6 +182,10 @@ impl SegmentGrid {
 fn point_segment(q: DVec3, a: DVec3, b: DVec3) -> (f64, f64) {
     let ab = b - a;
     let len2 = ab.length_squared();
-    let t = if len2 > 0.0 { ((q - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if len2 > 0.0 {
+        ((q - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     ((a + ab * t - q).length_squared(), t)
 }

@@ -21,18 +21,27 @@ mod spline;
 mod validate;
 
 pub use error::RoadError;
-pub use geometry::{lane_offset, RoadFrame, RoadGeometry, RoadProjection};
+pub use geometry::{RoadFrame, RoadGeometry, RoadProjection, lane_offset};
 pub use mesh::{
-    GuardrailRun, Mesh, RoadMeshes, Side, DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M,
-    MARKING_WIDTH_M, STATION_STEP_M,
+    DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,
+    RoadMeshes, STATION_STEP_M, Side,
 };
-pub use network::{rebuild_roads, NetworkError, Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin, RoadShape, MAX_CONNECTION_GAP_M};
-pub use spec::{ControlPoint, RoadSpec, DEFAULT_LANE_WIDTH_M};
-pub use validate::{MAX_BANK_DEG, MAX_COORD_M, MAX_LANES, MAX_POINTS, MAX_POINT_SPACING_M, MAX_WIDTH_M, MIN_POINT_SPACING_M};
+pub use network::{
+    MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin,
+    RoadShape, rebuild_roads,
+};
+pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, RoadSpec};
+pub use validate::{
+    MAX_BANK_DEG, MAX_COORD_M, MAX_LANES, MAX_POINT_SPACING_M, MAX_POINTS, MAX_WIDTH_M,
+    MIN_POINT_SPACING_M,
+};
 
 /// The road types most users need.
 pub mod prelude {
-    pub use crate::{ControlPoint, Road, RoadFrame, RoadGeometry, RoadId, RoadNetwork, RoadPlugin, RoadProjection, RoadSpec};
+    pub use crate::{
+        ControlPoint, Road, RoadFrame, RoadGeometry, RoadId, RoadNetwork, RoadPlugin,
+        RoadProjection, RoadSpec,
+    };
 }
 
 #[cfg(test)]

@@ -90,7 +90,11 @@ pub struct RoadMeshes {
 impl RoadMeshes {
     /// Builds all meshes of a road.
     pub fn build(road: &RoadGeometry) -> RoadMeshes {
-        let stations: Vec<RoadFrame> = road.stations(STATION_STEP_M).into_iter().map(|s| frame_exact(road, s)).collect();
+        let stations: Vec<RoadFrame> = road
+            .stations(STATION_STEP_M)
+            .into_iter()
+            .map(|s| frame_exact(road, s))
+            .collect();
         let lanes = road.lanes();
         let mut out = RoadMeshes::default();
 
@@ -121,10 +125,18 @@ impl RoadMeshes {
                 if !is_edge && !dash_on {
                     continue;
                 }
-                let lat = |f: &RoadFrame| -0.5 * f.width_m + f.width_m * f64::from(b) / f64::from(lanes);
-                let inset = if b == 0 { 0.5 } else if b == lanes { -0.5 } else { 0.0 } * MARKING_WIDTH_M;
+                let lat =
+                    |f: &RoadFrame| -0.5 * f.width_m + f.width_m * f64::from(b) / f64::from(lanes);
+                let inset = if b == 0 {
+                    0.5
+                } else if b == lanes {
+                    -0.5
+                } else {
+                    0.0
+                } * MARKING_WIDTH_M;
                 let mut corner = |f: &RoadFrame, side: f64| {
-                    let p = f.offset(lat(f) + inset + side * 0.5 * MARKING_WIDTH_M) + f.up * MARKING_LIFT_M;
+                    let p = f.offset(lat(f) + inset + side * 0.5 * MARKING_WIDTH_M)
+                        + f.up * MARKING_LIFT_M;
                     out.markings.vertex(p, f.up)
                 };
                 let (a, bb) = (corner(f0, -1.0), corner(f1, -1.0));
@@ -138,7 +150,8 @@ impl RoadMeshes {
             let sign = if side == Side::Left { 1.0 } else { -1.0 };
             let mut run: Option<GuardrailRun> = None;
             let push = |run: &mut GuardrailRun, f: &RoadFrame| {
-                run.foot.push(f.offset(sign * (0.5 * f.width_m + GUARDRAIL_OFFSET_M)));
+                run.foot
+                    .push(f.offset(sign * (0.5 * f.width_m + GUARDRAIL_OFFSET_M)));
                 run.up.push(f.up);
                 run.left.push(f.left);
                 run.to_s_m = f.s_m;
@@ -148,7 +161,14 @@ impl RoadMeshes {
                 let flagged = if side == Side::Left { gl } else { gr };
                 if flagged {
                     let r = run.get_or_insert_with(|| {
-                        let mut r = GuardrailRun { side, from_s_m: pair[0].s_m, to_s_m: pair[0].s_m, foot: vec![], up: vec![], left: vec![] };
+                        let mut r = GuardrailRun {
+                            side,
+                            from_s_m: pair[0].s_m,
+                            to_s_m: pair[0].s_m,
+                            foot: vec![],
+                            up: vec![],
+                            left: vec![],
+                        };
                         push(&mut r, &pair[0]);
                         r
                     });
@@ -188,7 +208,12 @@ fn wall(mesh: &mut Mesh, run: &GuardrailRun) {
         // Each face is counter-clockwise seen from the side its normal points to.
         let faces_left = (run.side == Side::Left) == (face < 0.0);
         for k in 0..n.saturating_sub(1) {
-            let (b0, t0, b1, t1) = (base + 2 * k, base + 2 * k + 1, base + 2 * k + 2, base + 2 * k + 3);
+            let (b0, t0, b1, t1) = (
+                base + 2 * k,
+                base + 2 * k + 1,
+                base + 2 * k + 2,
+                base + 2 * k + 3,
+            );
             if faces_left {
                 mesh.quad(b0, t0, t1, b1);
             } else {

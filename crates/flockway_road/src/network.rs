@@ -46,7 +46,9 @@ pub enum NetworkError {
         next: String,
     },
     /// `next` names a road whose start is not at this road's end.
-    #[error("road `{road}` ends {gap_m:.2} m from the start of `{next}`; a connection needs them within 1 m")]
+    #[error(
+        "road `{road}` ends {gap_m:.2} m from the start of `{next}`; a connection needs them within 1 m"
+    )]
     Gap {
         /// The road with the connection.
         road: String,
@@ -87,17 +89,27 @@ impl RoadNetwork {
         RoadNetwork::from_shapes(shapes)
     }
 
-    fn from_shapes(shapes: Vec<(RoadId, Arc<RoadGeometry>, Arc<RoadMeshes>)>) -> Result<RoadNetwork, NetworkError> {
+    fn from_shapes(
+        shapes: Vec<(RoadId, Arc<RoadGeometry>, Arc<RoadMeshes>)>,
+    ) -> Result<RoadNetwork, NetworkError> {
         let mut by_name = BTreeMap::new();
         for (id, g, _) in &shapes {
             if by_name.insert(g.name().to_owned(), *id).is_some() {
                 return Err(NetworkError::DuplicateName(g.name().to_owned()));
             }
         }
-        let len = shapes.iter().map(|(id, _, _)| id.0 as usize + 1).max().unwrap_or(0);
+        let len = shapes
+            .iter()
+            .map(|(id, _, _)| id.0 as usize + 1)
+            .max()
+            .unwrap_or(0);
         let mut slots: Vec<Option<Slot>> = vec![None; len];
         for (id, geometry, meshes) in shapes {
-            slots[id.0 as usize] = Some(Slot { geometry, meshes, next: None });
+            slots[id.0 as usize] = Some(Slot {
+                geometry,
+                meshes,
+                next: None,
+            });
         }
         let mut resolved = Vec::new();
         for (i, slot) in slots.iter().enumerate() {
@@ -105,12 +117,22 @@ impl RoadNetwork {
             let g = &slot.geometry;
             let Some(name) = &g.spec().next else { continue };
             let Some(&id) = by_name.get(name) else {
-                return Err(NetworkError::UnknownNext { road: g.name().to_owned(), next: name.clone() });
+                return Err(NetworkError::UnknownNext {
+                    road: g.name().to_owned(),
+                    next: name.clone(),
+                });
             };
-            let start = slots[id.0 as usize].as_ref().map(|s| s.geometry.pos_at(0.0)).unwrap_or(DVec3::INFINITY);
+            let start = slots[id.0 as usize]
+                .as_ref()
+                .map(|s| s.geometry.pos_at(0.0))
+                .unwrap_or(DVec3::INFINITY);
             let gap_m = (start - g.pos_at(g.length_m())).length();
             if gap_m > MAX_CONNECTION_GAP_M {
-                return Err(NetworkError::Gap { road: g.name().to_owned(), next: name.clone(), gap_m });
+                return Err(NetworkError::Gap {
+                    road: g.name().to_owned(),
+                    next: name.clone(),
+                    gap_m,
+                });
             }
             resolved.push((i, id));
         }
@@ -153,7 +175,10 @@ impl RoadNetwork {
 
     /// Every road with its id, in id order.
     pub fn iter(&self) -> impl Iterator<Item = (RoadId, &Arc<RoadGeometry>)> {
-        self.slots.iter().enumerate().filter_map(|(i, s)| s.as_ref().map(|s| (RoadId(i as u32), &s.geometry)))
+        self.slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.as_ref().map(|s| (RoadId(i as u32), &s.geometry)))
     }
 
     /// The road traffic continues onto after the end of `id`.
@@ -189,7 +214,11 @@ impl RoadNetwork {
         self.iter()
             .map(|(id, g)| (id, g.project(pos)))
             // Ties go to the lower id, so the answer never depends on anything but the data.
-            .min_by(|a, b| a.1.distance_m.total_cmp(&b.1.distance_m).then(a.0.cmp(&b.0)))
+            .min_by(|a, b| {
+                a.1.distance_m
+                    .total_cmp(&b.1.distance_m)
+                    .then(a.0.cmp(&b.0))
+            })
     }
 }
 
@@ -231,7 +260,10 @@ pub fn rebuild_roads(
                 Ok(g) => {
                     let geometry = Arc::new(g);
                     let meshes = Arc::new(RoadMeshes::build(&geometry));
-                    commands.entity(entity).insert(RoadShape { geometry: geometry.clone(), meshes: meshes.clone() });
+                    commands.entity(entity).insert(RoadShape {
+                        geometry: geometry.clone(),
+                        meshes: meshes.clone(),
+                    });
                     (geometry, meshes)
                 }
                 Err(e) => {
@@ -248,5 +280,64 @@ pub fn rebuild_roads(
             error.0 = None;
         }
         Err(e) => error.0 = Some(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sim_with(specs: &[RoadSpec]) -> Sim {
+        let mut sim = Sim::new(1);
+        sim.add_plugin(RoadPlugin);
+        for (i, s) in specs.iter().enumerate() {
+            sim.world_mut().spawn((RoadId(i as u32), Road(s.clone())));
+        }
+        sim.prepare().expect("schedule builds");
+        sim
+    }
+
+    #[test]
+    fn the_network_follows_edits_to_road_components() {
+        let a = RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let mut sim = sim_with(&[a]);
+        sim.step();
+        let len = |sim: &Sim| sim.world().resource::<RoadNetwork>().get(RoadId(0)).map(|g| g.length_m());
+        assert!((len(&sim).expect("built") - 100.0).abs() < 1e-9);
+
+        // Move the end point: the shape and the network are rebuilt before the next step.
+        let mut q = sim.world_mut().query::<&mut Road>();
+        for mut road in q.iter_mut(sim.world_mut()) {
+            road.0.points[1].pos.x = 250.0;
+        }
+        sim.step();
+        assert!((len(&sim).expect("rebuilt") - 250.0).abs() < 1e-9);
+        let mut shapes = sim.world_mut().query::<&RoadShape>();
+        assert!(shapes.iter(sim.world()).all(|s| (s.geometry.length_m() - 250.0).abs() < 1e-9));
+
+        // An invalid edit keeps the last good network and says why.
+        for mut road in q.iter_mut(sim.world_mut()) {
+            road.0.lanes = 0;
+        }
+        sim.step();
+        assert!((len(&sim).expect("kept") - 250.0).abs() < 1e-9);
+        assert!(matches!(sim.world().resource::<RoadNetworkError>().0, Some(NetworkError::Road(RoadError::Lanes { .. }))));
+    }
+
+    #[test]
+    fn deleting_a_road_leaves_a_hole_not_a_shift() {
+        let a = RoadSpec::through("a", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let b = RoadSpec::through("b", 1, 60.0, &[DVec3::new(0.0, 50.0, 0.0), DVec3::new(100.0, 50.0, 0.0)]);
+        let mut sim = sim_with(&[a, b]);
+        sim.step();
+        let mut q = sim.world_mut().query::<(Entity, &RoadId)>();
+        let first = q.iter(sim.world()).find(|(_, id)| id.0 == 0).map(|(e, _)| e).expect("road 0");
+        sim.world_mut().despawn(first);
+        sim.step();
+        let net = sim.world().resource::<RoadNetwork>();
+        assert!(net.get(RoadId(0)).is_none());
+        assert_eq!(net.get(RoadId(1)).map(|g| g.name().to_owned()), Some("b".to_owned()));
+        assert_eq!(net.id("b"), Some(RoadId(1)));
+        assert_eq!(net.len(), 1);
     }
 }

@@ -58,7 +58,10 @@ pub struct RoadSpec {
     #[serde(default = "one")]
     pub lanes: u32,
     /// Width of each lane in metres where a point does not set the road width.
-    #[serde(default = "default_lane_width", skip_serializing_if = "is_default_lane_width")]
+    #[serde(
+        default = "default_lane_width",
+        skip_serializing_if = "is_default_lane_width"
+    )]
     pub lane_width_m: f64,
     /// Speed limit in km/h.
     pub speed_limit_kmh: f64,
@@ -85,14 +88,24 @@ impl RoadSpec {
 
     /// A closed ring of radius `radius_m` centred on `centre`, with `n` control points, driven
     /// counter-clockwise (seen from above).
-    pub fn ring(name: &str, lanes: u32, speed_limit_kmh: f64, centre: DVec3, radius_m: f64, n: usize) -> RoadSpec {
+    pub fn ring(
+        name: &str,
+        lanes: u32,
+        speed_limit_kmh: f64,
+        centre: DVec3,
+        radius_m: f64,
+        n: usize,
+    ) -> RoadSpec {
         let points: Vec<DVec3> = (0..n)
             .map(|i| {
                 let a = std::f64::consts::TAU * i as f64 / n as f64;
                 centre + DVec3::new(radius_m * a.cos(), radius_m * a.sin(), 0.0)
             })
             .collect();
-        RoadSpec { closed: true, ..RoadSpec::through(name, lanes, speed_limit_kmh, &points) }
+        RoadSpec {
+            closed: true,
+            ..RoadSpec::through(name, lanes, speed_limit_kmh, &points)
+        }
     }
 
     /// Width of the road at control point `i`, in metres.

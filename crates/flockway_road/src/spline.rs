@@ -115,7 +115,12 @@ pub(crate) fn centre_line(spec: &RoadSpec) -> Vec<Cubic> {
         .map(|i| {
             let j = (i + 1) % n;
             let chord = p[j] - p[i];
-            Cubic::hermite(p[i], d[i] * magnitude(chord, d[i]), p[j], d[j] * magnitude(chord, d[j]))
+            Cubic::hermite(
+                p[i],
+                d[i] * magnitude(chord, d[i]),
+                p[j],
+                d[j] * magnitude(chord, d[j]),
+            )
         })
         .collect()
 }
@@ -140,7 +145,12 @@ mod tests {
 
     #[test]
     fn straight_line_length_is_exact() {
-        let c = Cubic::hermite(DVec3::ZERO, DVec3::X * 10.0, DVec3::X * 10.0, DVec3::X * 10.0);
+        let c = Cubic::hermite(
+            DVec3::ZERO,
+            DVec3::X * 10.0,
+            DVec3::X * 10.0,
+            DVec3::X * 10.0,
+        );
         assert!((c.length(0.0, 1.0) - 10.0).abs() < 1e-12);
     }
 }

@@ -21,7 +21,10 @@ fn curved_road(lanes: u32) -> RoadGeometry {
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 }
@@ -29,14 +32,23 @@ impl Lcg {
 #[test]
 fn circle_arc_length_is_two_pi_r() {
     for (radius, n) in [(36.6, 12), (100.0, 16), (500.0, 24)] {
-        let g = RoadGeometry::new(&RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, radius, n)).expect("ring");
+        let g = RoadGeometry::new(&RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, radius, n))
+            .expect("ring");
         let exact = TAU * radius;
         let rel = (g.length_m() - exact).abs() / exact;
-        assert!(rel < 5e-4, "R={radius} n={n}: length {} vs {exact} ({:.4} %)", g.length_m(), rel * 100.0);
+        assert!(
+            rel < 5e-4,
+            "R={radius} n={n}: length {} vs {exact} ({:.4} %)",
+            g.length_m(),
+            rel * 100.0
+        );
         // And the curve stays on the circle, not just the right length.
         for k in 0..200 {
             let p = g.pos_at(g.length_m() * k as f64 / 200.0);
-            assert!((p.truncate().length() - radius).abs() / radius < 1e-4, "off the circle at {p}");
+            assert!(
+                (p.truncate().length() - radius).abs() / radius < 1e-4,
+                "off the circle at {p}"
+            );
         }
     }
 }
@@ -55,7 +67,13 @@ fn arc_length_parameterisation_is_unit_speed() {
 
 #[test]
 fn straight_road_length_and_frame_are_exact() {
-    let g = RoadGeometry::new(&RoadSpec::through("straight", 3, 60.0, &[DVec3::ZERO, DVec3::new(500.0, 0.0, 0.0)])).expect("road");
+    let g = RoadGeometry::new(&RoadSpec::through(
+        "straight",
+        3,
+        60.0,
+        &[DVec3::ZERO, DVec3::new(500.0, 0.0, 0.0)],
+    ))
+    .expect("road");
     assert!((g.length_m() - 500.0).abs() < 1e-9);
     let f = g.frame_at(123.0);
     assert!((f.pos - DVec3::new(123.0, 0.0, 0.0)).length() < 1e-9);
@@ -76,10 +94,18 @@ fn lane_centre_lines_are_three_metres_apart_on_a_curved_road() {
         for lane in 0..3 {
             let a = g.lane_point(lane, s);
             let b = g.lane_point(lane + 1, s);
-            assert!(((a - b).length() - 3.0).abs() < 1e-9, "s={s} lanes {lane},{}", lane + 1);
+            assert!(
+                ((a - b).length() - 3.0).abs() < 1e-9,
+                "s={s} lanes {lane},{}",
+                lane + 1
+            );
             // Parallel curves: lane `lane + 1`'s point projects onto the same arc position.
             let p = g.project(b);
-            assert!(g.delta_s(s, p.s_m).abs() < 1e-6, "s={s} projected to {}", p.s_m);
+            assert!(
+                g.delta_s(s, p.s_m).abs() < 1e-6,
+                "s={s} projected to {}",
+                p.s_m
+            );
             assert_eq!(p.lane, lane + 1);
         }
     }
@@ -88,7 +114,10 @@ fn lane_centre_lines_are_three_metres_apart_on_a_curved_road() {
 #[test]
 fn closest_point_round_trip_is_within_a_millimetre() {
     let mut rng = Lcg(9);
-    for g in [curved_road(4), RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 10)).expect("ring")] {
+    for g in [
+        curved_road(4),
+        RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 10)).expect("ring"),
+    ] {
         let half = 0.5 * g.frame_at(0.0).width_m;
         for _ in 0..5000 {
             let s = rng.next() * g.length_m();
@@ -99,7 +128,12 @@ fn closest_point_round_trip_is_within_a_millimetre() {
             let p = g.project(q);
             let back = g.frame_at(p.s_m);
             let q2 = back.offset(p.lateral_m) + back.up * p.height_m;
-            assert!((q2 - q).length() < 1e-3, "{}: s={s} lat={lateral}: {} mm off", g.name(), (q2 - q).length() * 1e3);
+            assert!(
+                (q2 - q).length() < 1e-3,
+                "{}: s={s} lat={lateral}: {} mm off",
+                g.name(),
+                (q2 - q).length() * 1e3
+            );
             assert!(g.delta_s(s, p.s_m).abs() < 1e-3, "s={s} vs {}", p.s_m);
             assert!((p.lateral_m - lateral).abs() < 1e-3 && (p.height_m - height).abs() < 1e-3);
             assert!(p.on_road);
@@ -113,22 +147,50 @@ fn closest_point_round_trip_is_within_a_millimetre() {
 #[test]
 fn projection_matches_brute_force_for_points_anywhere() {
     let g = curved_road(2);
-    let dense: Vec<(f64, DVec3)> = g.stations(0.05).into_iter().map(|s| (s, g.pos_at(s))).collect();
+    let dense: Vec<(f64, DVec3)> = g
+        .stations(0.05)
+        .into_iter()
+        .map(|s| (s, g.pos_at(s)))
+        .collect();
     let mut rng = Lcg(3);
     for _ in 0..300 {
-        let q = DVec3::new(rng.next() * 600.0 - 150.0, rng.next() * 600.0 - 150.0, rng.next() * 20.0 - 10.0);
-        let best = dense.iter().map(|(s, p)| ((*p - q).length(), *s)).min_by(|a, b| a.0.total_cmp(&b.0)).expect("samples");
+        let q = DVec3::new(
+            rng.next() * 600.0 - 150.0,
+            rng.next() * 600.0 - 150.0,
+            rng.next() * 20.0 - 10.0,
+        );
+        let best = dense
+            .iter()
+            .map(|(s, p)| ((*p - q).length(), *s))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("samples");
         let p = g.project(q);
         // Far from the road, near a centre of curvature, the distance is almost flat along the
         // road: any point there is a fine answer, so allow a relative 1e-5 there.
-        assert!(p.distance_m <= best.0 * (1.0 + 1e-5) + 1e-6, "q={q}: {} vs brute {}", p.distance_m, best.0);
-        assert!(p.distance_m >= best.0 - 0.01, "q={q}: {} vs brute {}", p.distance_m, best.0);
+        assert!(
+            p.distance_m <= best.0 * (1.0 + 1e-5) + 1e-6,
+            "q={q}: {} vs brute {}",
+            p.distance_m,
+            best.0
+        );
+        assert!(
+            p.distance_m >= best.0 - 0.01,
+            "q={q}: {} vs brute {}",
+            p.distance_m,
+            best.0
+        );
     }
 }
 
 #[test]
 fn projection_past_the_end_of_an_open_road_clamps() {
-    let g = RoadGeometry::new(&RoadSpec::through("straight", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)])).expect("road");
+    let g = RoadGeometry::new(&RoadSpec::through(
+        "straight",
+        1,
+        60.0,
+        &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)],
+    ))
+    .expect("road");
     let p = g.project(DVec3::new(130.0, 1.0, 0.0));
     assert!((p.s_m - 100.0).abs() < 1e-9);
     assert!((p.distance_m - (900.0f64 + 1.0).sqrt()).abs() < 1e-9);
@@ -156,15 +218,21 @@ fn closed_loop_join_is_seamless() {
     let wrapped = g.frame_at(l + eps);
     assert!((before.pos - after.pos).length() < 1e-6);
     assert!((wrapped.pos - after.pos).length() < 1e-6);
-    assert!(before.tangent.angle_between(after.tangent) < 1e-6, "kink at the join");
+    assert!(
+        before.tangent.angle_between(after.tangent) < 1e-6,
+        "kink at the join"
+    );
     assert!((before.up - after.up).length() < 1e-6);
     // Every control point, including the join, is G1: no kink anywhere.
-    for i in 0..pts.len() {
+    for (i, point) in pts.iter().enumerate() {
         let s = g.point_s(i).expect("point");
         let a = g.frame_at(s - 1e-6).tangent;
         let b = g.frame_at(s + 1e-6).tangent;
         assert!(a.angle_between(b) < 1e-5, "kink at point {i}");
-        assert!((g.pos_at(s) - pts[i]).length() < 1e-9, "spline misses point {i}");
+        assert!(
+            (g.pos_at(s) - *point).length() < 1e-9,
+            "spline misses point {i}"
+        );
     }
     assert_eq!(g.normalize_s(l), 0.0);
     assert!((g.delta_s(l - 1.0, 1.0) - 2.0).abs() < 1e-9);
@@ -172,7 +240,16 @@ fn closed_loop_join_is_seamless() {
 
 #[test]
 fn bank_tilts_the_surface_normal() {
-    let mut spec = RoadSpec::through("banked", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
+    let mut spec = RoadSpec::through(
+        "banked",
+        2,
+        60.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(100.0, 0.0, 0.0),
+            DVec3::new(200.0, 0.0, 0.0),
+        ],
+    );
     for p in &mut spec.points {
         p.bank_deg = 10.0;
     }
@@ -194,7 +271,16 @@ fn bank_tilts_the_surface_normal() {
 
 #[test]
 fn tangent_override_sets_the_direction() {
-    let mut spec = RoadSpec::through("t", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 50.0, 0.0)]);
+    let mut spec = RoadSpec::through(
+        "t",
+        1,
+        60.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(100.0, 0.0, 0.0),
+            DVec3::new(200.0, 50.0, 0.0),
+        ],
+    );
     spec.points[1].tangent = Some(DVec3::new(1.0, 1.0, 0.0));
     let g = RoadGeometry::new(&spec).expect("road");
     let s1 = g.point_s(1).expect("point");
@@ -207,27 +293,46 @@ fn invalid_specs_are_errors() {
     let ok = RoadSpec::through("r", 2, 60.0, &[DVec3::ZERO, DVec3::new(50.0, 0.0, 0.0)]);
     let mut s = ok.clone();
     s.points.pop();
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::TooFewPoints { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::TooFewPoints { .. })
+    ));
     let mut s = ok.clone();
     s.points[1].width_m = Some(f64::NAN);
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Width { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::Width { .. })
+    ));
     let mut s = ok.clone();
     s.points[1].pos = s.points[0].pos;
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::PointsTooClose { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::PointsTooClose { .. })
+    ));
     let mut s = ok.clone();
     s.lanes = 0;
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Lanes { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::Lanes { .. })
+    ));
     let mut s = ok.clone();
     s.speed_limit_kmh = -1.0;
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::SpeedLimit { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::SpeedLimit { .. })
+    ));
     let mut s = ok;
     s.points[0].pos.x = f64::INFINITY;
-    assert!(matches!(RoadGeometry::new(&s), Err(RoadError::Position { .. })));
+    assert!(matches!(
+        RoadGeometry::new(&s),
+        Err(RoadError::Position { .. })
+    ));
 }
 
 #[test]
 fn meshes_cover_the_road_and_close_the_loop() {
-    let ring = RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 12)).expect("ring");
+    let ring =
+        RoadGeometry::new(&RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 12)).expect("ring");
     let m = RoadMeshes::build(&ring);
     let stations = ring.stations(STATION_STEP_M).len();
     assert_eq!(m.surface.triangle_count(), (stations - 1) * 2 * 2);
@@ -241,35 +346,72 @@ fn meshes_cover_the_road_and_close_the_loop() {
     }
     // Surface normals point up and triangles wind counter-clockwise seen from above.
     for tri in m.surface.indices.chunks(3) {
-        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| glam::Vec3::from(m.surface.positions[i as usize]));
+        let [a, b, c] =
+            [tri[0], tri[1], tri[2]].map(|i| glam::Vec3::from(m.surface.positions[i as usize]));
         assert!((b - a).cross(c - a).z > 0.0);
     }
     // Both guardrails run the whole way round, as one run each.
     assert_eq!(m.guardrail_runs.len(), 2);
-    assert!(m.guardrail_runs.iter().all(|r| (r.to_s_m - ring.length_m()).abs() < 1e-9 && r.from_s_m == 0.0));
+    assert!(
+        m.guardrail_runs
+            .iter()
+            .all(|r| (r.to_s_m - ring.length_m()).abs() < 1e-9 && r.from_s_m == 0.0)
+    );
     assert!(m.markings.triangle_count() > 0 && m.guardrails.triangle_count() > 0);
     // The left rail sits outside the left edge.
-    let left = m.guardrail_runs.iter().find(|r| r.side == Side::Left).expect("left rail");
+    let left = m
+        .guardrail_runs
+        .iter()
+        .find(|r| r.side == Side::Left)
+        .expect("left rail");
     let p = ring.project(left.foot[10]);
     assert!((p.lateral_m - (3.0 + GUARDRAIL_OFFSET_M)).abs() < 1e-6);
 }
 
 #[test]
 fn guardrail_flags_split_runs() {
-    let mut spec = RoadSpec::through("r", 1, 60.0, &[DVec3::ZERO, DVec3::new(50.0, 0.0, 0.0), DVec3::new(100.0, 0.0, 0.0), DVec3::new(150.0, 0.0, 0.0)]);
+    let mut spec = RoadSpec::through(
+        "r",
+        1,
+        60.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(50.0, 0.0, 0.0),
+            DVec3::new(100.0, 0.0, 0.0),
+            DVec3::new(150.0, 0.0, 0.0),
+        ],
+    );
     spec.points[1].guardrail_left = false;
     let g = RoadGeometry::new(&spec).expect("road");
     let m = RoadMeshes::build(&g);
-    let lefts: Vec<_> = m.guardrail_runs.iter().filter(|r| r.side == Side::Left).collect();
+    let lefts: Vec<_> = m
+        .guardrail_runs
+        .iter()
+        .filter(|r| r.side == Side::Left)
+        .collect();
     assert_eq!(lefts.len(), 2);
     assert!((lefts[0].to_s_m - 50.0).abs() < 1e-6 && (lefts[1].from_s_m - 100.0).abs() < 1e-6);
-    assert_eq!(m.guardrail_runs.iter().filter(|r| r.side == Side::Right).count(), 1);
+    assert_eq!(
+        m.guardrail_runs
+            .iter()
+            .filter(|r| r.side == Side::Right)
+            .count(),
+        1
+    );
 }
 
 #[test]
 fn network_follows_connections() {
-    let a = RoadSpec { next: Some("b".into()), ..RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]) };
-    let b = RoadSpec::through("b", 2, 60.0, &[DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
+    let a = RoadSpec {
+        next: Some("b".into()),
+        ..RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)])
+    };
+    let b = RoadSpec::through(
+        "b",
+        2,
+        60.0,
+        &[DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+    );
     let net = RoadNetwork::build(&[a.clone(), b.clone()]).expect("network");
     let (ia, ib) = (net.id("a").expect("a"), net.id("b").expect("b"));
     assert_eq!(net.next(ia), Some(ib));
@@ -281,15 +423,30 @@ fn network_follows_connections() {
     assert_eq!(road, ib);
     assert!((p.s_m - 50.0).abs() < 1e-9);
 
-    let far = RoadSpec::through("b", 2, 60.0, &[DVec3::new(110.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)]);
-    assert!(matches!(RoadNetwork::build(&[a.clone(), far]), Err(NetworkError::Gap { .. })));
-    assert!(matches!(RoadNetwork::build(&[a.clone()]), Err(NetworkError::UnknownNext { .. })));
-    assert!(matches!(RoadNetwork::build(&[b.clone(), b]), Err(NetworkError::DuplicateName(_))));
+    let far = RoadSpec::through(
+        "b",
+        2,
+        60.0,
+        &[DVec3::new(110.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+    );
+    assert!(matches!(
+        RoadNetwork::build(&[a.clone(), far]),
+        Err(NetworkError::Gap { .. })
+    ));
+    assert!(matches!(
+        RoadNetwork::build(std::slice::from_ref(&a)),
+        Err(NetworkError::UnknownNext { .. })
+    ));
+    assert!(matches!(
+        RoadNetwork::build(&[b.clone(), b]),
+        Err(NetworkError::DuplicateName(_))
+    ));
 }
 
 #[test]
 fn ring_advance_wraps() {
-    let net = RoadNetwork::build(&[RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.6, 12)]).expect("ring");
+    let net = RoadNetwork::build(&[RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.6, 12)])
+        .expect("ring");
     let id = net.id("ring").expect("ring");
     let l = net.get(id).expect("ring").length_m();
     let (_, s) = net.advance(id, l - 1.0, 3.0).expect("wraps");
@@ -298,4 +455,3 @@ fn ring_advance_wraps() {
     assert!((s - (l - 2.0)).abs() < 1e-9);
     assert!(l > 0.0 && l < 2.0 * PI * 36.6 * 1.001);
 }
-
