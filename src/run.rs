@@ -64,6 +64,19 @@ pub struct ExpectationResult {
     pub value: Option<f64>,
 }
 
+/// The keys every summary JSON has: a documented contract, only ever extended.
+pub const SUMMARY_KEYS: [&str; 9] = [
+    "level",
+    "seed",
+    "ticks",
+    "sim_seconds",
+    "wall_seconds",
+    "realtime_factor",
+    "vehicle_steps",
+    "passed",
+    "expectations",
+];
+
 /// What a run measured. Its JSON form is a documented contract (see the README).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunReport {
@@ -357,17 +370,7 @@ mod tests {
         );
         assert!(!report.passed);
         let json = report.to_json();
-        for key in [
-            "level",
-            "seed",
-            "ticks",
-            "sim_seconds",
-            "wall_seconds",
-            "realtime_factor",
-            "vehicle_steps",
-            "passed",
-            "expectations",
-        ] {
+        for key in SUMMARY_KEYS {
             assert!(json.get(key).is_some(), "missing {key}");
         }
     }

@@ -191,17 +191,7 @@ fn runs_are_byte_identical_and_summaries_keep_their_contract() {
         );
         let header = String::from_utf8(csv_a).expect("utf-8");
         assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm\n"));
-        for key in [
-            "level",
-            "seed",
-            "ticks",
-            "sim_seconds",
-            "wall_seconds",
-            "realtime_factor",
-            "vehicle_steps",
-            "passed",
-            "expectations",
-        ] {
+        for key in flockway::run::SUMMARY_KEYS {
             assert!(
                 a.get(key).is_some(),
                 "{}: summary lacks `{key}`",

@@ -141,19 +141,8 @@ impl Cursor<'_> {
         self.skip_trivia();
         match self.peek() {
             Some('(' | '[' | '{') => self.skip_group(),
-            Some('"') => self.skip_string(),
+            Some(q @ ('"' | '\'')) => self.skip_quoted(q),
             Some('r') if self.is_raw_string() => self.skip_raw_string(),
-            Some('\'') => {
-                self.bump();
-                while let Some(c) = self.peek() {
-                    self.bump();
-                    if c == '\\' {
-                        self.bump();
-                    } else if c == '\'' {
-                        break;
-                    }
-                }
-            }
             Some(_) => {
                 while let Some(c) = self.peek() {
                     if matches!(c, ',' | ')' | ']' | '}' | ':') || c.is_whitespace() {
@@ -203,13 +192,14 @@ impl Cursor<'_> {
         }
     }
 
-    fn skip_string(&mut self) {
+    /// Skips a string or char literal opened by `quote`, honouring backslash escapes.
+    fn skip_quoted(&mut self, quote: char) {
         self.bump();
         while let Some(c) = self.peek() {
             self.bump();
             if c == '\\' {
                 self.bump();
-            } else if c == '"' {
+            } else if c == quote {
                 return;
             }
         }

@@ -589,48 +589,116 @@ mod tests {
     #[test]
     fn each_inconsistency_is_reported_where_it_is() {
         let cases = [
-            (r#"spawners: [(name: "s", road: "main", lane: 0, interval_s: (min: 2.0, max: 1.0), profiles: [(profile: "auto", weight: 1.0)])],"#, "8:63: interval_s"),
-            (r#"spawners: [(name: "s", road: "main", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "robot", weight: 1.0)])],"#, "unknown driver profile `robot`; known: `auto`"),
-            (r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#, "spawn position 500 m is outside road `main`"),
-            (r#"destroyers: [(name: "d", place: OnRoad(road: "side", s_m: 1.0))],"#, "unknown road `side`"),
-            (r#"triggers: [(name: "t", road: "main", from_m: 20.0, to_m: 10.0, effect: Friction(scale: 5.0))],"#, "not after its start"),
-            (r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, lanes: [0, 3], effect: SpeedLimit(kmh: 90.0))],"#, "lane 3 is out of range"),
-            (r#"vehicles: [(road: "main", count: 50, profile: "auto")],"#, "50 vehicles on 100.0 m of lane are 2.04 m apart"),
-            (r#"vehicles: [(road: "main", count: 5, profile: "auto", jitter_m: 10.0)],"#, "jitter_m 10 could make neighbours overlap"),
+            (
+                r#"spawners: [(name: "s", road: "main", lane: 0, interval_s: (min: 2.0, max: 1.0), profiles: [(profile: "auto", weight: 1.0)])],"#,
+                "8:63: interval_s",
+            ),
+            (
+                r#"spawners: [(name: "s", road: "main", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "robot", weight: 1.0)])],"#,
+                "unknown driver profile `robot`; known: `auto`",
+            ),
+            (
+                r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#,
+                "spawn position 500 m is outside road `main`",
+            ),
+            (
+                r#"destroyers: [(name: "d", place: OnRoad(road: "side", s_m: 1.0))],"#,
+                "unknown road `side`",
+            ),
+            (
+                r#"triggers: [(name: "t", road: "main", from_m: 20.0, to_m: 10.0, effect: Friction(scale: 5.0))],"#,
+                "not after its start",
+            ),
+            (
+                r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, lanes: [0, 3], effect: SpeedLimit(kmh: 90.0))],"#,
+                "lane 3 is out of range",
+            ),
+            (
+                r#"vehicles: [(road: "main", count: 50, profile: "auto")],"#,
+                "50 vehicles on 100.0 m of lane are 2.04 m apart",
+            ),
+            (
+                r#"vehicles: [(road: "main", count: 5, profile: "auto", jitter_m: 10.0)],"#,
+                "jitter_m 10 could make neighbours overlap",
+            ),
             (r#"telemetry: (period_s: 0.3333),"#, "period_s 0.3333"),
-            (r#"expect: ["road_length_m.side > 1"],"#, "unknown road `side`"),
-            (r#"expect: ["flow_veh_per_h.exit > 1"],"#, "unknown destroyer `exit`"),
+            (
+                r#"expect: ["road_length_m.side > 1"],"#,
+                "unknown road `side`",
+            ),
+            (
+                r#"expect: ["flow_veh_per_h.exit > 1"],"#,
+                "unknown destroyer `exit`",
+            ),
         ];
         for (extra, needle) in cases {
             let found = problems(extra);
-            assert!(found.iter().any(|p| p.contains(needle)), "`{extra}` should report `{needle}`, got {found:?}");
-            assert!(found.iter().all(|p| p.starts_with("8:")), "`{extra}` should point into line 8: {found:?}");
+            assert!(
+                found.iter().any(|p| p.contains(needle)),
+                "`{extra}` should report `{needle}`, got {found:?}"
+            );
+            assert!(
+                found.iter().all(|p| p.starts_with("8:")),
+                "`{extra}` should point into line 8: {found:?}"
+            );
         }
         // Zero total weight is its own problem, besides the position one.
-        let found = problems(r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#);
-        assert!(found.iter().any(|p| p.contains("weights sum to 0")), "{found:?}");
+        let found = problems(
+            r#"spawners: [(name: "s", road: "main", s_m: 500.0, interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 0.0)])],"#,
+        );
+        assert!(
+            found.iter().any(|p| p.contains("weights sum to 0")),
+            "{found:?}"
+        );
     }
 
     #[test]
     fn duplicate_names_and_bad_asset_paths_are_reported() {
-        let found = problems(r#"destroyers: [(name: "d", place: OnRoad(road: "main", s_m: 1.0)), (name: "d", place: OnRoad(road: "main", s_m: 2.0))],"#);
-        assert!(found.iter().any(|p| p.contains("duplicate name `d`")), "{found:?}");
-        let text = BASE.replace(r#""vehicles/sedan.ron""#, r#""../../etc/passwd""#).replace("EXTRA", "");
+        let found = problems(
+            r#"destroyers: [(name: "d", place: OnRoad(road: "main", s_m: 1.0)), (name: "d", place: OnRoad(road: "main", s_m: 2.0))],"#,
+        );
+        assert!(
+            found.iter().any(|p| p.contains("duplicate name `d`")),
+            "{found:?}"
+        );
+        let text = BASE
+            .replace(r#""vehicles/sedan.ron""#, r#""../../etc/passwd""#)
+            .replace("EXTRA", "");
         let err = parse_level(&text, Path::new("t.ron")).expect_err("path escapes assets/");
-        assert!(err.to_string().contains("not a path inside assets/"), "{err}");
+        assert!(
+            err.to_string().contains("not a path inside assets/"),
+            "{err}"
+        );
     }
 
     #[test]
     fn a_newer_version_is_named_as_such() {
-        let err = parse_level(&BASE.replace("version: 1", "version: 2").replace("EXTRA", "future_field: 3,"), Path::new("t.ron"))
-            .expect_err("version 2");
-        assert_eq!(err.diagnostics()[0].to_string(), "2:14: unsupported level version 2; this Flockway reads version 1");
+        let err = parse_level(
+            &BASE
+                .replace("version: 1", "version: 2")
+                .replace("EXTRA", "future_field: 3,"),
+            Path::new("t.ron"),
+        )
+        .expect_err("version 2");
+        assert_eq!(
+            err.diagnostics()[0].to_string(),
+            "2:14: unsupported level version 2; this Flockway reads version 1"
+        );
     }
 
     #[test]
     fn absurd_durations_are_rejected() {
-        let err = parse_level(&BASE.replace("duration_s: 10.0", "duration_s: 1e12").replace("EXTRA", ""), Path::new("t.ron"))
-            .expect_err("too long");
-        assert!(err.to_string().starts_with("t.ron:4:17: duration_s is 1000000000000"), "{err}");
+        let err = parse_level(
+            &BASE
+                .replace("duration_s: 10.0", "duration_s: 1e12")
+                .replace("EXTRA", ""),
+            Path::new("t.ron"),
+        )
+        .expect_err("too long");
+        assert!(
+            err.to_string()
+                .starts_with("t.ron:4:17: duration_s is 1000000000000"),
+            "{err}"
+        );
     }
 }

@@ -302,7 +302,12 @@ mod tests {
         let a = RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
         let mut sim = sim_with(&[a]);
         sim.step();
-        let len = |sim: &Sim| sim.world().resource::<RoadNetwork>().get(RoadId(0)).map(|g| g.length_m());
+        let len = |sim: &Sim| {
+            sim.world()
+                .resource::<RoadNetwork>()
+                .get(RoadId(0))
+                .map(|g| g.length_m())
+        };
         assert!((len(&sim).expect("built") - 100.0).abs() < 1e-9);
 
         // Move the end point: the shape and the network are rebuilt before the next step.
@@ -313,7 +318,11 @@ mod tests {
         sim.step();
         assert!((len(&sim).expect("rebuilt") - 250.0).abs() < 1e-9);
         let mut shapes = sim.world_mut().query::<&RoadShape>();
-        assert!(shapes.iter(sim.world()).all(|s| (s.geometry.length_m() - 250.0).abs() < 1e-9));
+        assert!(
+            shapes
+                .iter(sim.world())
+                .all(|s| (s.geometry.length_m() - 250.0).abs() < 1e-9)
+        );
 
         // An invalid edit keeps the last good network and says why.
         for mut road in q.iter_mut(sim.world_mut()) {
@@ -321,22 +330,37 @@ mod tests {
         }
         sim.step();
         assert!((len(&sim).expect("kept") - 250.0).abs() < 1e-9);
-        assert!(matches!(sim.world().resource::<RoadNetworkError>().0, Some(NetworkError::Road(RoadError::Lanes { .. }))));
+        assert!(matches!(
+            sim.world().resource::<RoadNetworkError>().0,
+            Some(NetworkError::Road(RoadError::Lanes { .. }))
+        ));
     }
 
     #[test]
     fn deleting_a_road_leaves_a_hole_not_a_shift() {
         let a = RoadSpec::through("a", 1, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
-        let b = RoadSpec::through("b", 1, 60.0, &[DVec3::new(0.0, 50.0, 0.0), DVec3::new(100.0, 50.0, 0.0)]);
+        let b = RoadSpec::through(
+            "b",
+            1,
+            60.0,
+            &[DVec3::new(0.0, 50.0, 0.0), DVec3::new(100.0, 50.0, 0.0)],
+        );
         let mut sim = sim_with(&[a, b]);
         sim.step();
         let mut q = sim.world_mut().query::<(Entity, &RoadId)>();
-        let first = q.iter(sim.world()).find(|(_, id)| id.0 == 0).map(|(e, _)| e).expect("road 0");
+        let first = q
+            .iter(sim.world())
+            .find(|(_, id)| id.0 == 0)
+            .map(|(e, _)| e)
+            .expect("road 0");
         sim.world_mut().despawn(first);
         sim.step();
         let net = sim.world().resource::<RoadNetwork>();
         assert!(net.get(RoadId(0)).is_none());
-        assert_eq!(net.get(RoadId(1)).map(|g| g.name().to_owned()), Some("b".to_owned()));
+        assert_eq!(
+            net.get(RoadId(1)).map(|g| g.name().to_owned()),
+            Some("b".to_owned())
+        );
         assert_eq!(net.id("b"), Some(RoadId(1)));
         assert_eq!(net.len(), 1);
     }
