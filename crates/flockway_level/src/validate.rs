@@ -558,7 +558,6 @@ impl Checker<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::parse_level;
     use std::path::Path;
 
