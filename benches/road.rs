@@ -59,6 +59,24 @@ fn bench(c: &mut Criterion) {
                     .sum::<f64>()
             })
         });
+        // A wheel's pattern: each position is projected from the cursor its last one left, 1.5 m
+        // behind (the distance a car covers in ~5 steps at 100 km/h).
+        let starts: Vec<_> = pts.iter().map(|(_, s)| g.cursor_at(s - 1.5)).collect();
+        group.bench_with_input(
+            BenchmarkId::new("project_tracked", level),
+            &pts,
+            |b, pts| {
+                b.iter(|| {
+                    pts.iter()
+                        .zip(&starts)
+                        .map(|((p, _), start)| {
+                            let mut cursor = *start;
+                            black_box(g.project_tracked(*p, &mut cursor)).s_m
+                        })
+                        .sum::<f64>()
+                })
+            },
+        );
         group.bench_with_input(BenchmarkId::new("frame_at", level), &pts, |b, pts| {
             b.iter(|| {
                 pts.iter()

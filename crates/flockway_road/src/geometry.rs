@@ -54,6 +54,12 @@ pub struct RoadProjection {
     pub on_road: bool,
 }
 
+/// A remembered place on one road's spline: lets repeated projections of a moving point start
+/// where the last one ended (see [`RoadGeometry::project_tracked`]). Only meaningful for the
+/// road that made it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadCursor(SplineParam);
+
 /// Where on the spline an arc position lies: segment index and local parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct SplineParam {
@@ -68,6 +74,9 @@ struct SegmentData {
     s0: f64,
     /// Arc positions of the segment's table nodes at u = k / subdivisions, relative to `s0`.
     table: Vec<f64>,
+    /// Parameter speed |dC/du| at each table node: with `table`, a cubic Hermite interpolant of
+    /// s(u) and u(s) between nodes, so queries need no quadrature (no square roots).
+    speeds: Vec<f64>,
     bank0_rad: f64,
     bank1_rad: f64,
     width0_m: f64,
@@ -119,10 +128,14 @@ impl RoadGeometry {
                 acc += cubic.length(u0, u1);
                 table.push(acc);
             }
+            let speeds = (0..=subdivisions)
+                .map(|k| cubic.d1(k as f64 / subdivisions as f64).length())
+                .collect();
             segments.push(SegmentData {
                 cubic,
                 s0,
                 table,
+                speeds,
                 bank0_rad: spec.points[i].bank_deg.to_radians(),
                 bank1_rad: spec.points[j].bank_deg.to_radians(),
                 width0_m: spec.width_at_point(i),
@@ -227,27 +240,38 @@ impl RoadGeometry {
         let (t0, t1) = (g.table[k], g.table[k + 1]);
         let du = 1.0 / n as f64;
         let u_k = k as f64 * du;
-        let frac = if t1 > t0 {
-            (local - t0) / (t1 - t0)
+        let ds = t1 - t0;
+        let (v0, v1) = (g.speeds[k], g.speeds[k + 1]);
+        let u = if ds > 0.0 && v0 > 1e-12 && v1 > 1e-12 {
+            // u(s) as a cubic Hermite between the nodes, with du/ds = 1/speed at each end.
+            let t = (local - t0) / ds;
+            u_k + du * hermite01(t, ds / (v0 * du), ds / (v1 * du))
         } else {
-            0.0
+            u_k + du * if ds > 0.0 { (local - t0) / ds } else { 0.0 }
         };
-        let mut u = u_k + frac * du;
-        // One Newton step on L(u) = local makes the linear guess accurate to well under a micrometre.
-        let speed = g.cubic.d1(u).length();
-        if speed > 1e-12 {
-            let err = t0 + g.cubic.length(u_k, u) - local;
-            u = (u - err / speed).clamp(u_k, u_k + du);
+        SplineParam {
+            seg,
+            u: u.clamp(u_k, u_k + du),
         }
-        SplineParam { seg, u }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn segment_cubic(&self, seg: usize) -> &Cubic {
+        &self.segments[seg].cubic
     }
 
     pub(crate) fn s_of(&self, p: SplineParam) -> f64 {
         let g = &self.segments[p.seg];
         let n = g.subdivisions();
         let k = ((p.u * n as f64).floor() as usize).min(n - 1);
-        let u_k = k as f64 / n as f64;
-        g.s0 + g.table[k] + g.cubic.length(u_k, p.u)
+        let du = 1.0 / n as f64;
+        let t = (p.u - k as f64 * du) / du;
+        let ds = g.table[k + 1] - g.table[k];
+        if ds <= 0.0 {
+            return g.s0 + g.table[k];
+        }
+        // s(u) as a cubic Hermite between the nodes, with ds/du = speed at each end.
+        g.s0 + g.table[k] + ds * hermite01(t, g.speeds[k] * du / ds, g.speeds[k + 1] * du / ds)
     }
 
     fn frame_at_param(&self, p: SplineParam, s_m: f64) -> RoadFrame {
@@ -312,13 +336,38 @@ impl RoadGeometry {
     /// the exact spline: exact to well under a millimetre, O(1) for positions near the road.
     pub fn project(&self, pos: DVec3) -> RoadProjection {
         let start = self.grid.nearest(pos);
-        self.refine(pos, start)
+        self.refine(pos, start).0
+    }
+
+    /// A cursor at arc position `s_m`, for [`project_tracked`](Self::project_tracked).
+    pub fn cursor_at(&self, s_m: f64) -> RoadCursor {
+        RoadCursor(self.param_at(s_m))
+    }
+
+    /// The fastest projection, for something that moves a little each step (a wheel, a vehicle):
+    /// starts from where the cursor was left and leaves it at the answer. Falls back to the
+    /// spatial index when the position jumped more than 25 m along the road.
+    pub fn project_tracked(&self, pos: DVec3, cursor: &mut RoadCursor) -> RoadProjection {
+        let start = if cursor.0.seg < self.segments.len() {
+            cursor.0
+        } else {
+            self.param_at(0.0)
+        };
+        let before = self.s_of(start);
+        let (proj, p) = self.refine(pos, start);
+        if self.delta_s(before, proj.s_m).abs() > 25.0 {
+            let (proj, p) = self.refine(pos, self.grid.nearest(pos));
+            cursor.0 = p;
+            return proj;
+        }
+        cursor.0 = p;
+        proj
     }
 
     /// Like [`project`](Self::project), starting from a known nearby arc position (a vehicle's
     /// last one): skips the index, and falls back to it if the hint is more than 25 m off.
     pub fn project_near(&self, pos: DVec3, s_hint_m: f64) -> RoadProjection {
-        let proj = self.refine(pos, self.param_at(s_hint_m));
+        let (proj, _) = self.refine(pos, self.param_at(s_hint_m));
         if self.delta_s(s_hint_m, proj.s_m).abs() > 25.0 {
             self.project(pos)
         } else {
@@ -327,7 +376,7 @@ impl RoadGeometry {
     }
 
     /// Newton's method on the squared distance in the spline parameter, moving across segments.
-    fn refine(&self, q: DVec3, start: SplineParam) -> RoadProjection {
+    fn refine(&self, q: DVec3, start: SplineParam) -> (RoadProjection, SplineParam) {
         let nseg = self.segments.len();
         let mut p = start;
         for _ in 0..16 {
@@ -367,7 +416,7 @@ impl RoadGeometry {
             };
             let stuck = seg == p.seg && u == p.u;
             p = SplineParam { seg, u };
-            if moved_m < 1e-9 || stuck {
+            if moved_m < 1e-7 || stuck {
                 break;
             }
         }
@@ -375,14 +424,15 @@ impl RoadGeometry {
         let f = self.frame_at_param(p, s);
         let r = q - f.pos;
         let lateral_m = r.dot(f.left);
-        RoadProjection {
+        let proj = RoadProjection {
             s_m: s,
             lateral_m,
             height_m: r.dot(f.up),
             distance_m: r.length(),
             lane: self.lane_at_offset(lateral_m, f.width_m),
             on_road: lateral_m.abs() <= 0.5 * f.width_m,
-        }
+        };
+        (proj, p)
     }
 
     /// Arc positions at which to place mesh stations: at most `step_m` apart, including every
@@ -406,6 +456,13 @@ pub fn lane_offset(width_m: f64, lanes: u32, lane: u32) -> f64 {
     -0.5 * width_m + (f64::from(lane) + 0.5) * lane_w
 }
 
+/// The cubic through (0, 0) and (1, 1) with slopes `m0` and `m1` there, at `t`.
+#[inline]
+fn hermite01(t: f64, m0: f64, m1: f64) -> f64 {
+    let (t2, t3) = (t * t, t * t * t);
+    (t3 - 2.0 * t2 + t) * m0 + (-2.0 * t3 + 3.0 * t2) + (t3 - t2) * m1
+}
+
 fn smoothstep(u: f64) -> f64 {
     u * u * (3.0 - 2.0 * u)
 }
@@ -414,6 +471,10 @@ fn smoothstep(u: f64) -> f64 {
 fn banked_axes(tangent: DVec3, bank_rad: f64) -> (DVec3, DVec3) {
     let left0 = DVec3::Z.cross(tangent).normalize_or(DVec3::Y);
     let up0 = tangent.cross(left0);
+    if bank_rad == 0.0 {
+        // Most roads are flat: skip the trigonometry.
+        return (left0, up0);
+    }
     let (sin, cos) = bank_rad.sin_cos();
     (left0 * cos + up0 * sin, up0 * cos - left0 * sin)
 }

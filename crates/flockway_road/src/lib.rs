@@ -21,7 +21,7 @@ mod spline;
 mod validate;
 
 pub use error::RoadError;
-pub use geometry::{RoadFrame, RoadGeometry, RoadProjection, lane_offset};
+pub use geometry::{RoadCursor, RoadFrame, RoadGeometry, RoadProjection, lane_offset};
 pub use mesh::{
     DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,
     RoadMeshes, STATION_STEP_M, Side,

@@ -137,9 +137,14 @@ fn closest_point_round_trip_is_within_a_millimetre() {
             assert!(g.delta_s(s, p.s_m).abs() < 1e-3, "s={s} vs {}", p.s_m);
             assert!((p.lateral_m - lateral).abs() < 1e-3 && (p.height_m - height).abs() < 1e-3);
             assert!(p.on_road);
-            // The hinted query agrees.
+            // The hinted and tracked queries agree.
             let near = g.project_near(q, s + 3.0);
             assert!(g.delta_s(near.s_m, p.s_m).abs() < 1e-6);
+            let mut cursor = g.cursor_at(s - 2.0);
+            let tracked = g.project_tracked(q, &mut cursor);
+            assert!(g.delta_s(tracked.s_m, p.s_m).abs() < 1e-6);
+            // The cursor now sits at the answer: projecting again from it is the same.
+            assert!((g.project_tracked(q, &mut cursor).s_m - tracked.s_m).abs() < 1e-7);
         }
     }
 }
@@ -454,4 +459,27 @@ fn ring_advance_wraps() {
     let (_, s) = net.advance(id, 1.0, -3.0).expect("wraps back");
     assert!((s - (l - 2.0)).abs() < 1e-9);
     assert!(l > 0.0 && l < 2.0 * PI * 36.6 * 1.001);
+}
+
+#[test]
+fn arc_table_interpolation_matches_quadrature() {
+    let g = curved_road(2);
+    let mut rng = Lcg(5);
+    for _ in 0..2000 {
+        let s = rng.next() * g.length_m();
+        let p = g.param_at(s);
+        // Exact arc position of that parameter by quadrature from the segment start.
+        let start = g.point_s(p.seg).expect("segment start");
+        let c = g.segment_cubic(p.seg);
+        let exact = start
+            + (0..200)
+                .map(|k| c.length(p.u * k as f64 / 200.0, p.u * (k + 1) as f64 / 200.0))
+                .sum::<f64>();
+        assert!((exact - s).abs() < 1e-6, "s={s}: quadrature says {exact}");
+        assert!(
+            (g.s_of(p) - s).abs() < 1e-6,
+            "s_of(param_at(s)) = {} for {s}",
+            g.s_of(p)
+        );
+    }
 }
