@@ -93,7 +93,7 @@ impl RoadMeshes {
         let stations: Vec<RoadFrame> = road
             .stations(STATION_STEP_M)
             .into_iter()
-            .map(|s| frame_exact(road, s))
+            .map(|s| station_frame(road, s))
             .collect();
         let lanes = road.lanes();
         let mut out = RoadMeshes::default();
@@ -186,10 +186,10 @@ impl RoadMeshes {
     }
 }
 
-/// The frame at `s`, but at the very end of an open road evaluated at the end rather than wrapped.
-fn frame_exact(road: &RoadGeometry, s: f64) -> RoadFrame {
+/// The frame at station `s`, keeping `s` itself as its arc position: a closed loop's last station
+/// (at the full length) evaluates at 0, but dash phasing and guardrail runs need it at the end.
+fn station_frame(road: &RoadGeometry, s: f64) -> RoadFrame {
     let mut f = road.frame_at(s);
-    // A closed loop wraps its last station back to 0: keep its arc position for dash phasing.
     f.s_m = s;
     f
 }
