@@ -86,3 +86,25 @@ fn saving_replaces_the_file_atomically() {
     // Saving into a missing directory fails cleanly and leaves nothing.
     assert!(save_level(&level, &dir.path().join("missing/level.ron")).is_err());
 }
+
+#[test]
+fn errors_in_a_saved_level_point_at_the_right_line() {
+    // Saved levels start with an `#![enable(implicit_some)]` attribute: positions must still be right.
+    let level = load_level(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/levels/dense_road.ron"
+    )))
+    .expect("load");
+    let text = level_to_string(&level).expect("text");
+    assert!(text.starts_with("#![enable(implicit_some)]"), "{text}");
+    let broken = text.replace("lanes: 4", "lanes: 0");
+    let line = broken
+        .lines()
+        .position(|l| l.contains("lanes: 0"))
+        .expect("edited line")
+        + 1;
+    let err = parse_level(&broken, Path::new("saved.ron")).expect_err("0 lanes");
+    let d = &err.diagnostics()[0];
+    assert_eq!(d.pos.line, line, "{err}");
+    assert!(d.message.contains("0 lanes"), "{err}");
+}

@@ -100,6 +100,12 @@ impl Cursor<'_> {
                         self.bump();
                     }
                 }
+                (Some('#'), Some('!')) => {
+                    // An inner attribute such as `#![enable(implicit_some)]`, which saved levels
+                    // start with.
+                    self.i += 2;
+                    self.skip_group();
+                }
                 (Some('/'), Some('*')) => {
                     // RON block comments nest.
                     let mut depth = 0;
@@ -315,6 +321,15 @@ mod tests {
         assert_eq!(
             locate(SRC, &[Field("spawners"), Index(0), Field("lane")]),
             Pos { line: 8, col: 34 }
+        );
+    }
+
+    #[test]
+    fn attributes_before_the_level_are_skipped() {
+        let src = "#![enable(implicit_some)]\n(\n    version: 1,\n    roads: [(name: \"a\")],\n)";
+        assert_eq!(
+            locate(src, &[Field("roads"), Index(0), Field("name")]),
+            Pos { line: 4, col: 20 }
         );
     }
 
