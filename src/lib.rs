@@ -11,6 +11,7 @@ pub mod telemetry;
 pub use flockway_core as core;
 pub use flockway_level as level;
 pub use flockway_road as road;
+pub use flockway_vehicle as vehicle;
 
 /// The types most programs that drive Flockway need.
 pub mod prelude {

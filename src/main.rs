@@ -4,7 +4,9 @@ use clap::{Args, Parser, Subcommand};
 use flockway::run::{RunError, RunOptions, Runner, level_name};
 use flockway_level::{load_level, write_atomic};
 use indicatif::{ProgressBar, ProgressStyle};
+use flockway_vehicle::{DynoReport, DynoSettings, VehicleParams, VehicleType, run_dyno};
 use std::io::IsTerminal;
+use std::sync::Arc;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -33,6 +35,20 @@ enum Command {
         /// Level files to check.
         #[arg(required = true, value_name = "LEVEL")]
         levels: Vec<PathBuf>,
+    },
+    /// Measure a vehicle on the test tracks: 0–100 km/h, top speed, 100–0 km/h braking, skid-pad
+    /// grip and standstill drift.
+    ///
+    /// Prints a table, or with --json one object with the keys zero_to_100_kmh_s, top_speed_kmh,
+    /// braking_100_0_m, max_lateral_g and standstill_drift_m. Exit status: 0, or 2 if the vehicle
+    /// file is invalid.
+    Dyno {
+        /// Vehicle definition to measure (default: assets/vehicles/sedan.ron's reference sedan).
+        #[arg(value_name = "VEHICLE")]
+        vehicle: Option<PathBuf>,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -70,6 +86,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Run(args) => run(args),
         Command::Check { levels } => check(&levels),
+        Command::Dyno { vehicle, json } => dyno(vehicle.as_deref(), json),
     }
 }
 
@@ -81,12 +98,18 @@ fn fail(e: impl std::fmt::Display) -> ExitCode {
 fn check(levels: &[PathBuf]) -> ExitCode {
     let mut bad = 0;
     for path in levels {
-        match load_level(path) {
-            Ok(level) => println!(
-                "ok    {} ({}, {} road(s))",
+        let loaded = load_level(path).map_err(RunError::from).and_then(|level| {
+            let name = level_name(&level, path);
+            let assets = flockway::run::find_assets_dir(Some(path));
+            flockway::run::load_vehicle_types(&level, &name, &assets).map(|_| (level, name))
+        });
+        match loaded {
+            Ok((level, name)) => println!(
+                "ok    {} ({}, {} road(s), {} vehicle type(s))",
                 path.display(),
-                level_name(&level, path),
-                level.roads.len()
+                name,
+                level.roads.len(),
+                level.vehicle_types.len()
             ),
             Err(e) => {
                 bad += 1;
@@ -111,6 +134,7 @@ fn run(args: RunArgs) -> ExitCode {
         seconds: args.seconds,
         seed: args.seed,
         csv: args.csv.clone(),
+        assets: Some(flockway::run::find_assets_dir(Some(&args.level))),
     };
     let mut runner = match Runner::new(level, &name, &options) {
         Ok(r) => r,
@@ -177,4 +201,44 @@ fn run(args: RunArgs) -> ExitCode {
     } else {
         ExitCode::from(1)
     }
+}
+
+fn dyno(vehicle: Option<&std::path::Path>, json: bool) -> ExitCode {
+    let params = match vehicle {
+        Some(path) => match VehicleParams::load(path) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+        None => VehicleParams::default(),
+    };
+    let name = params.name.clone();
+    let model = Arc::new(VehicleType::new(params));
+    let report = run_dyno(&model, &DynoSettings::default());
+    if json {
+        match serde_json::to_string_pretty(&report) {
+            Ok(text) => println!("{text}"),
+            Err(e) => return fail(e),
+        }
+    } else {
+        print!("{}", dyno_table(&name, &report));
+    }
+    ExitCode::SUCCESS
+}
+
+fn dyno_table(name: &str, r: &DynoReport) -> String {
+    let t100 = r
+        .zero_to_100_kmh_s
+        .map_or("not reached".to_owned(), |t| format!("{t:.2} s"));
+    format!(
+        "dyno: {name}\n\
+         \x20 0-100 km/h          {t100}\n\
+         \x20 top speed           {:.1} km/h\n\
+         \x20 braking 100-0 km/h  {:.1} m\n\
+         \x20 max lateral         {:.3} g  (50 m circle)\n\
+         \x20 standstill drift    {:.4} m  (60 s, no input)\n",
+        r.top_speed_kmh, r.braking_100_0_m, r.max_lateral_g, r.standstill_drift_m
+    )
 }

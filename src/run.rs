@@ -6,7 +6,9 @@ use flockway_level::{Expectation, Level, LevelError};
 use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
+use flockway_vehicle::{VehicleParams, VehicleParamsError, VehiclePlugin, VehicleType};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Why a run could not be set up or completed.
@@ -26,6 +28,16 @@ pub enum RunError {
     /// The systems of the step conflict (a bug in a plugin, not in the level).
     #[error("the simulation step cannot be built: {0}")]
     Schedule(String),
+    /// A vehicle definition the level names is missing or invalid.
+    #[error("{level}: vehicle type `{name}`: {source}")]
+    Vehicle {
+        /// Level name.
+        level: String,
+        /// The vehicle type's name in the level.
+        name: String,
+        /// What is wrong with its file.
+        source: VehicleParamsError,
+    },
     /// An output file could not be written.
     #[error("{}: {source}", path.display())]
     Output {
@@ -51,6 +63,57 @@ pub struct RunOptions {
     pub seed: Option<u64>,
     /// Where to stream the telemetry CSV.
     pub csv: Option<PathBuf>,
+    /// The `assets/` directory that level asset paths are relative to; `None` finds it with
+    /// [`find_assets_dir`].
+    pub assets: Option<PathBuf>,
+}
+
+/// Environment variable that overrides where `assets/` is.
+pub const ASSETS_ENV: &str = "FLOCKWAY_ASSETS";
+
+/// Finds the `assets/` directory for a level: `$FLOCKWAY_ASSETS` if set, else the nearest
+/// `assets/` in the level's directory or one of its parents, else `./assets`, else the one in
+/// the source tree this program was built from.
+pub fn find_assets_dir(level_path: Option<&Path>) -> PathBuf {
+    if let Some(dir) = std::env::var_os(ASSETS_ENV) {
+        return PathBuf::from(dir);
+    }
+    if let Some(path) = level_path {
+        let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+        for dir in abs.ancestors().skip(1) {
+            let candidate = dir.join("assets");
+            if candidate.is_dir() {
+                return candidate;
+            }
+        }
+    }
+    let cwd = PathBuf::from("assets");
+    if cwd.is_dir() {
+        return cwd;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets")
+}
+
+/// Loads and validates every vehicle type a level names, by name.
+pub fn load_vehicle_types(
+    level: &Level,
+    level_name: &str,
+    assets: &Path,
+) -> Result<BTreeMap<String, Arc<VehicleType>>, RunError> {
+    level
+        .vehicle_types
+        .iter()
+        .map(|v| {
+            let params = VehicleParams::load(&assets.join(&v.path)).map_err(|source| {
+                RunError::Vehicle {
+                    level: level_name.to_owned(),
+                    name: v.name.clone(),
+                    source,
+                }
+            })?;
+            Ok((v.name.clone(), Arc::new(VehicleType::new(params))))
+        })
+        .collect()
 }
 
 /// The outcome of one expectation.
@@ -167,10 +230,15 @@ fn fmt_value(v: f64) -> String {
     }
 }
 
+/// The level's vehicle types, loaded from `assets/`, by name.
+#[derive(bevy_ecs::resource::Resource, Debug, Clone, Default)]
+pub struct VehicleTypes(pub BTreeMap<String, Arc<VehicleType>>);
+
 /// Builds the world of a level: every plugin, and the level's entities, ready to step.
 pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     let mut sim = Sim::new(seed);
     sim.add_plugin(RoadPlugin);
+    sim.add_plugin(VehiclePlugin);
     for (i, spec) in level.roads.iter().enumerate() {
         sim.world_mut().spawn((
             RoadId(i as u32),
@@ -203,7 +271,13 @@ impl Runner {
         }
         let total_ticks = (seconds * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64;
         let seed = options.seed.unwrap_or(level.seed);
-        let sim = build_sim(&level, seed)?;
+        let assets = options
+            .assets
+            .clone()
+            .unwrap_or_else(|| find_assets_dir(None));
+        let mut sim = build_sim(&level, seed)?;
+        let types = load_vehicle_types(&level, name, &assets)?;
+        sim.world_mut().insert_resource(VehicleTypes(types));
         let csv = match &options.csv {
             Some(path) => {
                 Some(
@@ -376,12 +450,56 @@ mod tests {
     }
 
     #[test]
+    fn vehicle_types_load_from_assets_and_bad_ones_are_named() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        std::fs::create_dir_all(dir.path().join("vehicles")).expect("mkdir");
+        std::fs::write(
+            dir.path().join("vehicles/light.ron"),
+            "(name: \"light\", chassis: (mass_kg: 1000.0))",
+        )
+        .expect("write");
+        std::fs::write(
+            dir.path().join("vehicles/bad.ron"),
+            "(\n  chassis: (mass_kg: true),\n)",
+        )
+        .expect("write");
+        let mut level = Level::new(1, 10.0);
+        level.vehicle_types = vec![flockway_level::VehicleType {
+            name: "light".into(),
+            path: "vehicles/light.ron".into(),
+        }];
+        let types = load_vehicle_types(&level, "t", dir.path()).expect("loads");
+        assert_eq!(types["light"].params.chassis.mass_kg, 1000.0);
+        let options = RunOptions {
+            assets: Some(dir.path().to_owned()),
+            ..RunOptions::default()
+        };
+        let runner = Runner::new(level.clone(), "t", &options).expect("runner");
+        assert!(runner.sim().world().resource::<VehicleTypes>().0.contains_key("light"));
+
+        level.vehicle_types[0].path = "vehicles/bad.ron".into();
+        let err = load_vehicle_types(&level, "t", dir.path()).expect_err("bad file");
+        let text = err.to_string();
+        assert!(text.contains("vehicle type `light`") && text.contains("bad.ron:2:"), "{text}");
+        level.vehicle_types[0].path = "vehicles/missing.ron".into();
+        let err = load_vehicle_types(&level, "t", dir.path()).expect_err("missing file");
+        assert!(err.to_string().contains("missing.ron"), "{err}");
+    }
+
+    #[test]
+    fn the_shipped_assets_are_found_from_a_level_path() {
+        let level = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/dense_road.ron");
+        let assets = find_assets_dir(Some(&level));
+        assert!(assets.join("vehicles/sedan.ron").is_file(), "{}", assets.display());
+    }
+
+    #[test]
     fn options_override_seed_and_duration() {
         let level = Level::new(1, 10.0);
         let options = RunOptions {
             seconds: Some(0.5),
             seed: Some(99),
-            csv: None,
+            ..RunOptions::default()
         };
         let report = Runner::new(level.clone(), "t", &options)
             .expect("runner")

@@ -263,7 +263,8 @@ impl RoadGeometry {
     pub(crate) fn s_of(&self, p: SplineParam) -> f64 {
         let g = &self.segments[p.seg];
         let n = g.subdivisions();
-        let k = ((p.u * n as f64).floor() as usize).min(n - 1);
+        // u is never negative, so truncation is floor (and needs no library call).
+        let k = ((p.u * n as f64) as usize).min(n - 1);
         let du = 1.0 / n as f64;
         let t = (p.u - k as f64 * du) / du;
         let ds = g.table[k + 1] - g.table[k];
@@ -362,6 +363,84 @@ impl RoadGeometry {
         }
         cursor.0 = p;
         proj
+    }
+
+    /// [`project_tracked`](Self::project_tracked) that also returns the road's frame at the
+    /// projected point (computed on the way, so it costs nothing extra).
+    pub fn project_tracked_frame(
+        &self,
+        pos: DVec3,
+        cursor: &mut RoadCursor,
+    ) -> (RoadProjection, RoadFrame) {
+        let start = if cursor.0.seg < self.segments.len() {
+            cursor.0
+        } else {
+            self.param_at(0.0)
+        };
+        let before = self.s_of(start);
+        let (proj, p) = self.refine(pos, start);
+        let (proj, p) = if self.delta_s(before, proj.s_m).abs() > 25.0 {
+            self.refine(pos, self.grid.nearest(pos))
+        } else {
+            (proj, p)
+        };
+        cursor.0 = p;
+        (proj, self.frame_at_param(p, proj.s_m))
+    }
+
+    /// The exact road cross-section about `ds_m` along the road from a cursor at arc position
+    /// `cursor_s_m`, without an arc-length search: the parameter steps by `ds / |dP/du|` (twice,
+    /// for accuracy), so the frame lies exactly on the surface, within millimetres of `ds_m` over
+    /// a few metres. Its `s_m` is `cursor_s_m + ds_m`, wrapped. `None` past either end of an open
+    /// road.
+    pub fn frame_near(
+        &self,
+        cursor: &RoadCursor,
+        cursor_s_m: f64,
+        ds_m: f64,
+    ) -> Option<RoadFrame> {
+        let nseg = self.segments.len();
+        let mut p = cursor.0;
+        if p.seg >= nseg {
+            return None;
+        }
+        let mut left = ds_m;
+        for _ in 0..4 {
+            let c = &self.segments[p.seg].cubic;
+            let speed = c.d1(p.u).length().max(1e-9);
+            let mut u = p.u + left / speed;
+            let mut seg = p.seg;
+            if u > 1.0 {
+                left -= (1.0 - p.u) * speed;
+                if seg + 1 < nseg {
+                    seg += 1;
+                } else if self.spec.closed {
+                    seg = 0;
+                } else {
+                    return None;
+                }
+                p = SplineParam { seg, u: 0.0 };
+                continue;
+            }
+            if u < 0.0 {
+                left += p.u * speed;
+                if seg > 0 {
+                    seg -= 1;
+                } else if self.spec.closed {
+                    seg = nseg - 1;
+                } else {
+                    return None;
+                }
+                p = SplineParam { seg, u: 1.0 };
+                continue;
+            }
+            // A second step with the speed at the midpoint brings the arc error to second order.
+            let mid = c.d1(0.5 * (p.u + u)).length().max(1e-9);
+            u = (p.u + left / mid).clamp(0.0, 1.0);
+            p = SplineParam { seg, u };
+            return Some(self.frame_at_param(p, self.normalize_s(cursor_s_m + ds_m)));
+        }
+        None
     }
 
     /// Like [`project`](Self::project), starting from a known nearby arc position (a vehicle's
@@ -475,6 +554,7 @@ fn banked_axes(tangent: DVec3, bank_rad: f64) -> (DVec3, DVec3) {
         // Most roads are flat: skip the trigonometry.
         return (left0, up0);
     }
-    let (sin, cos) = bank_rad.sin_cos();
+    // libm, not the platform's maths library: identical bits on every machine.
+    let (sin, cos) = libm::sincos(bank_rad);
     (left0 * cos + up0 * sin, up0 * cos - left0 * sin)
 }

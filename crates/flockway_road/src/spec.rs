@@ -99,7 +99,7 @@ impl RoadSpec {
         let points: Vec<DVec3> = (0..n)
             .map(|i| {
                 let a = std::f64::consts::TAU * i as f64 / n as f64;
-                centre + DVec3::new(radius_m * a.cos(), radius_m * a.sin(), 0.0)
+                centre + DVec3::new(radius_m * libm::cos(a), radius_m * libm::sin(a), 0.0)
             })
             .collect();
         RoadSpec {

@@ -483,3 +483,56 @@ fn arc_table_interpolation_matches_quadrature() {
         );
     }
 }
+
+#[test]
+fn frame_near_a_cursor_matches_frame_at_and_crosses_joins() {
+    let g = curved_road(3);
+    let mut rng = Lcg(11);
+    for _ in 0..400 {
+        let s = 5.0 + rng.next() * (g.length_m() - 10.0);
+        let ds = (rng.next() - 0.5) * 6.0;
+        let cursor = g.cursor_at(s);
+        let Some(f) = g.frame_near(&cursor, s, ds) else {
+            assert!(s + ds < 0.0 || s + ds > g.length_m(), "{s} {ds}");
+            continue;
+        };
+        let exact = g.frame_at(s + ds);
+        assert_eq!(f.s_m, s + ds);
+        // The frame is exactly on the road: the cross-section frame_at gives at its true arc
+        // position, which is within a few millimetres of the one asked for.
+        let mut c = g.cursor_at(s + ds);
+        let (proj, _) = g.project_tracked_frame(f.pos, &mut c);
+        assert!((proj.s_m - (s + ds)).abs() < 2.5e-3, "{} vs {}", proj.s_m, s + ds);
+        let at = g.frame_at(proj.s_m);
+        assert!(f.pos.distance(at.pos) < 1e-6 && f.up.distance(at.up) < 1e-6);
+        assert!(f.pos.distance(exact.pos) < 2.5e-3);
+    }
+    // Off the ends of an open road there is no frame.
+    assert!(g.frame_near(&g.cursor_at(1.0), 1.0, -2.0).is_none());
+    let end = g.length_m() - 1.0;
+    assert!(g.frame_near(&g.cursor_at(end), end, 2.0).is_none());
+    // Across the join of a closed loop it wraps.
+    let ring = RoadGeometry::new(&RoadSpec::ring("r", 1, 30.0, DVec3::ZERO, 50.0, 8))
+        .expect("valid ring");
+    let near_end = ring.length_m() - 1.0;
+    let f = ring
+        .frame_near(&ring.cursor_at(near_end), near_end, 3.0)
+        .expect("wraps");
+    assert!((f.s_m - 2.0).abs() < 1e-9, "{}", f.s_m);
+    assert!(f.pos.distance(ring.frame_at(2.0).pos) < 2.5e-3);
+    let f = ring.frame_near(&ring.cursor_at(1.0), 1.0, -3.0).expect("wraps back");
+    assert!((f.s_m - (ring.length_m() - 2.0)).abs() < 1e-9, "{}", f.s_m);
+    assert!(f.pos.distance(ring.frame_at(ring.length_m() - 2.0).pos) < 2.5e-3);
+}
+
+#[test]
+fn project_tracked_frame_returns_the_frame_at_the_projection() {
+    let g = curved_road(2);
+    let s = 123.0;
+    let f = g.frame_at(s);
+    let q = f.offset(1.7) + f.up * 0.3;
+    let mut cursor = g.cursor_at(s - 4.0);
+    let (proj, frame) = g.project_tracked_frame(q, &mut cursor);
+    assert!((proj.s_m - s).abs() < 1e-6 && (proj.lateral_m - 1.7).abs() < 1e-6);
+    assert!(frame.pos.distance(f.pos) < 1e-6 && frame.tangent.distance(f.tangent) < 1e-6);
+}

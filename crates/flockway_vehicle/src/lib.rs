@@ -1,0 +1,94 @@
+//! Flockway's sedan: a rapier3d rigid body driven by our own suspension, Pacejka tyres,
+//! drivetrain and steering.
+//!
+//! rapier integrates the chassis and resolves body contacts (guardrails, other cars); everything
+//! between the chassis and the road is ours. Each tick, in [`StepSet::Actuate`],
+//! [`drive_vehicles`] finds every wheel's contact by an exact query of the road spline (a rapier
+//! ray cast only where no road is under a wheel), computes spring–damper loads, combined-slip
+//! tyre forces, drag and the implicit engine–clutch–wheel spin update, and replaces the body's
+//! forces. In [`StepSet::Physics`] rapier steps once at 1/120 s, contacts become
+//! [`VehicleContact`] messages and [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back.
+//! Drivers write only [`Controls`].
+//!
+//! Conventions: world x east, y north, z up; body x forward, y left, z up; wheels in the order
+//! front left, front right, rear left, rear right.
+
+mod drivetrain;
+mod dyno;
+mod params;
+mod physics;
+mod steering;
+mod tyre;
+mod vehicle;
+
+pub use drivetrain::{
+    Driveline, Gearbox, Pedals, RPM_TO_RAD_S, STANDSTILL_MPS, SpinInput, SpinOutput, apply_brake,
+};
+pub use dyno::{DynoReport, DynoSettings, run_dyno};
+pub use params::{
+    BrakeParams, ChassisParams, ClutchParams, Differential, EngineParams, GearboxParams,
+    MagicFormula, SteeringParams, SuspensionParams, TyreParams, VehicleParams, VehicleParamsError,
+    WheelParams,
+};
+pub use physics::{
+    ContactWith, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics, VEHICLE_GROUP,
+    VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
+};
+pub use steering::{ackermann, slew};
+pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
+pub use vehicle::{
+    Chassis, Controls, Motion, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, SpawnError, VehicleModel,
+    VehicleSpawn, VehicleState, VehicleType, WHEEL_NAMES, WheelState, drive_vehicles, rest_pose,
+    spawn_vehicle, sync_vehicles, track_road,
+};
+
+use bevy_ecs::prelude::*;
+use flockway_core::{Sim, SimPlugin, StepSet};
+use flockway_road::rebuild_roads;
+
+/// The vehicle types most users need.
+pub mod prelude {
+    pub use crate::{
+        Controls, Motion, Physics, RoadTrack, VehicleContact, VehicleModel, VehicleParams,
+        VehiclePlugin, VehicleSpawn, VehicleState, VehicleType,
+    };
+}
+
+/// Adds the rapier world, vehicle forces and the physics step. Needs the road plugin.
+pub struct VehiclePlugin;
+
+/// The vehicle systems, for ordering against: forces in `Actuate`, step and read-back in
+/// `Physics`.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum VehicleSystems {
+    /// Forces and drivetrain.
+    Drive,
+    /// rapier step.
+    Step,
+    /// Reading the new state back.
+    Sync,
+}
+
+impl SimPlugin for VehiclePlugin {
+    fn build(&self, sim: &mut Sim) {
+        sim.add_plugin(flockway_road::RoadPlugin);
+        sim.world_mut().init_resource::<Physics>();
+        sim.world_mut().init_resource::<Messages<VehicleContact>>();
+        sim.add_systems(
+            StepSet::Prepare,
+            (
+                update_contact_messages,
+                rebuild_static_colliders.after(rebuild_roads),
+            ),
+        );
+        sim.add_systems(StepSet::Actuate, drive_vehicles.in_set(VehicleSystems::Drive));
+        sim.add_systems(
+            StepSet::Physics,
+            (
+                step_physics.in_set(VehicleSystems::Step),
+                sync_vehicles.in_set(VehicleSystems::Sync),
+            )
+                .chain(),
+        );
+    }
+}

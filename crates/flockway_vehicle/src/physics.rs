@@ -1,0 +1,378 @@
+//! The rapier world: its settings, the static colliders built from the roads, and contacts as
+//! ECS messages.
+
+use bevy_ecs::prelude::*;
+use flockway_core::DT_S;
+use flockway_road::{GUARDRAIL_HEIGHT_M, RoadId, RoadNetwork};
+use glam::{DVec3, Quat, Vec3};
+use rapier3d::prelude::*;
+use std::sync::Mutex;
+
+/// Collision group of vehicle bodies.
+pub const VEHICLE_GROUP: Group = Group::GROUP_1;
+/// Collision group of guardrails.
+pub const GUARDRAIL_GROUP: Group = Group::GROUP_2;
+/// Collision group of the ground plane under the roads.
+pub const GROUND_GROUP: Group = Group::GROUP_3;
+
+/// Thickness of a guardrail collider, m: thick enough that a car at top speed (0.4 m per step)
+/// cannot pass through it between two steps.
+pub const GUARDRAIL_THICKNESS_M: f32 = 0.6;
+
+/// rapier solver iterations per step.
+pub const SOLVER_ITERATIONS: usize = 2;
+
+/// How far below the lowest road point the ground lies, m.
+pub const GROUND_BELOW_ROADS_M: f32 = 0.05;
+
+/// How far the ground extends beyond the roads' bounding box, m.
+pub const GROUND_MARGIN_M: f32 = 2000.0;
+
+/// Thickness of the ground slab, m.
+const GROUND_THICKNESS_M: f32 = 10.0;
+
+/// Largest distance between a guardrail's polyline and its simplified collider pieces, m.
+pub const GUARDRAIL_TOLERANCE_M: f64 = 0.02;
+
+/// Longest guardrail collider piece, m.
+pub const GUARDRAIL_PIECE_M: f64 = 50.0;
+
+const TAG_SHIFT: u32 = 64;
+const TAG_VEHICLE: u128 = 1;
+const TAG_GUARDRAIL: u128 = 2;
+const TAG_GROUND: u128 = 3;
+
+/// What a vehicle touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactWith {
+    /// Another vehicle.
+    Vehicle(Entity),
+    /// A guardrail of a road.
+    Guardrail(RoadId),
+    /// The ground plane (the body itself, not the wheels: a crash or a roll-over).
+    Ground,
+}
+
+/// A vehicle body started or stopped touching something. A vehicle–vehicle pair gives one
+/// message per change, naming either vehicle as `vehicle`.
+#[derive(Message, Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VehicleContact {
+    /// The vehicle.
+    pub vehicle: Entity,
+    /// What it touched.
+    pub other: ContactWith,
+    /// `true` when the contact began this step, `false` when it ended.
+    pub started: bool,
+}
+
+/// Collects rapier's collision events during a step (rapier calls it through `&self`).
+#[derive(Default)]
+struct EventCollector(Mutex<Vec<CollisionEvent>>);
+
+impl EventHandler for EventCollector {
+    fn handle_collision_event(
+        &self,
+        _bodies: &RigidBodySet,
+        _colliders: &ColliderSet,
+        event: CollisionEvent,
+        _contact_pair: Option<&ContactPair>,
+    ) {
+        if let Ok(mut events) = self.0.lock() {
+            events.push(event);
+        }
+    }
+
+    fn handle_contact_force_event(
+        &self,
+        _dt: Real,
+        _bodies: &RigidBodySet,
+        _colliders: &ColliderSet,
+        _contact_pair: &ContactPair,
+        _total_force_magnitude: Real,
+    ) {
+    }
+
+    fn handle_soft_body_tear_event(&self, _soft_bodies: &SoftBodySet, _event: &SoftBodyTearEvent) {}
+}
+
+/// The rapier world of the simulation, stepped once per tick at 1/120 s with z up.
+#[derive(Resource)]
+pub struct Physics {
+    /// Bodies, colliders and rapier's pipeline state.
+    pub world: PhysicsWorld,
+    events: EventCollector,
+    statics: Vec<ColliderHandle>,
+    ground_z: f32,
+}
+
+impl Default for Physics {
+    fn default() -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vec3::new(0.0, 0.0, -9.81);
+        world.integration_parameters.dt = DT_S as f32;
+        // Bodies touch only in crashes (wheels are ours, not rapier contacts), and no body rests
+        // on another: two solver iterations resolve those contacts, and rapier's default four
+        // cost a sixth of the whole step with 1000 cars (see the README's performance notes).
+        world.integration_parameters.num_solver_iterations = SOLVER_ITERATIONS;
+        Physics {
+            world,
+            events: EventCollector::default(),
+            statics: Vec::new(),
+            ground_z: 0.0,
+        }
+    }
+}
+
+impl Physics {
+    /// Height of the ground plane, m.
+    pub fn ground_z(&self) -> f32 {
+        self.ground_z
+    }
+
+    /// Number of static colliders (guardrail pieces and the ground).
+    pub fn static_colliders(&self) -> usize {
+        self.statics.len()
+    }
+
+    /// Replaces the guardrail and ground colliders with ones built from `network`.
+    pub fn rebuild_statics(&mut self, network: &RoadNetwork) {
+        for h in self.statics.drain(..) {
+            self.world.remove_collider(h);
+        }
+        let mut lo = DVec3::INFINITY;
+        let mut hi = DVec3::NEG_INFINITY;
+        for (id, _) in network.iter() {
+            let Some(meshes) = network.meshes(id) else {
+                continue;
+            };
+            for run in &meshes.guardrail_runs {
+                for (i, j) in simplify(&run.foot, GUARDRAIL_TOLERANCE_M, GUARDRAIL_PIECE_M) {
+                    let (a, b) = (run.foot[i], run.foot[j]);
+                    let up = (run.up[i] + run.up[j]).normalize_or(DVec3::Z);
+                    // Push the box outwards so its inner face lies on the rail line.
+                    let left = (run.left[i] + run.left[j]).normalize_or_zero();
+                    let outward = match run.side {
+                        flockway_road::Side::Left => left,
+                        flockway_road::Side::Right => -left,
+                    };
+                    let along = b - a;
+                    let len = along.length();
+                    if len < 1.0e-6 {
+                        continue;
+                    }
+                    let x = along / len;
+                    let z = (up - x * up.dot(x)).normalize_or(DVec3::Z);
+                    let y = z.cross(x);
+                    let thickness = f64::from(GUARDRAIL_THICKNESS_M);
+                    let centre = (a + b) * 0.5
+                        + z * (GUARDRAIL_HEIGHT_M * 0.5)
+                        + outward * (thickness * 0.5);
+                    let rot = Quat::from_mat3(&glam::Mat3::from_cols(
+                        x.as_vec3(),
+                        y.as_vec3(),
+                        z.as_vec3(),
+                    ));
+                    // Overlap neighbouring pieces slightly so a car sliding along the rail never
+                    // catches an edge between two of them.
+                    let collider = ColliderBuilder::cuboid(
+                        (len * 0.5) as f32 + 0.05,
+                        GUARDRAIL_THICKNESS_M * 0.5,
+                        (GUARDRAIL_HEIGHT_M * 0.5) as f32,
+                    )
+                    .position(Pose::from_parts(centre.as_vec3(), rot))
+                    .collision_groups(InteractionGroups::new(
+                        GUARDRAIL_GROUP,
+                        VEHICLE_GROUP,
+                        InteractionTestMode::And,
+                    ))
+                    .user_data(tag(TAG_GUARDRAIL, u64::from(id.0)))
+                    .build();
+                    self.statics.push(self.world.insert_collider(collider, None));
+                }
+            }
+            for p in &meshes.surface.positions {
+                lo = lo.min(DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+                hi = hi.max(DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+            }
+        }
+        if !lo.is_finite() {
+            lo = DVec3::ZERO;
+            hi = DVec3::ZERO;
+        }
+        self.ground_z = lo.z as f32 - GROUND_BELOW_ROADS_M;
+        // A slab, not a half-space: its bounding box ends at the surface, so cars on the roads
+        // above it form no broad-phase pair with it until they come down to it.
+        let centre = (lo + hi) * 0.5;
+        let half = ((hi - lo) * 0.5).as_vec3() + Vec3::splat(GROUND_MARGIN_M);
+        let ground = ColliderBuilder::cuboid(half.x, half.y, GROUND_THICKNESS_M / 2.0)
+            .translation(Vec3::new(
+                centre.x as f32,
+                centre.y as f32,
+                self.ground_z - GROUND_THICKNESS_M / 2.0,
+            ))
+            .collision_groups(InteractionGroups::new(
+                GROUND_GROUP,
+                VEHICLE_GROUP,
+                InteractionTestMode::And,
+            ))
+            .user_data(tag(TAG_GROUND, 0))
+            .build();
+        self.statics.push(self.world.insert_collider(ground, None));
+    }
+
+    /// Steps rapier once and returns the contacts that began or ended, in rapier's order.
+    pub fn step(&mut self) -> Vec<VehicleContact> {
+        self.world.step_with_events(&(), &self.events);
+        let events = match self.events.0.lock() {
+            Ok(mut e) => std::mem::take(&mut *e),
+            Err(_) => Vec::new(),
+        };
+        let mut out = Vec::with_capacity(events.len());
+        for e in events {
+            let (Some(a), Some(b)) = (
+                self.world.colliders.get(e.collider1()).map(|c| c.user_data),
+                self.world.colliders.get(e.collider2()).map(|c| c.user_data),
+            ) else {
+                continue;
+            };
+            let (a, b) = match (untag(a), untag(b)) {
+                (Some(a), Some(b)) => (a, b),
+                _ => continue,
+            };
+            let (vehicle, other) = match (a, b) {
+                (Tagged::Vehicle(v), o) | (o, Tagged::Vehicle(v)) => (v, o),
+                _ => continue,
+            };
+            let other = match other {
+                Tagged::Vehicle(o) => ContactWith::Vehicle(o),
+                Tagged::Guardrail(r) => ContactWith::Guardrail(r),
+                Tagged::Ground => ContactWith::Ground,
+            };
+            out.push(VehicleContact {
+                vehicle,
+                other,
+                started: e.started(),
+            });
+        }
+        out
+    }
+
+    /// Casts a ray at the ground and guardrails: `(distance, normal)` of the first hit. Used
+    /// for wheels with no road under them.
+    pub fn cast_ground(&self, origin: Vec3, dir: Vec3, max_m: f32) -> Option<(f32, Vec3)> {
+        let filter = QueryFilter::only_fixed().groups(InteractionGroups::new(
+            VEHICLE_GROUP,
+            GROUND_GROUP | GUARDRAIL_GROUP,
+            InteractionTestMode::And,
+        ));
+        self.world
+            .cast_ray_and_get_normal(&Ray::new(origin, dir), max_m, true, filter)
+            .map(|(_, hit)| (hit.time_of_impact, hit.normal))
+    }
+}
+
+/// Splits a polyline into pieces `(first, last)` of point indices, each as long as it can be
+/// (up to `max_len_m`) while every point it skips lies within `tolerance_m` of its chord.
+/// Guardrails are sampled every metre for drawing; as colliders, straight runs need few pieces.
+pub fn simplify(points: &[DVec3], tolerance_m: f64, max_len_m: f64) -> Vec<(usize, usize)> {
+    let mut pieces = Vec::new();
+    let mut start = 0;
+    while start + 1 < points.len() {
+        let mut end = start + 1;
+        while end + 1 < points.len() {
+            let candidate = end + 1;
+            let (a, b) = (points[start], points[candidate]);
+            let chord = b - a;
+            let len = chord.length();
+            if len > max_len_m {
+                break;
+            }
+            let fits = (start + 1..candidate).all(|k| {
+                let p = points[k] - a;
+                let t = if len > 0.0 { p.dot(chord) / (len * len) } else { 0.0 };
+                (p - chord * t.clamp(0.0, 1.0)).length() <= tolerance_m
+            });
+            if !fits {
+                break;
+            }
+            end = candidate;
+        }
+        pieces.push((start, end));
+        start = end;
+    }
+    pieces
+}
+
+/// The user-data tag of a vehicle's collider.
+pub(crate) fn vehicle_tag(entity: Entity) -> u128 {
+    tag(TAG_VEHICLE, entity.to_bits())
+}
+
+fn tag(kind: u128, value: u64) -> u128 {
+    (kind << TAG_SHIFT) | u128::from(value)
+}
+
+enum Tagged {
+    Vehicle(Entity),
+    Guardrail(RoadId),
+    Ground,
+}
+
+fn untag(data: u128) -> Option<Tagged> {
+    let value = data as u64;
+    match data >> TAG_SHIFT {
+        TAG_VEHICLE => Entity::try_from_bits(value).map(Tagged::Vehicle),
+        TAG_GUARDRAIL => Some(Tagged::Guardrail(RoadId(value as u32))),
+        TAG_GROUND => Some(Tagged::Ground),
+        _ => None,
+    }
+}
+
+/// Rebuilds the static colliders when the road network changes.
+pub fn rebuild_static_colliders(network: Res<RoadNetwork>, mut physics: ResMut<Physics>) {
+    if network.is_changed() {
+        physics.rebuild_statics(&network);
+    }
+}
+
+/// Steps rapier and publishes its contact changes.
+pub fn step_physics(mut physics: ResMut<Physics>, mut contacts: MessageWriter<VehicleContact>) {
+    let events = physics.step();
+    contacts.write_batch(events);
+}
+
+/// Moves the contact message buffers on by one tick (messages live two ticks).
+pub fn update_contact_messages(mut messages: ResMut<Messages<VehicleContact>>) {
+    messages.update();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simplify_keeps_straight_runs_in_few_pieces_and_curves_within_tolerance() {
+        let line: Vec<DVec3> = (0..=200).map(|i| DVec3::new(f64::from(i), 0.0, 0.0)).collect();
+        let pieces = simplify(&line, 0.02, 50.0);
+        assert_eq!(pieces, vec![(0, 50), (50, 100), (100, 150), (150, 200)]);
+        let r = 30.0;
+        let arc: Vec<DVec3> = (0..=90)
+            .map(|i| {
+                let a = f64::from(i).to_radians();
+                DVec3::new(r * a.cos(), r * a.sin(), 0.0)
+            })
+            .collect();
+        let pieces = simplify(&arc, 0.02, 50.0);
+        assert!(pieces.len() > 5 && pieces.len() < 40, "{}", pieces.len());
+        assert_eq!(pieces.first().map(|p| p.0), Some(0));
+        assert_eq!(pieces.last().map(|p| p.1), Some(90));
+        for w in pieces.windows(2) {
+            assert_eq!(w[0].1, w[1].0, "pieces are contiguous");
+        }
+        // Sagitta of each piece within the tolerance.
+        for (i, j) in pieces {
+            let half_angle = ((j - i) as f64).to_radians() / 2.0;
+            assert!(r * (1.0 - half_angle.cos()) <= 0.02 + 1e-9);
+        }
+    }
+}
