@@ -235,3 +235,57 @@ fn the_summary_is_readable_by_jq_when_jq_is_installed() {
         "dense_road\n7200\ntrue\n2\n"
     );
 }
+
+#[test]
+fn dyno_json_has_exactly_the_contract_keys_and_the_reference_figures() {
+    let out = flockway(&["dyno", "assets/vehicles/sedan.ron", "--json"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("dyno --json prints one JSON object");
+    let obj = v.as_object().expect("an object");
+    let mut keys: Vec<&str> = obj.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(
+        keys,
+        [
+            "braking_100_0_m",
+            "max_lateral_g",
+            "standstill_drift_m",
+            "top_speed_kmh",
+            "zero_to_100_kmh_s"
+        ]
+    );
+    let get = |k: &str| obj[k].as_f64().unwrap_or(f64::NAN);
+    assert!((9.0..=11.0).contains(&get("zero_to_100_kmh_s")), "{v}");
+    assert!((168.0..=178.0).contains(&get("top_speed_kmh")), "{v}");
+    assert!((33.0..=45.0).contains(&get("braking_100_0_m")), "{v}");
+    assert!((0.75..=1.0).contains(&get("max_lateral_g")), "{v}");
+    assert!(get("standstill_drift_m") < 0.01, "{v}");
+    // Without a file it measures the same reference car, as a table.
+    let out = flockway(&["dyno"]);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    for row in ["0-100 km/h", "top speed", "braking 100-0 km/h", "max lateral", "standstill drift"] {
+        assert!(table.contains(row), "table lacks {row}:\n{table}");
+    }
+}
+
+#[test]
+fn dyno_rejects_a_bad_vehicle_file_with_its_position() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("broken.ron");
+    std::fs::write(&path, "(\n  name: \"broken\",\n  wheels: (radius_m: \"big\"),\n)\n")
+        .expect("write");
+    let out = flockway(&["dyno", path.to_str().expect("utf-8 path")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("broken.ron:3:"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let path = dir.path().join("negative.ron");
+    std::fs::write(&path, "(chassis: (mass_kg: -1.0))").expect("write");
+    let out = flockway(&["dyno", path.to_str().expect("utf-8 path")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("chassis.mass_kg"), "{stderr}");
+}

@@ -3,7 +3,8 @@
 use crate::{RngStreams, RunStats, SimClock, Tick, count_vehicles};
 use bevy_ecs::{
     schedule::{
-        IntoScheduleConfigs, LogLevel, Schedule, ScheduleBuildSettings, ScheduleLabel, SystemSet,
+        IntoScheduleConfigs, LogLevel, Schedule, ScheduleBuildSettings, ScheduleLabel,
+        SingleThreadedExecutor, SystemSet,
     },
     system::ScheduleSystem,
     world::World,
@@ -79,6 +80,10 @@ impl Sim {
         world.insert_resource(RngStreams::new(seed));
         world.init_resource::<RunStats>();
         let mut schedule = Schedule::new(FixedStep);
+        // Systems run one after another in their fixed order; parallelism lives inside systems
+        // that split independent per-entity work over the task pool (`par_iter`).
+        schedule.set_executor(SingleThreadedExecutor::new());
+        bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
         // Two systems that touch the same data without an order between them could run either way
         // round, which would make results depend on the scheduler: refuse to build such a step.
         schedule.set_build_settings(ScheduleBuildSettings {

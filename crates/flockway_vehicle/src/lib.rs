@@ -37,7 +37,7 @@ pub use physics::{
 pub use steering::{ackermann, slew};
 pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
 pub use vehicle::{
-    Chassis, Controls, Motion, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, SpawnError, VehicleModel,
+    BodyForces, PARALLEL_MIN_VEHICLES, apply_body_forces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, SpawnError, VehicleModel,
     VehicleSpawn, VehicleState, VehicleType, WHEEL_NAMES, WheelState, drive_vehicles, rest_pose,
     spawn_vehicle, sync_vehicles, track_road,
 };
@@ -81,7 +81,12 @@ impl SimPlugin for VehiclePlugin {
                 rebuild_static_colliders.after(rebuild_roads),
             ),
         );
-        sim.add_systems(StepSet::Actuate, drive_vehicles.in_set(VehicleSystems::Drive));
+        sim.add_systems(
+            StepSet::Actuate,
+            (drive_vehicles, apply_body_forces)
+                .chain()
+                .in_set(VehicleSystems::Drive),
+        );
         sim.add_systems(
             StepSet::Physics,
             (

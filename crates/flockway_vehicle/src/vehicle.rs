@@ -364,6 +364,7 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
             state,
             motion,
             track,
+            BodyForces::default(),
         ))
         .id();
     let c = &p.chassis;
@@ -437,348 +438,399 @@ fn axle_frame(network: &RoadNetwork, track: &RoadTrack, offset_m: f32) -> Option
     Some(network.get(road)?.frame_at(s))
 }
 
-/// Computes suspension, tyre, drag and drivetrain forces for every vehicle, applies them to the
-/// rapier bodies (replacing last tick's) and advances wheel spin, engine and gearbox.
+/// The force and torque on one vehicle's body this tick (suspension, tyres, drag), advancing
+/// its wheels, engine, gearbox and steering. Reads the physics world only, so vehicles can be
+/// computed in parallel; `None` if its body is gone.
+fn vehicle_forces(
+    physics: &Physics,
+    network: &RoadNetwork,
+    controls: &Controls,
+    model: &VehicleModel,
+    chassis: &Chassis,
+    track: &RoadTrack,
+    state: &mut VehicleState,
+) -> Option<(Vec3, Vec3)> {
+    let h = DT_S as f32;
+    let body = physics.world.bodies.get(chassis.body)?;
+    let t: &VehicleType = &model.0;
+    let p = &t.params;
+    let pose = *body.position();
+    let com = pose.translation;
+    let rot = pose.rotation;
+    let v = body.linvel();
+    let w = body.angvel();
+    let fwd = rot * Vec3::X;
+    let up = rot * Vec3::Z;
+    let down = -up;
+    let forward_mps = v.dot(fwd);
+
+    // Gearbox and clutch. Shifts follow the wheels' speed through the gear, not the
+    // (possibly slipping) engine.
+    let shares = t.driveline.shares;
+    let wbar: f32 = (0..4).map(|i| shares[i] * state.wheels[i].omega).sum();
+    let ratio_now = state.gearbox.ratio(&p.gearbox);
+    let input_rpm = (wbar * ratio_now).abs() / RPM_TO_RAD_S;
+    let pedals = state
+        .gearbox
+        .update(&p.gearbox, controls.throttle, forward_mps, input_rpm, h);
+    let ratio = state.gearbox.ratio(&p.gearbox);
+    let input_rpm = (wbar * ratio).abs() / RPM_TO_RAD_S;
+    let clutch = if state.gearbox.shifting() || ratio == 0.0 {
+        0.0
+    } else if input_rpm >= p.engine.idle_rpm {
+        1.0
+    } else {
+        // Pulling away: the automatic clutch slips in proportion to the accelerator, and is
+        // open with no accelerator, so a car at rest does not creep.
+        pedals.accelerator
+    };
+
+    // Steering.
+    state.steer = slew(state.steer, controls.steering, p.steering.rate_per_s, h);
+    let centre = p
+        .steering
+        .center_angle_rad(state.steer, forward_mps.abs() * 3.6);
+    let (steer_l, steer_r) = ackermann(centre, p.wheels.wheelbase_m, p.wheels.track_m);
+    let steer = [steer_l, steer_r, 0.0, 0.0];
+
+    // Road frames under the two axles (one exact spline evaluation each).
+    let axle_x = [t.mounts_cs[0].x, t.mounts_cs[2].x];
+    let frames = [
+        axle_frame(&network, &track, axle_x[0]),
+        axle_frame(&network, &track, axle_x[1]),
+    ];
+
+    // Suspension: spring, damper and bump stop along the surface normal.
+    let travel = p.suspension.travel_m;
+    let k = p.suspension.stiffness_n_per_m;
+    let c = p.suspension.damping_n_s_per_m;
+    let r = p.wheels.radius_m;
+    let mut surfaces: [Option<Surface>; 4] = [None; 4];
+    let mut compression = [0.0f32; 4];
+    let mut spring = [0.0f32; 4];
+    for i in 0..4 {
+        let mount = com + rot * t.mounts_cs[i];
+        let surface = match &frames[i / 2] {
+            Some(frame) => {
+                let origin = frame.pos.as_vec3();
+                let n = frame.up.as_vec3();
+                let dn = down.dot(n);
+                let lateral = f64::from((mount - origin).dot(frame.left.as_vec3()));
+                let dist = (origin - mount).dot(n) / dn;
+                // A wheel far above or below this surface (a bridge overhead, a fall) is not
+                // on it.
+                if dn < -0.2
+                    && lateral.abs() <= frame.width_m / 2.0 + SHOULDER_M
+                    && (0.0..=travel + r + 0.5).contains(&dist)
+                {
+                    Some((
+                        dist,
+                        Surface {
+                            point: mount + down * dist,
+                            normal: n,
+                            friction: 1.0,
+                        },
+                    ))
+                } else {
+                    None
+                }
+            }
+            None => None,
+        };
+        // No road under this wheel: ask rapier for the ground (off-road, after a crash).
+        let surface = surface.or_else(|| {
+            physics
+                .cast_ground(mount, down, travel + r + 0.5)
+                .map(|(dist, n)| {
+                    (
+                        dist,
+                        Surface {
+                            point: mount + down * dist,
+                            normal: n,
+                            friction: OFF_ROAD_FRICTION,
+                        },
+                    )
+                })
+        });
+        if let Some((dist, s)) = surface {
+            let x = travel - (dist - r);
+            if x > 0.0 {
+                let vm = v + w.cross(mount - com);
+                let x_dot = vm.dot(s.normal) / down.dot(s.normal);
+                let mut f = k * x + c * x_dot;
+                if x > travel {
+                    f += BUMP_STOP_FACTOR * k * (x - travel);
+                }
+                spring[i] = f.max(0.0);
+                compression[i] = x;
+                surfaces[i] = Some(s);
+            }
+        }
+    }
+    // Anti-roll bars move load from the less to the more compressed side of an axle.
+    for axle in 0..2 {
+        let (l, rr) = (2 * axle, 2 * axle + 1);
+        let arb = p.suspension.anti_roll_n_per_m * (compression[l] - compression[rr]);
+        if surfaces[l].is_some() {
+            spring[l] = (spring[l] + arb).max(0.0);
+        }
+        if surfaces[rr].is_some() {
+            spring[rr] = (spring[rr] - arb).max(0.0);
+        }
+    }
+
+    // Tyres: forces at the current slips, with the longitudinal one linearised in wheel
+    // speed for the implicit spin update below.
+    let mass = p.chassis.mass_kg;
+    let iw = t.driveline.wheel_inertia;
+    // A quarter of the car's mass moves with each contact patch.
+    let m_eff = mass / 4.0;
+    let mut long = [0.0f32; 4];
+    let mut slope = [0.0f32; 4];
+    let mut vx_at = [0.0f32; 4];
+    let mut grip_at = [0.0f32; 4];
+    let mut dirs = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); 4];
+    // Longitudinal force that would hold each contact still this step.
+    let mut hold_x = [0.0f32; 4];
+    // Gravity along the road, summed over the grounded wheels' shares.
+    let mut slope_pull = 0.0f32;
+    let mut brake_nm = [0.0f32; 4];
+    for i in 0..4 {
+        let ws = &mut state.wheels[i];
+        ws.steer_rad = steer[i];
+        ws.compression_m = compression[i];
+        ws.load_n = spring[i];
+        let Some(s) = surfaces[i] else {
+            ws.grounded = false;
+            ws.slip_ratio = 0.0;
+            ws.slip_angle_rad = 0.0;
+            ws.force_long_n = 0.0;
+            ws.force_lat_n = 0.0;
+            continue;
+        };
+        ws.grounded = true;
+        let n = s.normal;
+        let heading = rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0);
+        let f_dir = (heading - n * heading.dot(n)).normalize_or_zero();
+        let l_dir = n.cross(f_dir);
+        let arm = s.point - com;
+        let vc = v + w.cross(arm);
+        let vx = vc.dot(f_dir);
+        let vy = vc.dot(l_dir);
+        let v_ref = vx.abs().max(p.tyres.low_speed_mps);
+        let slip_ratio = (ws.omega * r - vx) / v_ref;
+        // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
+        // within 2 % below 14°, and it needs no arctangent.
+        let slip_angle = vy / v_ref;
+        let (cx, cy, dcx) = t.tyre.forces(slip_ratio, slip_angle);
+        let grip = ws.friction_scale * s.friction * ws.load_n;
+        // The lateral force may stop the sideways slide within this step but not reverse it:
+        // at low speed the tyre's slope is far too stiff for an explicit step. Near a
+        // standstill the tyre holds like static friction: it stops the slide and carries the
+        // wheel's share of gravity along the slope, so a parked car on a bank does not creep.
+        let gravity_share = m_eff * GRAVITY;
+        let fy = if vx.abs() < p.tyres.low_speed_mps {
+            let peak = grip * t.tyre.friction;
+            (-m_eff * vy / h - gravity_share.dot(l_dir)).clamp(-peak, peak)
+        } else {
+            clamp_towards(cy * grip, -vy * m_eff / h)
+        };
+        hold_x[i] = -m_eff * vx / h;
+        slope_pull += gravity_share.dot(f_dir);
+        ws.slip_ratio = slip_ratio;
+        ws.slip_angle_rad = slip_angle;
+        ws.force_lat_n = fy;
+        long[i] = cx * grip;
+        // Linearise with the steeper of the tangent and the secant to the zero-slip point:
+        // past the peak the tangent is flat, and an update using it would carry the wheel
+        // straight through rolling speed into the opposite slip.
+        let tangent = grip * dcx * r / v_ref;
+        let rolling_omega = vx / r;
+        let secant = if (ws.omega - rolling_omega).abs() > 1.0e-6 {
+            (cx * grip / (ws.omega - rolling_omega)).max(0.0)
+        } else {
+            0.0
+        };
+        slope[i] = tangent.max(secant);
+        vx_at[i] = vx;
+        grip_at[i] = grip * t.tyre.friction;
+        dirs[i] = (n, f_dir, l_dir, arm);
+    }
+
+    // Brakes and rolling resistance act first (they hold a wheel, never spin it backwards),
+    // then wheel spin, engine and clutch are solved implicitly together with the tyres.
+    let omega_now = state.wheels.map(|w| w.omega);
+    let mut omega_braked = omega_now;
+    for i in 0..4 {
+        let ws = &state.wheels[i];
+        let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
+        if p.brakes.abs && forward_mps.abs() > 1.0 {
+            // ABS holds the slip near the tyre's peak: full torque up to 70 % of the peak
+            // slip, released linearly to none at 130 %, and never more than the tyre can
+            // pass to the road.
+            let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
+            let release = 1.0 - excess.clamp(0.0, 1.0);
+            brake = (brake * release).min(grip_at[i] * r);
+        }
+        if controls.handbrake && i >= 2 {
+            brake += p.brakes.max_handbrake_torque_nm;
+        }
+        brake += p.chassis.rolling_resistance * ws.load_n * r;
+        brake_nm[i] = brake;
+        omega_braked[i] = apply_brake(omega_now[i], brake, iw, h);
+    }
+    let spin = t.driveline.spin(
+        &p.engine,
+        &SpinInput {
+            omega: omega_braked,
+            omega_tyre: omega_now,
+            tyre_force_n: long,
+            tyre_slope: slope,
+            engine_omega: state.engine_omega,
+            accelerator: if state.gearbox.shifting() { 0.0 } else { pedals.accelerator },
+            ratio,
+            clutch,
+        },
+        h,
+    );
+    state.engine_omega = spin.engine_omega;
+    if state.gearbox.shifting() {
+        // The gearbox synchronises the engine to the gear it is shifting into, so the clutch
+        // closes without a jolt.
+        let target_ratio = Gearbox::ratio_of(&p.gearbox, state.gearbox.target);
+        let target = (wbar * target_ratio)
+            .abs()
+            .clamp(t.driveline.idle_omega, t.driveline.max_omega);
+        let left = state.gearbox.shift_left_s.max(h);
+        state.engine_omega += (target - state.engine_omega) * (h / left).min(1.0);
+    }
+    state.clutch = clutch;
+    state.pedals = pedals;
+
+    // Braked wheels at a standstill hold the car by static friction, sharing between them
+    // the pull of gravity along the slope (the free-rolling wheels carry none of it).
+    let mut holding: [bool; 4] = std::array::from_fn(|i| {
+        state.wheels[i].grounded
+            && vx_at[i].abs() < p.tyres.low_speed_mps
+            && spin.omega[i].abs() * r < p.tyres.low_speed_mps
+            && brake_nm[i] > spin.drive_torque_nm[i].abs()
+    });
+    let mut holders = 1.0f32;
+    // A wheel whose brake cannot carry its share drops out and the others share more; four
+    // rounds settle any combination of four wheels.
+    for _ in 0..4 {
+        holders = holding.iter().filter(|&&b| b).count().max(1) as f32;
+        let before = holding;
+        for i in 0..4 {
+            let need = (hold_x[i] - slope_pull / holders).abs() * r;
+            holding[i] &= need <= brake_nm[i] - spin.drive_torque_nm[i].abs();
+        }
+        if holding == before {
+            break;
+        }
+    }
+    let mut force = Vec3::ZERO;
+    let mut torque = Vec3::ZERO;
+    for i in 0..4 {
+        let ws = &mut state.wheels[i];
+        ws.drive_torque_nm = spin.drive_torque_nm[i];
+        ws.omega = spin.omega[i];
+        if !ws.grounded {
+            continue;
+        }
+        let hold = hold_x[i] - slope_pull / holders;
+        let (n, f_dir, l_dir, arm) = dirs[i];
+        // Keep the longitudinal force inside the friction ellipse left by the lateral one,
+        // and never let it push the car past the wheel's own rolling speed in one step.
+        let peak = grip_at[i];
+        let room = (peak * peak - ws.force_lat_n * ws.force_lat_n).max(0.0).sqrt();
+        let linear = spin.tyre_force_n[i];
+        let fx = if holding[i]
+            && hold.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
+            && hold.abs() <= room
+        {
+            ws.omega = 0.0;
+            hold
+        } else {
+            let fx = clamp_towards(
+                linear.clamp(-room, room),
+                (ws.omega * r - vx_at[i]) * m_eff / h,
+            );
+            // What the wheel did not pass to the road stays in its spin.
+            ws.omega += h * r * (linear - fx) / iw;
+            fx
+        };
+        ws.force_long_n = fx;
+        let f = n * ws.load_n + f_dir * fx + l_dir * ws.force_lat_n;
+        force += f;
+        torque += arm.cross(f);
+    }
+    // Aerodynamic drag at the centre of mass.
+    let ch = &p.chassis;
+    let speed = v.length();
+    force -= v * (0.5 * ch.air_density_kg_m3 * ch.drag_coefficient * ch.frontal_area_m2 * speed);
+    Some((force, torque))
+}
+
+/// The force and torque a vehicle puts on its rapier body this tick.
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
+pub struct BodyForces {
+    /// Total force at the centre of mass, N (gravity excluded: rapier adds it).
+    pub force: Vec3,
+    /// Total torque about the centre of mass, N·m.
+    pub torque: Vec3,
+}
+
+/// Below this many vehicles the force computation runs on one thread: spreading a handful of
+/// cars over the task pool costs more than it saves.
+pub const PARALLEL_MIN_VEHICLES: usize = 128;
+
+/// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
+/// spin, engine and gearbox. Each vehicle reads only the physics world and writes only its own
+/// components, so they run in parallel on the task pool with results independent of threads.
 pub fn drive_vehicles(
-    mut physics: ResMut<Physics>,
+    physics: Res<Physics>,
     network: Res<RoadNetwork>,
     mut vehicles: Query<(
         &Controls,
         &VehicleModel,
         &Chassis,
-        &mut RoadTrack,
+        &RoadTrack,
         &mut VehicleState,
+        &mut BodyForces,
     )>,
 ) {
-    let h = DT_S as f32;
-    for (controls, model, chassis, track, mut state) in &mut vehicles {
-        let Some(body) = physics.world.bodies.get(chassis.body) else {
-            continue;
-        };
-        let t: &VehicleType = &model.0;
-        let p = &t.params;
-        let pose = *body.position();
-        let com = pose.translation;
-        let rot = pose.rotation;
-        let v = body.linvel();
-        let w = body.angvel();
-        let fwd = rot * Vec3::X;
-        let up = rot * Vec3::Z;
-        let down = -up;
-        let forward_mps = v.dot(fwd);
+    let physics: &Physics = &physics;
+    let network: &RoadNetwork = &network;
+    let run = |(controls, model, chassis, track, mut state, mut out): (
+        &Controls,
+        &VehicleModel,
+        &Chassis,
+        &RoadTrack,
+        Mut<VehicleState>,
+        Mut<BodyForces>,
+    )| {
+        let (force, torque) =
+            vehicle_forces(physics, network, controls, model, chassis, track, &mut state)
+                .unwrap_or_default();
+        *out = BodyForces { force, torque };
+    };
+    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+        vehicles.iter_mut().for_each(run);
+    } else {
+        vehicles.par_iter_mut().for_each(run);
+    }
+}
 
-        // Gearbox and clutch. Shifts follow the wheels' speed through the gear, not the
-        // (possibly slipping) engine.
-        let shares = t.driveline.shares;
-        let wbar: f32 = (0..4).map(|i| shares[i] * state.wheels[i].omega).sum();
-        let ratio_now = state.gearbox.ratio(&p.gearbox);
-        let input_rpm = (wbar * ratio_now).abs() / RPM_TO_RAD_S;
-        let pedals = state
-            .gearbox
-            .update(&p.gearbox, controls.throttle, forward_mps, input_rpm, h);
-        let ratio = state.gearbox.ratio(&p.gearbox);
-        let input_rpm = (wbar * ratio).abs() / RPM_TO_RAD_S;
-        let clutch = if state.gearbox.shifting() || ratio == 0.0 {
-            0.0
-        } else if input_rpm >= p.engine.idle_rpm {
-            1.0
-        } else {
-            // Pulling away: the automatic clutch slips in proportion to the accelerator, and is
-            // open with no accelerator, so a car at rest does not creep.
-            pedals.accelerator
-        };
-
-        // Steering.
-        state.steer = slew(state.steer, controls.steering, p.steering.rate_per_s, h);
-        let centre = p
-            .steering
-            .center_angle_rad(state.steer, forward_mps.abs() * 3.6);
-        let (steer_l, steer_r) = ackermann(centre, p.wheels.wheelbase_m, p.wheels.track_m);
-        let steer = [steer_l, steer_r, 0.0, 0.0];
-
-        // Road frames under the two axles (one exact spline evaluation each).
-        let axle_x = [t.mounts_cs[0].x, t.mounts_cs[2].x];
-        let frames = [
-            axle_frame(&network, &track, axle_x[0]),
-            axle_frame(&network, &track, axle_x[1]),
-        ];
-
-        // Suspension: spring, damper and bump stop along the surface normal.
-        let travel = p.suspension.travel_m;
-        let k = p.suspension.stiffness_n_per_m;
-        let c = p.suspension.damping_n_s_per_m;
-        let r = p.wheels.radius_m;
-        let mut surfaces: [Option<Surface>; 4] = [None; 4];
-        let mut compression = [0.0f32; 4];
-        let mut spring = [0.0f32; 4];
-        for i in 0..4 {
-            let mount = com + rot * t.mounts_cs[i];
-            let surface = match &frames[i / 2] {
-                Some(frame) => {
-                    let origin = frame.pos.as_vec3();
-                    let n = frame.up.as_vec3();
-                    let dn = down.dot(n);
-                    let lateral = f64::from((mount - origin).dot(frame.left.as_vec3()));
-                    let dist = (origin - mount).dot(n) / dn;
-                    // A wheel far above or below this surface (a bridge overhead, a fall) is not
-                    // on it.
-                    if dn < -0.2
-                        && lateral.abs() <= frame.width_m / 2.0 + SHOULDER_M
-                        && (0.0..=travel + r + 0.5).contains(&dist)
-                    {
-                        Some((
-                            dist,
-                            Surface {
-                                point: mount + down * dist,
-                                normal: n,
-                                friction: 1.0,
-                            },
-                        ))
-                    } else {
-                        None
-                    }
-                }
-                None => None,
-            };
-            // No road under this wheel: ask rapier for the ground (off-road, after a crash).
-            let surface = surface.or_else(|| {
-                physics
-                    .cast_ground(mount, down, travel + r + 0.5)
-                    .map(|(dist, n)| {
-                        (
-                            dist,
-                            Surface {
-                                point: mount + down * dist,
-                                normal: n,
-                                friction: OFF_ROAD_FRICTION,
-                            },
-                        )
-                    })
-            });
-            if let Some((dist, s)) = surface {
-                let x = travel - (dist - r);
-                if x > 0.0 {
-                    let vm = v + w.cross(mount - com);
-                    let x_dot = vm.dot(s.normal) / down.dot(s.normal);
-                    let mut f = k * x + c * x_dot;
-                    if x > travel {
-                        f += BUMP_STOP_FACTOR * k * (x - travel);
-                    }
-                    spring[i] = f.max(0.0);
-                    compression[i] = x;
-                    surfaces[i] = Some(s);
-                }
-            }
-        }
-        // Anti-roll bars move load from the less to the more compressed side of an axle.
-        for axle in 0..2 {
-            let (l, rr) = (2 * axle, 2 * axle + 1);
-            let arb = p.suspension.anti_roll_n_per_m * (compression[l] - compression[rr]);
-            if surfaces[l].is_some() {
-                spring[l] = (spring[l] + arb).max(0.0);
-            }
-            if surfaces[rr].is_some() {
-                spring[rr] = (spring[rr] - arb).max(0.0);
-            }
-        }
-
-        // Tyres: forces at the current slips, with the longitudinal one linearised in wheel
-        // speed for the implicit spin update below.
-        let mass = p.chassis.mass_kg;
-        let iw = t.driveline.wheel_inertia;
-        // A quarter of the car's mass moves with each contact patch.
-        let m_eff = mass / 4.0;
-        let mut long = [0.0f32; 4];
-        let mut slope = [0.0f32; 4];
-        let mut vx_at = [0.0f32; 4];
-        let mut grip_at = [0.0f32; 4];
-        let mut dirs = [(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); 4];
-        // Longitudinal force that would hold each contact still this step.
-        let mut hold_x = [0.0f32; 4];
-        // Gravity along the road, summed over the grounded wheels' shares.
-        let mut slope_pull = 0.0f32;
-        let mut brake_nm = [0.0f32; 4];
-        for i in 0..4 {
-            let ws = &mut state.wheels[i];
-            ws.steer_rad = steer[i];
-            ws.compression_m = compression[i];
-            ws.load_n = spring[i];
-            let Some(s) = surfaces[i] else {
-                ws.grounded = false;
-                ws.slip_ratio = 0.0;
-                ws.slip_angle_rad = 0.0;
-                ws.force_long_n = 0.0;
-                ws.force_lat_n = 0.0;
-                continue;
-            };
-            ws.grounded = true;
-            let n = s.normal;
-            let heading = rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0);
-            let f_dir = (heading - n * heading.dot(n)).normalize_or_zero();
-            let l_dir = n.cross(f_dir);
-            let arm = s.point - com;
-            let vc = v + w.cross(arm);
-            let vx = vc.dot(f_dir);
-            let vy = vc.dot(l_dir);
-            let v_ref = vx.abs().max(p.tyres.low_speed_mps);
-            let slip_ratio = (ws.omega * r - vx) / v_ref;
-            // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
-            // within 2 % below 14°, and it needs no arctangent.
-            let slip_angle = vy / v_ref;
-            let (cx, cy, dcx) = t.tyre.forces(slip_ratio, slip_angle);
-            let grip = ws.friction_scale * s.friction * ws.load_n;
-            // The lateral force may stop the sideways slide within this step but not reverse it:
-            // at low speed the tyre's slope is far too stiff for an explicit step. Near a
-            // standstill the tyre holds like static friction: it stops the slide and carries the
-            // wheel's share of gravity along the slope, so a parked car on a bank does not creep.
-            let gravity_share = m_eff * GRAVITY;
-            let fy = if vx.abs() < p.tyres.low_speed_mps {
-                let peak = grip * t.tyre.friction;
-                (-m_eff * vy / h - gravity_share.dot(l_dir)).clamp(-peak, peak)
-            } else {
-                clamp_towards(cy * grip, -vy * m_eff / h)
-            };
-            hold_x[i] = -m_eff * vx / h;
-            slope_pull += gravity_share.dot(f_dir);
-            ws.slip_ratio = slip_ratio;
-            ws.slip_angle_rad = slip_angle;
-            ws.force_lat_n = fy;
-            long[i] = cx * grip;
-            // Linearise with the steeper of the tangent and the secant to the zero-slip point:
-            // past the peak the tangent is flat, and an update using it would carry the wheel
-            // straight through rolling speed into the opposite slip.
-            let tangent = grip * dcx * r / v_ref;
-            let rolling_omega = vx / r;
-            let secant = if (ws.omega - rolling_omega).abs() > 1.0e-6 {
-                (cx * grip / (ws.omega - rolling_omega)).max(0.0)
-            } else {
-                0.0
-            };
-            slope[i] = tangent.max(secant);
-            vx_at[i] = vx;
-            grip_at[i] = grip * t.tyre.friction;
-            dirs[i] = (n, f_dir, l_dir, arm);
-        }
-
-        // Brakes and rolling resistance act first (they hold a wheel, never spin it backwards),
-        // then wheel spin, engine and clutch are solved implicitly together with the tyres.
-        let omega_now = state.wheels.map(|w| w.omega);
-        let mut omega_braked = omega_now;
-        for i in 0..4 {
-            let ws = &state.wheels[i];
-            let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
-            if p.brakes.abs && forward_mps.abs() > 1.0 {
-                // ABS holds the slip near the tyre's peak: full torque up to 70 % of the peak
-                // slip, released linearly to none at 130 %, and never more than the tyre can
-                // pass to the road.
-                let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
-                let release = 1.0 - excess.clamp(0.0, 1.0);
-                brake = (brake * release).min(grip_at[i] * r);
-            }
-            if controls.handbrake && i >= 2 {
-                brake += p.brakes.max_handbrake_torque_nm;
-            }
-            brake += p.chassis.rolling_resistance * ws.load_n * r;
-            brake_nm[i] = brake;
-            omega_braked[i] = apply_brake(omega_now[i], brake, iw, h);
-        }
-        let spin = t.driveline.spin(
-            &p.engine,
-            &SpinInput {
-                omega: omega_braked,
-                omega_tyre: omega_now,
-                tyre_force_n: long,
-                tyre_slope: slope,
-                engine_omega: state.engine_omega,
-                accelerator: if state.gearbox.shifting() { 0.0 } else { pedals.accelerator },
-                ratio,
-                clutch,
-            },
-            h,
-        );
-        state.engine_omega = spin.engine_omega;
-        if state.gearbox.shifting() {
-            // The gearbox synchronises the engine to the gear it is shifting into, so the clutch
-            // closes without a jolt.
-            let target_ratio = Gearbox::ratio_of(&p.gearbox, state.gearbox.target);
-            let target = (wbar * target_ratio)
-                .abs()
-                .clamp(t.driveline.idle_omega, t.driveline.max_omega);
-            let left = state.gearbox.shift_left_s.max(h);
-            state.engine_omega += (target - state.engine_omega) * (h / left).min(1.0);
-        }
-        state.clutch = clutch;
-        state.pedals = pedals;
-
-        // Braked wheels at a standstill hold the car by static friction, sharing between them
-        // the pull of gravity along the slope (the free-rolling wheels carry none of it).
-        let mut holding: [bool; 4] = std::array::from_fn(|i| {
-            state.wheels[i].grounded
-                && vx_at[i].abs() < p.tyres.low_speed_mps
-                && spin.omega[i].abs() * r < p.tyres.low_speed_mps
-                && brake_nm[i] > spin.drive_torque_nm[i].abs()
-        });
-        let mut holders = 1.0f32;
-        // A wheel whose brake cannot carry its share drops out and the others share more; four
-        // rounds settle any combination of four wheels.
-        for _ in 0..4 {
-            holders = holding.iter().filter(|&&b| b).count().max(1) as f32;
-            let before = holding;
-            for i in 0..4 {
-                let need = (hold_x[i] - slope_pull / holders).abs() * r;
-                holding[i] &= need <= brake_nm[i] - spin.drive_torque_nm[i].abs();
-            }
-            if holding == before {
-                break;
-            }
-        }
-        let mut force = Vec3::ZERO;
-        let mut torque = Vec3::ZERO;
-        for i in 0..4 {
-            let ws = &mut state.wheels[i];
-            ws.drive_torque_nm = spin.drive_torque_nm[i];
-            ws.omega = spin.omega[i];
-            if !ws.grounded {
-                continue;
-            }
-            let hold = hold_x[i] - slope_pull / holders;
-            let (n, f_dir, l_dir, arm) = dirs[i];
-            // Keep the longitudinal force inside the friction ellipse left by the lateral one,
-            // and never let it push the car past the wheel's own rolling speed in one step.
-            let peak = grip_at[i];
-            let room = (peak * peak - ws.force_lat_n * ws.force_lat_n).max(0.0).sqrt();
-            let linear = spin.tyre_force_n[i];
-            let fx = if holding[i]
-                && hold.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
-                && hold.abs() <= room
-            {
-                ws.omega = 0.0;
-                hold
-            } else {
-                let fx = clamp_towards(
-                    linear.clamp(-room, room),
-                    (ws.omega * r - vx_at[i]) * m_eff / h,
-                );
-                // What the wheel did not pass to the road stays in its spin.
-                ws.omega += h * r * (linear - fx) / iw;
-                fx
-            };
-            ws.force_long_n = fx;
-            let f = n * ws.load_n + f_dir * fx + l_dir * ws.force_lat_n;
-            force += f;
-            torque += arm.cross(f);
-        }
-        // Aerodynamic drag at the centre of mass.
-        let ch = &p.chassis;
-        let speed = v.length();
-        force -= v * (0.5 * ch.air_density_kg_m3 * ch.drag_coefficient * ch.frontal_area_m2 * speed);
-
+/// Replaces every vehicle body's forces with this tick's (rapier keeps user forces until they
+/// are reset, so adding them each tick would accumulate).
+pub fn apply_body_forces(mut physics: ResMut<Physics>, vehicles: Query<(&Chassis, &BodyForces)>) {
+    for (chassis, f) in &vehicles {
         if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
-            // rapier keeps user forces until reset: replace, never accumulate.
             body.reset_forces(false);
             body.reset_torques(false);
-            body.add_force(force, false);
-            body.add_torque(torque, false);
+            body.add_force(f.force, false);
+            body.add_torque(f.torque, false);
         }
     }
 }
@@ -792,17 +844,20 @@ fn clamp_towards(force: f32, stop: f32) -> f32 {
     }
 }
 
-/// Reads every vehicle's pose and velocity back from rapier and tracks it along the roads.
+/// Reads every vehicle's pose and velocity back from rapier and tracks it along the roads (in
+/// parallel: each vehicle writes only its own components).
 pub fn sync_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
     mut vehicles: Query<(&Chassis, &mut Motion, &mut RoadTrack)>,
 ) {
-    let h = DT_S as f32;
-    for (chassis, mut motion, mut track) in &mut vehicles {
+    let physics: &Physics = &physics;
+    let network: &RoadNetwork = &network;
+    let run = |(chassis, mut motion, mut track): (&Chassis, Mut<Motion>, Mut<RoadTrack>)| {
         let Some(body) = physics.world.bodies.get(chassis.body) else {
-            continue;
+            return;
         };
+        let h = DT_S as f32;
         let pose = *body.position();
         let rot = pose.rotation;
         let linvel = body.linvel();
@@ -815,7 +870,12 @@ pub fn sync_vehicles(
             forward_mps,
             accel_mps2: (forward_mps - motion.forward_mps) / h,
         };
-        track_road(&network, &mut track, pose.translation.as_dvec3(), rot * Vec3::X);
+        track_road(network, &mut track, pose.translation.as_dvec3(), rot * Vec3::X);
+    };
+    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+        vehicles.iter_mut().for_each(run);
+    } else {
+        vehicles.par_iter_mut().for_each(run);
     }
 }
 
