@@ -24,8 +24,10 @@ fn world(vehicles: usize) -> Sim {
         .collect();
     let mut sim = Sim::new(1);
     sim.add_plugin(VehiclePlugin);
-    sim.world_mut()
-        .spawn((RoadId(0), Road(RoadSpec::through("bench", LANES, 100.0, &points))));
+    sim.world_mut().spawn((
+        RoadId(0),
+        Road(RoadSpec::through("bench", LANES, 100.0, &points)),
+    ));
     sim.prepare().unwrap_or_else(|e| panic!("{e}"));
     sim.step();
     let model = Arc::new(VehicleType::default());

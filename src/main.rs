@@ -3,12 +3,12 @@
 use clap::{Args, Parser, Subcommand};
 use flockway::run::{RunError, RunOptions, Runner, level_name};
 use flockway_level::{load_level, write_atomic};
-use indicatif::{ProgressBar, ProgressStyle};
 use flockway_vehicle::{DynoReport, DynoSettings, VehicleParams, VehicleType, run_dyno};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use std::sync::Arc;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 
 /// Flockway: a deterministic traffic sandbox with rigid-body cars and flocking drivers.
 ///

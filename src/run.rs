@@ -4,9 +4,9 @@ use crate::telemetry::TelemetryWriter;
 use flockway_core::{IdKind, RunStats, Sim, StableId, TICKS_PER_SECOND};
 use flockway_level::{Expectation, Level, LevelError};
 use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
+use flockway_vehicle::{VehicleParams, VehicleParamsError, VehiclePlugin, VehicleType};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
-use flockway_vehicle::{VehicleParams, VehicleParamsError, VehiclePlugin, VehicleType};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -104,13 +104,12 @@ pub fn load_vehicle_types(
         .vehicle_types
         .iter()
         .map(|v| {
-            let params = VehicleParams::load(&assets.join(&v.path)).map_err(|source| {
-                RunError::Vehicle {
+            let params =
+                VehicleParams::load(&assets.join(&v.path)).map_err(|source| RunError::Vehicle {
                     level: level_name.to_owned(),
                     name: v.name.clone(),
                     source,
-                }
-            })?;
+                })?;
             Ok((v.name.clone(), Arc::new(VehicleType::new(params))))
         })
         .collect()
@@ -475,12 +474,22 @@ mod tests {
             ..RunOptions::default()
         };
         let runner = Runner::new(level.clone(), "t", &options).expect("runner");
-        assert!(runner.sim().world().resource::<VehicleTypes>().0.contains_key("light"));
+        assert!(
+            runner
+                .sim()
+                .world()
+                .resource::<VehicleTypes>()
+                .0
+                .contains_key("light")
+        );
 
         level.vehicle_types[0].path = "vehicles/bad.ron".into();
         let err = load_vehicle_types(&level, "t", dir.path()).expect_err("bad file");
         let text = err.to_string();
-        assert!(text.contains("vehicle type `light`") && text.contains("bad.ron:2:"), "{text}");
+        assert!(
+            text.contains("vehicle type `light`") && text.contains("bad.ron:2:"),
+            "{text}"
+        );
         level.vehicle_types[0].path = "vehicles/missing.ron".into();
         let err = load_vehicle_types(&level, "t", dir.path()).expect_err("missing file");
         assert!(err.to_string().contains("missing.ron"), "{err}");
@@ -490,7 +499,11 @@ mod tests {
     fn the_shipped_assets_are_found_from_a_level_path() {
         let level = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/dense_road.ron");
         let assets = find_assets_dir(Some(&level));
-        assert!(assets.join("vehicles/sedan.ron").is_file(), "{}", assets.display());
+        assert!(
+            assets.join("vehicles/sedan.ron").is_file(),
+            "{}",
+            assets.display()
+        );
     }
 
     #[test]

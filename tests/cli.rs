@@ -266,7 +266,13 @@ fn dyno_json_has_exactly_the_contract_keys_and_the_reference_figures() {
     let out = flockway(&["dyno"]);
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success());
-    for row in ["0-100 km/h", "top speed", "braking 100-0 km/h", "max lateral", "standstill drift"] {
+    for row in [
+        "0-100 km/h",
+        "top speed",
+        "braking 100-0 km/h",
+        "max lateral",
+        "standstill drift",
+    ] {
         assert!(table.contains(row), "table lacks {row}:\n{table}");
     }
 }
@@ -275,8 +281,11 @@ fn dyno_json_has_exactly_the_contract_keys_and_the_reference_figures() {
 fn dyno_rejects_a_bad_vehicle_file_with_its_position() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("broken.ron");
-    std::fs::write(&path, "(\n  name: \"broken\",\n  wheels: (radius_m: \"big\"),\n)\n")
-        .expect("write");
+    std::fs::write(
+        &path,
+        "(\n  name: \"broken\",\n  wheels: (radius_m: \"big\"),\n)\n",
+    )
+    .expect("write");
     let out = flockway(&["dyno", path.to_str().expect("utf-8 path")]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");

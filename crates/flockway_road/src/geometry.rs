@@ -393,12 +393,7 @@ impl RoadGeometry {
     /// for accuracy), so the frame lies exactly on the surface, within millimetres of `ds_m` over
     /// a few metres. Its `s_m` is `cursor_s_m + ds_m`, wrapped. `None` past either end of an open
     /// road.
-    pub fn frame_near(
-        &self,
-        cursor: &RoadCursor,
-        cursor_s_m: f64,
-        ds_m: f64,
-    ) -> Option<RoadFrame> {
+    pub fn frame_near(&self, cursor: &RoadCursor, cursor_s_m: f64, ds_m: f64) -> Option<RoadFrame> {
         let nseg = self.segments.len();
         let mut p = cursor.0;
         if p.seg >= nseg {

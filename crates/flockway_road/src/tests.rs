@@ -502,7 +502,12 @@ fn frame_near_a_cursor_matches_frame_at_and_crosses_joins() {
         // position, which is within a few millimetres of the one asked for.
         let mut c = g.cursor_at(s + ds);
         let (proj, _) = g.project_tracked_frame(f.pos, &mut c);
-        assert!((proj.s_m - (s + ds)).abs() < 2.5e-3, "{} vs {}", proj.s_m, s + ds);
+        assert!(
+            (proj.s_m - (s + ds)).abs() < 2.5e-3,
+            "{} vs {}",
+            proj.s_m,
+            s + ds
+        );
         let at = g.frame_at(proj.s_m);
         assert!(f.pos.distance(at.pos) < 1e-6 && f.up.distance(at.up) < 1e-6);
         assert!(f.pos.distance(exact.pos) < 2.5e-3);
@@ -512,15 +517,17 @@ fn frame_near_a_cursor_matches_frame_at_and_crosses_joins() {
     let end = g.length_m() - 1.0;
     assert!(g.frame_near(&g.cursor_at(end), end, 2.0).is_none());
     // Across the join of a closed loop it wraps.
-    let ring = RoadGeometry::new(&RoadSpec::ring("r", 1, 30.0, DVec3::ZERO, 50.0, 8))
-        .expect("valid ring");
+    let ring =
+        RoadGeometry::new(&RoadSpec::ring("r", 1, 30.0, DVec3::ZERO, 50.0, 8)).expect("valid ring");
     let near_end = ring.length_m() - 1.0;
     let f = ring
         .frame_near(&ring.cursor_at(near_end), near_end, 3.0)
         .expect("wraps");
     assert!((f.s_m - 2.0).abs() < 1e-9, "{}", f.s_m);
     assert!(f.pos.distance(ring.frame_at(2.0).pos) < 2.5e-3);
-    let f = ring.frame_near(&ring.cursor_at(1.0), 1.0, -3.0).expect("wraps back");
+    let f = ring
+        .frame_near(&ring.cursor_at(1.0), 1.0, -3.0)
+        .expect("wraps back");
     assert!((f.s_m - (ring.length_m() - 2.0)).abs() < 1e-9, "{}", f.s_m);
     assert!(f.pos.distance(ring.frame_at(ring.length_m() - 2.0).pos) < 2.5e-3);
 }

@@ -264,7 +264,8 @@ impl Driveline {
         } else {
             engine.damping_zero_throttle_clutch_disengaged
         };
-        let c_e = zero_throttle_damping + (engine.damping_full_throttle - zero_throttle_damping) * thr;
+        let c_e =
+            zero_throttle_damping + (engine.damping_full_throttle - zero_throttle_damping) * thr;
         let rpm = input.engine_omega / RPM_TO_RAD_S;
         // An idle governor opens the throttle as the engine sags below idle, with at most a
         // third of the idle torque, so a dragging clutch can pull it down but not stall it.
@@ -389,15 +390,33 @@ mod tests {
         let p = GearboxParams::default();
         let mut gb = Gearbox::default();
         let pedals = gb.update(&p, -0.6, 10.0, 2000.0, H);
-        assert_eq!(pedals, Pedals { accelerator: 0.0, brake: 0.6 });
+        assert_eq!(
+            pedals,
+            Pedals {
+                accelerator: 0.0,
+                brake: 0.6
+            }
+        );
         assert_eq!(gb.gear, 1);
         let pedals = gb.update(&p, -0.6, 0.1, 0.0, H);
-        assert_eq!(pedals, Pedals { accelerator: 0.6, brake: 0.0 });
+        assert_eq!(
+            pedals,
+            Pedals {
+                accelerator: 0.6,
+                brake: 0.0
+            }
+        );
         assert_eq!(gb.gear, -1);
         assert!(gb.ratio(&p) < 0.0);
         // Going backwards, positive throttle brakes; at a standstill it selects first again.
         let pedals = gb.update(&p, 0.5, -3.0, 500.0, H);
-        assert_eq!(pedals, Pedals { accelerator: 0.0, brake: 0.5 });
+        assert_eq!(
+            pedals,
+            Pedals {
+                accelerator: 0.0,
+                brake: 0.5
+            }
+        );
         gb.update(&p, 0.5, 0.0, 0.0, H);
         assert_eq!(gb.gear, 1);
         // Non-finite input is treated as no input.
@@ -418,7 +437,11 @@ mod tests {
                 "{kmh} km/h: gear {} at {rpm} rpm",
                 gb.gear
             );
-            assert!(rpm > p.downshift_rpm, "{kmh} km/h: gear {} at {rpm} rpm", gb.gear);
+            assert!(
+                rpm > p.downshift_rpm,
+                "{kmh} km/h: gear {} at {rpm} rpm",
+                gb.gear
+            );
         }
     }
 
@@ -461,7 +484,11 @@ mod tests {
         // Free-revving it reaches the rev limiter, with the wheels following through the ratio.
         assert!(we >= d.max_omega * 0.95, "{we}");
         let wbar: f32 = (0..4).map(|i| d.shares[i] * omega[i]).sum();
-        assert!((we - g * wbar).abs() < we * 0.25, "engine {we}, wheels {}", g * wbar);
+        assert!(
+            (we - g * wbar).abs() < we * 0.25,
+            "engine {we}, wheels {}",
+            g * wbar
+        );
     }
 
     #[test]

@@ -37,9 +37,10 @@ pub use physics::{
 pub use steering::{ackermann, slew};
 pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
 pub use vehicle::{
-    BodyForces, PARALLEL_MIN_VEHICLES, apply_body_forces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, SpawnError, VehicleModel,
-    VehicleSpawn, VehicleState, VehicleType, WHEEL_NAMES, WheelState, drive_vehicles, rest_pose,
-    spawn_vehicle, sync_vehicles, track_road,
+    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, PARALLEL_MIN_VEHICLES, RoadTrack,
+    SHOULDER_M, SpawnError, VehicleModel, VehicleSpawn, VehicleState, VehicleType, WHEEL_NAMES,
+    WheelState, apply_body_forces, drive_vehicles, rest_pose, spawn_vehicle, sync_vehicles,
+    track_road,
 };
 
 use bevy_ecs::prelude::*;

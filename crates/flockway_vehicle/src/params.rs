@@ -452,7 +452,10 @@ impl VehicleParams {
             ("wheels.mass_kg", w.mass_kg),
             ("wheels.wheelbase_m", w.wheelbase_m),
             ("wheels.track_m", w.track_m),
-            ("suspension.stiffness_n_per_m", self.suspension.stiffness_n_per_m),
+            (
+                "suspension.stiffness_n_per_m",
+                self.suspension.stiffness_n_per_m,
+            ),
             ("suspension.travel_m", self.suspension.travel_m),
             ("tyres.friction", self.tyres.friction),
             ("tyres.longitudinal.b", self.tyres.longitudinal.b),
@@ -478,9 +481,18 @@ impl VehicleParams {
             ("chassis.drag_coefficient", c.drag_coefficient),
             ("chassis.rolling_resistance", c.rolling_resistance),
             ("wheels.damping_nms", w.damping_nms),
-            ("suspension.damping_n_s_per_m", self.suspension.damping_n_s_per_m),
-            ("suspension.anti_roll_n_per_m", self.suspension.anti_roll_n_per_m),
-            ("engine.damping_full_throttle", self.engine.damping_full_throttle),
+            (
+                "suspension.damping_n_s_per_m",
+                self.suspension.damping_n_s_per_m,
+            ),
+            (
+                "suspension.anti_roll_n_per_m",
+                self.suspension.anti_roll_n_per_m,
+            ),
+            (
+                "engine.damping_full_throttle",
+                self.engine.damping_full_throttle,
+            ),
             (
                 "engine.damping_zero_throttle_clutch_engaged",
                 self.engine.damping_zero_throttle_clutch_engaged,
@@ -491,7 +503,10 @@ impl VehicleParams {
             ),
             ("clutch.strength_nms", self.clutch.strength_nms),
             ("gearbox.shift_time_s", self.gearbox.shift_time_s),
-            ("brakes.max_brake_torque_nm", self.brakes.max_brake_torque_nm),
+            (
+                "brakes.max_brake_torque_nm",
+                self.brakes.max_brake_torque_nm,
+            ),
         ];
         for (field, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {
@@ -535,7 +550,10 @@ impl VehicleParams {
             ));
         }
         if self.gearbox.ratios.is_empty() || self.gearbox.ratios.len() > 12 {
-            return Err(("gearbox.ratios".into(), "give 1 to 12 forward ratios".into()));
+            return Err((
+                "gearbox.ratios".into(),
+                "give 1 to 12 forward ratios".into(),
+            ));
         }
         if let Some(r) = self
             .gearbox
@@ -683,8 +701,11 @@ mod tests {
 
     #[test]
     fn parse_errors_name_line_and_column() {
-        let err = VehicleParams::parse("(\n  name: \"x\",\n  chassis: (mass_kg: \"heavy\"),\n)", "car.ron")
-            .expect_err("a string mass must not parse");
+        let err = VehicleParams::parse(
+            "(\n  name: \"x\",\n  chassis: (mass_kg: \"heavy\"),\n)",
+            "car.ron",
+        )
+        .expect_err("a string mass must not parse");
         let text = err.to_string();
         assert!(text.starts_with("car.ron:3:"), "{text}");
     }

@@ -187,12 +187,21 @@ impl Physics {
                     ))
                     .user_data(tag(TAG_GUARDRAIL, u64::from(id.0)))
                     .build();
-                    self.statics.push(self.world.insert_collider(collider, None));
+                    self.statics
+                        .push(self.world.insert_collider(collider, None));
                 }
             }
             for p in &meshes.surface.positions {
-                lo = lo.min(DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
-                hi = hi.max(DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+                lo = lo.min(DVec3::new(
+                    f64::from(p[0]),
+                    f64::from(p[1]),
+                    f64::from(p[2]),
+                ));
+                hi = hi.max(DVec3::new(
+                    f64::from(p[0]),
+                    f64::from(p[1]),
+                    f64::from(p[2]),
+                ));
             }
         }
         if !lo.is_finite() {
@@ -289,7 +298,11 @@ pub fn simplify(points: &[DVec3], tolerance_m: f64, max_len_m: f64) -> Vec<(usiz
             }
             let fits = (start + 1..candidate).all(|k| {
                 let p = points[k] - a;
-                let t = if len > 0.0 { p.dot(chord) / (len * len) } else { 0.0 };
+                let t = if len > 0.0 {
+                    p.dot(chord) / (len * len)
+                } else {
+                    0.0
+                };
                 (p - chord * t.clamp(0.0, 1.0)).length() <= tolerance_m
             });
             if !fits {
@@ -352,7 +365,9 @@ mod tests {
 
     #[test]
     fn simplify_keeps_straight_runs_in_few_pieces_and_curves_within_tolerance() {
-        let line: Vec<DVec3> = (0..=200).map(|i| DVec3::new(f64::from(i), 0.0, 0.0)).collect();
+        let line: Vec<DVec3> = (0..=200)
+            .map(|i| DVec3::new(f64::from(i), 0.0, 0.0))
+            .collect();
         let pieces = simplify(&line, 0.02, 50.0);
         assert_eq!(pieces, vec![(0, 50), (50, 100), (100, 150), (150, 200)]);
         let r = 30.0;

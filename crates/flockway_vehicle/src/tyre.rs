@@ -76,7 +76,9 @@ impl SampledCurve {
         let step = x_max / (CURVE_SAMPLES - 1) as f32;
         SampledCurve {
             inv_step: 1.0 / step,
-            values: (0..CURVE_SAMPLES).map(|i| mf.eval(i as f32 * step)).collect(),
+            values: (0..CURVE_SAMPLES)
+                .map(|i| mf.eval(i as f32 * step))
+                .collect(),
         }
     }
 
@@ -211,7 +213,11 @@ mod tests {
         assert!(close(mf.slope(0.0), 19.0, 1e-4), "B·C at zero slip");
         for x in [0.01f32, 0.05, 0.15, 0.4, 1.0] {
             let fd = (mf.eval(x + 1e-3) - mf.eval(x - 1e-3)) / 2e-3;
-            assert!(close(mf.slope(x), fd, 2e-2 * fd.abs().max(1.0)), "{x}: {} vs {fd}", mf.slope(x));
+            assert!(
+                close(mf.slope(x), fd, 2e-2 * fd.abs().max(1.0)),
+                "{x}: {} vs {fd}",
+                mf.slope(x)
+            );
         }
     }
 
@@ -238,7 +244,10 @@ mod tests {
         assert!(fx == 0.0 && close(fy, -t.lateral.eval(0.03), 1e-6));
         for &(k, a) in &[(0.1, 0.1), (0.5, 0.02), (-0.3, -0.2), (0.05, 0.05)] {
             let (fx, fy) = t.combined(k, a);
-            assert!(fx.hypot(fy) <= t.friction + 1e-5, "({k}, {a}) → ({fx}, {fy})");
+            assert!(
+                fx.hypot(fy) <= t.friction + 1e-5,
+                "({k}, {a}) → ({fx}, {fy})"
+            );
             assert!(fx.signum() == k.signum() && fy.signum() == -a.signum());
         }
     }
@@ -246,11 +255,18 @@ mod tests {
     #[test]
     fn joint_evaluation_matches_the_separate_ones() {
         let t = Tyre::new(&TyreParams::default());
-        for &(k, a) in &[(0.0, 0.0), (0.03, 0.0), (-0.2, 0.05), (0.5, -0.3), (0.0, 0.1)] {
+        for &(k, a) in &[
+            (0.0, 0.0),
+            (0.03, 0.0),
+            (-0.2, 0.05),
+            (0.5, -0.3),
+            (0.0, 0.1),
+        ] {
             let (fx, fy, d) = t.forces(k, a);
             let (cx, cy) = t.combined(k, a);
             assert!(close(fx, cx, 2e-4) && close(fy, cy, 2e-4), "({k}, {a})");
-            let rho = ((k / t.peak_slip_ratio).powi(2) + (a / t.peak_slip_angle_rad).powi(2)).sqrt();
+            let rho =
+                ((k / t.peak_slip_ratio).powi(2) + (a / t.peak_slip_angle_rad).powi(2)).sqrt();
             let slope = (t.longitudinal.slope(rho * t.peak_slip_ratio) * t.friction).max(0.0);
             assert!(close(d, slope, 0.05 * slope.max(1.0)), "{d} vs {slope}");
         }

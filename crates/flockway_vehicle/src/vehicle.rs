@@ -2,7 +2,7 @@
 
 use crate::drivetrain::{Driveline, Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, apply_brake};
 use crate::params::VehicleParams;
-use crate::physics::{Physics, VEHICLE_GROUP, GROUND_GROUP, GUARDRAIL_GROUP, vehicle_tag};
+use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP, vehicle_tag};
 use crate::steering::{ackermann, slew};
 use crate::tyre::Tyre;
 use bevy_ecs::lifecycle::HookContext;
@@ -68,12 +68,7 @@ impl VehicleType {
         let front_load = c.mass_kg * g * front_share / 2.0;
         let rear_load = c.mass_kg * g * (1.0 - front_share) / 2.0;
         let k = params.suspension.stiffness_n_per_m;
-        let rest = [
-            front_load / k,
-            front_load / k,
-            rear_load / k,
-            rear_load / k,
-        ];
+        let rest = [front_load / k, front_load / k, rear_load / k, rear_load / k];
         let x_front = half_base - c.com_forward_m;
         let x_rear = -half_base - c.com_forward_m;
         let y = w.track_m / 2.0;
@@ -371,11 +366,7 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
     let body = RigidBodyBuilder::dynamic()
         .pose(Pose::from_parts(pos, rot))
         .linvel(forward * spawn.speed_mps)
-        .additional_mass_properties(MassProperties::new(
-            Vec3::ZERO,
-            c.mass_kg,
-            model.inertia(),
-        ))
+        .additional_mass_properties(MassProperties::new(Vec3::ZERO, c.mass_kg, model.inertia()))
         // Forces are set afresh every tick; a sleeping car would ignore its driver.
         .can_sleep(false)
         .build();
@@ -496,8 +487,8 @@ fn vehicle_forces(
     // Road frames under the two axles (one exact spline evaluation each).
     let axle_x = [t.mounts_cs[0].x, t.mounts_cs[2].x];
     let frames = [
-        axle_frame(&network, &track, axle_x[0]),
-        axle_frame(&network, &track, axle_x[1]),
+        axle_frame(network, track, axle_x[0]),
+        axle_frame(network, track, axle_x[1]),
     ];
 
     // Suspension: spring, damper and bump stop along the surface normal.
@@ -687,7 +678,11 @@ fn vehicle_forces(
             tyre_force_n: long,
             tyre_slope: slope,
             engine_omega: state.engine_omega,
-            accelerator: if state.gearbox.shifting() { 0.0 } else { pedals.accelerator },
+            accelerator: if state.gearbox.shifting() {
+                0.0
+            } else {
+                pedals.accelerator
+            },
             ratio,
             clutch,
         },
@@ -743,7 +738,9 @@ fn vehicle_forces(
         // Keep the longitudinal force inside the friction ellipse left by the lateral one,
         // and never let it push the car past the wheel's own rolling speed in one step.
         let peak = grip_at[i];
-        let room = (peak * peak - ws.force_lat_n * ws.force_lat_n).max(0.0).sqrt();
+        let room = (peak * peak - ws.force_lat_n * ws.force_lat_n)
+            .max(0.0)
+            .sqrt();
         let linear = spin.tyre_force_n[i];
         let fx = if holding[i]
             && hold.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
@@ -810,9 +807,10 @@ pub fn drive_vehicles(
         Mut<VehicleState>,
         Mut<BodyForces>,
     )| {
-        let (force, torque) =
-            vehicle_forces(physics, network, controls, model, chassis, track, &mut state)
-                .unwrap_or_default();
+        let (force, torque) = vehicle_forces(
+            physics, network, controls, model, chassis, track, &mut state,
+        )
+        .unwrap_or_default();
         *out = BodyForces { force, torque };
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
@@ -870,7 +868,12 @@ pub fn sync_vehicles(
             forward_mps,
             accel_mps2: (forward_mps - motion.forward_mps) / h,
         };
-        track_road(network, &mut track, pose.translation.as_dvec3(), rot * Vec3::X);
+        track_road(
+            network,
+            &mut track,
+            pose.translation.as_dvec3(),
+            rot * Vec3::X,
+        );
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
         vehicles.iter_mut().for_each(run);

@@ -18,13 +18,21 @@ fn world_with(roads: Vec<RoadSpec>) -> Sim {
     for (i, spec) in roads.into_iter().enumerate() {
         sim.world_mut().spawn((RoadId(i as u32), Road(spec)));
     }
-    sim.prepare().expect("the vehicle plugin's systems are unambiguous");
+    sim.prepare()
+        .expect("the vehicle plugin's systems are unambiguous");
     sim.step();
     sim
 }
 
 fn spawn(sim: &mut Sim, road: u32, s_m: f64, lateral_m: f64, speed_mps: f32) -> Entity {
-    spawn_model(sim, Arc::new(VehicleType::default()), road, s_m, lateral_m, speed_mps)
+    spawn_model(
+        sim,
+        Arc::new(VehicleType::default()),
+        road,
+        s_m,
+        lateral_m,
+        speed_mps,
+    )
 }
 
 fn spawn_model(
@@ -55,7 +63,9 @@ fn set(sim: &mut Sim, car: Entity, controls: Controls) {
 }
 
 fn motion(sim: &Sim, car: Entity) -> Motion {
-    *sim.world().get::<Motion>(car).expect("a vehicle has motion")
+    *sim.world()
+        .get::<Motion>(car)
+        .expect("a vehicle has motion")
 }
 
 fn straight(length_m: f64) -> RoadSpec {
@@ -91,14 +101,22 @@ fn the_reference_sedan_meets_the_spec_on_the_dyno() {
         "lateral grip {} g",
         r.max_lateral_g
     );
-    assert!(r.standstill_drift_m < 0.01, "drift {} m", r.standstill_drift_m);
+    assert!(
+        r.standstill_drift_m < 0.01,
+        "drift {} m",
+        r.standstill_drift_m
+    );
 }
 
 #[test]
 fn shipped_vehicle_files_load_and_sedan_ron_is_the_reference_car() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/vehicles");
     let sedan = VehicleParams::load(&root.join("sedan.ron")).expect("sedan.ron is valid");
-    assert_eq!(sedan, VehicleParams::default(), "sedan.ron and the defaults drifted apart");
+    assert_eq!(
+        sedan,
+        VehicleParams::default(),
+        "sedan.ron and the defaults drifted apart"
+    );
     let human = VehicleParams::load(&root.join("sedan_human.ron")).expect("sedan_human.ron");
     assert_eq!(human.name, "sedan_human");
     for rpm in [0.0, 500.0, 1000.0, 1500.0, 1900.0] {
@@ -114,23 +132,47 @@ fn shipped_vehicle_files_load_and_sedan_ron_is_the_reference_car() {
 fn the_human_sedan_pulls_away_harder() {
     let run = |model: VehicleParams| {
         let mut sim = world_with(vec![straight(400.0)]);
-        let car = spawn_model(&mut sim, Arc::new(VehicleType::new(model)), 0, 20.0, 0.0, 0.0);
+        let car = spawn_model(
+            &mut sim,
+            Arc::new(VehicleType::new(model)),
+            0,
+            20.0,
+            0.0,
+            0.0,
+        );
         // Part throttle from rest, as a driver pulls away: more low-rpm torque shows directly.
-        set(&mut sim, car, Controls { throttle: 0.4, ..Controls::default() });
+        set(
+            &mut sim,
+            car,
+            Controls {
+                throttle: 0.4,
+                ..Controls::default()
+            },
+        );
         sim.run_ticks(u64::from(ticks(2.0)));
         motion(&sim, car).forward_mps
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/vehicles");
     let human = VehicleParams::load(&root.join("sedan_human.ron")).expect("valid");
     let (v_ref, v_human) = (run(VehicleParams::default()), run(human));
-    assert!(v_human > v_ref * 1.1, "after 2 s: reference {v_ref} m/s, human {v_human} m/s");
+    assert!(
+        v_human > v_ref * 1.1,
+        "after 2 s: reference {v_ref} m/s, human {v_human} m/s"
+    );
 }
 
 #[test]
 fn held_straight_at_constant_throttle_it_stays_on_its_line_for_500_m() {
     let mut sim = world_with(vec![straight(800.0)]);
     let car = spawn(&mut sim, 0, 20.0, 1.5, 0.0);
-    set(&mut sim, car, Controls { throttle: 0.6, ..Controls::default() });
+    set(
+        &mut sim,
+        car,
+        Controls {
+            throttle: 0.6,
+            ..Controls::default()
+        },
+    );
     let start = motion(&sim, car).position;
     let mut worst = 0.0f32;
     for _ in 0..ticks(120.0) {
@@ -172,7 +214,15 @@ fn lap(radius: f64, bank_deg: f64, v: f32) -> (f32, f32, f32) {
         let angle = kinematic - 0.01 * track.lateral_m as f32;
         integral = (integral + (v - m.forward_mps) / TICKS_PER_SECOND as f32).clamp(-2.0, 2.0);
         let throttle = (0.15 + 0.5 * (v - m.forward_mps) + 0.5 * integral).clamp(-1.0, 1.0);
-        set(&mut sim, car, Controls { throttle, steering: angle / full_lock, handbrake: false });
+        set(
+            &mut sim,
+            car,
+            Controls {
+                throttle,
+                steering: angle / full_lock,
+                handbrake: false,
+            },
+        );
         sim.step();
         if i > ticks(3.0) {
             worst = worst.max(track.lateral_m.abs() as f32);
@@ -196,7 +246,10 @@ fn on_a_banked_curve_at_its_balance_speed_it_holds_its_line_with_near_zero_steer
     let (worst, correction, lateral) = lap(radius, bank_deg, v);
     // The line is the spline, whose radius wiggles a little between its 24 control points.
     assert!(worst < 0.25, "strayed {worst} m from the line");
-    assert!(correction.abs() < 0.01, "steered {correction}° beyond the kinematic angle");
+    assert!(
+        correction.abs() < 0.01,
+        "steered {correction}° beyond the kinematic angle"
+    );
     let needed_flat = 1500.0 * v * v / radius as f32;
     assert!(
         lateral.abs() < 0.05 * needed_flat,
@@ -243,16 +296,30 @@ fn a_parked_car_stays_still_on_the_flat_a_bank_and_a_slope() {
         .collect();
     let mut sim = world_with(vec![RoadSpec::through("hill", 2, 50.0, &pts)]);
     let car = spawn(&mut sim, 0, 200.0, 0.0, 0.0);
-    set(&mut sim, car, Controls { handbrake: true, ..Controls::default() });
+    set(
+        &mut sim,
+        car,
+        Controls {
+            handbrake: true,
+            ..Controls::default()
+        },
+    );
     sim.run_ticks(u64::from(ticks(1.0)));
     let start = motion(&sim, car).position;
     sim.run_ticks(u64::from(ticks(60.0)));
     let drift = (motion(&sim, car).position - start).length();
-    assert!(drift < 0.01, "crept {drift} m down the hill with the handbrake on");
+    assert!(
+        drift < 0.01,
+        "crept {drift} m down the hill with the handbrake on"
+    );
     set(&mut sim, car, Controls::default());
     sim.run_ticks(u64::from(ticks(5.0)));
     let m = motion(&sim, car);
-    assert!(m.forward_mps < -0.5, "released, it rolls back ({} m/s)", m.forward_mps);
+    assert!(
+        m.forward_mps < -0.5,
+        "released, it rolls back ({} m/s)",
+        m.forward_mps
+    );
 }
 
 #[test]
@@ -261,7 +328,11 @@ fn a_car_rolling_to_a_stop_stops() {
     let car = spawn(&mut sim, 0, 20.0, 0.0, 8.0);
     sim.run_ticks(u64::from(ticks(40.0)));
     let m = motion(&sim, car);
-    assert!(m.forward_mps.abs() < 0.01, "still moving at {} m/s", m.forward_mps);
+    assert!(
+        m.forward_mps.abs() < 0.01,
+        "still moving at {} m/s",
+        m.forward_mps
+    );
     let x = m.position.x;
     sim.run_ticks(u64::from(ticks(10.0)));
     assert!((motion(&sim, car).position.x - x).abs() < 0.005);
@@ -271,7 +342,14 @@ fn a_car_rolling_to_a_stop_stops() {
 fn negative_throttle_brakes_then_reverses() {
     let mut sim = world_with(vec![straight(400.0)]);
     let car = spawn(&mut sim, 0, 200.0, 0.0, 10.0);
-    set(&mut sim, car, Controls { throttle: -0.5, ..Controls::default() });
+    set(
+        &mut sim,
+        car,
+        Controls {
+            throttle: -0.5,
+            ..Controls::default()
+        },
+    );
     sim.run_ticks(u64::from(ticks(8.0)));
     let m = motion(&sim, car);
     assert!(m.forward_mps < -1.0, "it reverses ({} m/s)", m.forward_mps);
@@ -290,7 +368,15 @@ fn busy_run() -> Vec<(u32, [u32; 13])> {
     }
     let mut sim = world_with(vec![spec]);
     let cars: Vec<Entity> = (0..8)
-        .map(|i| spawn(&mut sim, 0, f64::from(i) * 12.0, if i % 2 == 0 { -1.5 } else { 1.5 }, 8.0))
+        .map(|i| {
+            spawn(
+                &mut sim,
+                0,
+                f64::from(i) * 12.0,
+                if i % 2 == 0 { -1.5 } else { 1.5 },
+                8.0,
+            )
+        })
         .collect();
     for tick in 0..ticks(20.0) {
         for (i, &car) in cars.iter().enumerate() {
@@ -308,9 +394,19 @@ fn busy_run() -> Vec<(u32, [u32; 13])> {
         .map(|&car| {
             let m = motion(&sim, car);
             let bits = [
-                m.position.x, m.position.y, m.position.z, m.rotation.x, m.rotation.y,
-                m.rotation.z, m.rotation.w, m.linvel.x, m.linvel.y, m.linvel.z, m.angvel.x,
-                m.angvel.y, m.angvel.z,
+                m.position.x,
+                m.position.y,
+                m.position.z,
+                m.rotation.x,
+                m.rotation.y,
+                m.rotation.z,
+                m.rotation.w,
+                m.linvel.x,
+                m.linvel.y,
+                m.linvel.z,
+                m.angvel.x,
+                m.angvel.y,
+                m.angvel.z,
             ]
             .map(f32::to_bits);
             (car.index_u32(), bits)
@@ -348,10 +444,25 @@ fn contacts_with_guardrails_and_other_cars_become_messages() {
     // Two cars nose to tail, the rear one faster: they touch.
     let front = spawn(&mut sim, 0, 60.0, 0.0, 2.0);
     let rear = spawn(&mut sim, 0, 50.0, 0.0, 12.0);
-    set(&mut sim, rear, Controls { throttle: 0.5, ..Controls::default() });
+    set(
+        &mut sim,
+        rear,
+        Controls {
+            throttle: 0.5,
+            ..Controls::default()
+        },
+    );
     // A third steers hard into the right guardrail.
     let wild = spawn(&mut sim, 0, 150.0, 0.0, 15.0);
-    set(&mut sim, wild, Controls { throttle: 0.3, steering: -1.0, handbrake: false });
+    set(
+        &mut sim,
+        wild,
+        Controls {
+            throttle: 0.3,
+            steering: -1.0,
+            handbrake: false,
+        },
+    );
     let mut seen = Vec::new();
     for _ in 0..ticks(5.0) {
         sim.step();
@@ -366,20 +477,16 @@ fn contacts_with_guardrails_and_other_cars_become_messages() {
         "rear-end contact reported: {seen:?}"
     );
     assert!(
-        seen.iter()
-            .any(|c| c.started && c.vehicle == wild && c.other == ContactWith::Guardrail(RoadId(0))),
+        seen.iter().any(|c| c.started
+            && c.vehicle == wild
+            && c.other == ContactWith::Guardrail(RoadId(0))),
         "guardrail contact reported: {seen:?}"
     );
 }
 
 #[test]
 fn a_car_follows_a_connection_onto_the_next_road_and_tracks_it() {
-    let mut a = RoadSpec::through(
-        "a",
-        1,
-        50.0,
-        &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)],
-    );
+    let mut a = RoadSpec::through("a", 1, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
     a.next = Some("b".into());
     let b = RoadSpec::through(
         "b",
@@ -389,7 +496,14 @@ fn a_car_follows_a_connection_onto_the_next_road_and_tracks_it() {
     );
     let mut sim = world_with(vec![a, b]);
     let car = spawn(&mut sim, 0, 80.0, 0.0, 10.0);
-    set(&mut sim, car, Controls { throttle: 0.3, ..Controls::default() });
+    set(
+        &mut sim,
+        car,
+        Controls {
+            throttle: 0.3,
+            ..Controls::default()
+        },
+    );
     sim.run_ticks(u64::from(ticks(4.0)));
     let track = *sim.world().get::<RoadTrack>(car).expect("track");
     let network = sim.world().resource::<RoadNetwork>();
@@ -397,5 +511,9 @@ fn a_car_follows_a_connection_onto_the_next_road_and_tracks_it() {
     assert!(track.on_road && track.s_m > 0.0 && track.s_m < 100.0);
     // Its wheels stayed on the surface across the join.
     let m = motion(&sim, car);
-    assert!((m.position.z - 0.45).abs() < 0.02, "height {}", m.position.z);
+    assert!(
+        (m.position.z - 0.45).abs() < 0.02,
+        "height {}",
+        m.position.z
+    );
 }
