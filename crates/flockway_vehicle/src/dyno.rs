@@ -268,7 +268,7 @@ fn skidpad(model: &Arc<VehicleType>, settings: &DynoSettings) -> f64 {
         }
         target += 0.1 / TICKS_PER_SECOND as f32;
     }
-    f64::from(best) / 9.81
+    f64::from(best / -crate::GRAVITY.z)
 }
 
 /// A parked car with no input for a minute: how far it moves.

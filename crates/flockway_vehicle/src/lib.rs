@@ -31,7 +31,7 @@ pub use params::{
     WheelParams,
 };
 pub use physics::{
-    ContactWith, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics, VEHICLE_GROUP,
+    ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics, VEHICLE_GROUP,
     VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
 };
 pub use steering::{ackermann, slew};

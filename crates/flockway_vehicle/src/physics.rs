@@ -19,6 +19,9 @@ pub const GROUND_GROUP: Group = Group::GROUP_3;
 /// cannot pass through it between two steps.
 pub const GUARDRAIL_THICKNESS_M: f32 = 0.6;
 
+/// Gravity, m/s² (z up).
+pub const GRAVITY: Vec3 = Vec3::new(0.0, 0.0, -9.81);
+
 /// rapier solver substeps per step.
 pub const SOLVER_ITERATIONS: usize = 1;
 
@@ -108,7 +111,7 @@ pub struct Physics {
 impl Default for Physics {
     fn default() -> Self {
         let mut world = PhysicsWorld::new();
-        world.gravity = Vec3::new(0.0, 0.0, -9.81);
+        world.gravity = GRAVITY;
         world.integration_parameters.dt = DT_S as f32;
         // Bodies touch only in crashes (wheels are ours, not rapier contacts) and no body rests
         // on another, so one solver substep resolves those contacts; each substep integrates

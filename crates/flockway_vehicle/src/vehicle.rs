@@ -2,7 +2,7 @@
 
 use crate::drivetrain::{Driveline, Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, apply_brake};
 use crate::params::VehicleParams;
-use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP, vehicle_tag};
+use crate::physics::{GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP, vehicle_tag};
 use crate::steering::{ackermann, slew};
 use crate::tyre::Tyre;
 use bevy_ecs::lifecycle::HookContext;
@@ -22,9 +22,6 @@ pub const OFF_ROAD_FRICTION: f32 = 0.6;
 
 /// How far past the painted edge the road surface still carries a wheel, m (the shoulder).
 pub const SHOULDER_M: f64 = 0.5;
-
-/// Gravity, m/s² (z up), as rapier applies it.
-const GRAVITY: Vec3 = Vec3::new(0.0, 0.0, -9.81);
 
 /// Stiffness of the bump stop relative to the spring.
 const BUMP_STOP_FACTOR: f32 = 10.0;
@@ -61,7 +58,7 @@ impl VehicleType {
     pub fn new(params: VehicleParams) -> VehicleType {
         let c = &params.chassis;
         let w = &params.wheels;
-        let g = 9.81f32;
+        let g = -GRAVITY.z;
         let half_base = w.wheelbase_m / 2.0;
         // Static axle loads from the centre of mass position along the wheelbase.
         let front_share = (half_base + c.com_forward_m) / w.wheelbase_m;
@@ -397,16 +394,12 @@ impl Command for VehicleSpawn {
     type Out = ();
 
     fn apply(self, world: &mut World) {
+        // A command has nowhere to return an error; spawners check their road first, so this
+        // only reports a bug.
         if let Err(e) = spawn_vehicle(world, self) {
-            tracing_warn(&e);
+            tracing::warn!("vehicle not spawned: {e}");
         }
     }
-}
-
-fn tracing_warn(e: &SpawnError) {
-    // The spawn command has nowhere to return an error; a spawner checks its road first, so
-    // this only reports a bug.
-    eprintln!("flockway: vehicle not spawned: {e}");
 }
 
 /// The road surface under one wheel: a point on it and its normal, with its friction.
