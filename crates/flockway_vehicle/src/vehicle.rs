@@ -247,21 +247,39 @@ pub struct RoadTrack {
     pub on_road: bool,
     /// Cosine of the angle between the body's forward axis and the road direction.
     pub heading_cos: f32,
+    /// Unit road direction at `s_m`.
+    pub tangent: Vec3,
+    /// Unit vector across the road towards its left edge at `s_m` (banked with the road).
+    pub left: Vec3,
+    /// Road width at `s_m`, m.
+    pub width_m: f32,
     cursor: RoadCursor,
 }
 
 impl RoadTrack {
     /// A track at an arc position of a road.
     pub fn new(road: RoadId, geometry: &RoadGeometry, s_m: f64, lateral_m: f64) -> RoadTrack {
+        let frame = geometry.frame_at(s_m);
         RoadTrack {
             road,
             s_m,
             lateral_m,
-            lane: geometry.lane_at_offset(lateral_m, geometry.frame_at(s_m).width_m),
+            lane: geometry.lane_at_offset(lateral_m, frame.width_m),
             on_road: true,
             heading_cos: 1.0,
+            tangent: frame.tangent.as_vec3(),
+            left: frame.left.as_vec3(),
+            width_m: frame.width_m as f32,
             cursor: geometry.cursor_at(s_m),
         }
+    }
+}
+
+impl RoadTrack {
+    /// The exact road cross-section `ds_m` along the road from this track's position (on this
+    /// road; `None` past the end of an open road).
+    pub fn frame_ahead(&self, geometry: &RoadGeometry, ds_m: f64) -> Option<RoadFrame> {
+        geometry.frame_near(&self.cursor, self.s_m, ds_m)
     }
 }
 
@@ -882,19 +900,19 @@ pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forw
         track.on_road = false;
         return;
     };
-    let (mut proj, frame) = geometry.project_tracked_frame(pos, &mut track.cursor);
-    track.heading_cos = forward.dot(frame.tangent.as_vec3());
+    let (mut proj, mut frame) = geometry.project_tracked_frame(pos, &mut track.cursor);
     if !geometry.is_closed()
         && proj.s_m >= geometry.length_m() - 1.0e-6
         && let Some(next) = network.next(track.road)
         && let Some(g2) = network.get(next)
     {
         let mut cursor = g2.cursor_at(0.0);
-        let p2 = g2.project_tracked(pos, &mut cursor);
+        let (p2, f2) = g2.project_tracked_frame(pos, &mut cursor);
         if p2.distance_m <= proj.distance_m + 1.0e-6 {
             track.road = next;
             track.cursor = cursor;
             proj = p2;
+            frame = f2;
         }
     }
     if !proj.on_road
@@ -906,7 +924,12 @@ pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forw
         track.road = id;
         track.cursor = g.cursor_at(p.s_m);
         proj = p;
+        frame = g.frame_at(p.s_m);
     }
+    track.heading_cos = forward.dot(frame.tangent.as_vec3());
+    track.tangent = frame.tangent.as_vec3();
+    track.left = frame.left.as_vec3();
+    track.width_m = frame.width_m as f32;
     track.s_m = proj.s_m;
     track.lateral_m = proj.lateral_m;
     track.lane = proj.lane;

@@ -1,0 +1,199 @@
+//! The shared controller: PID loops that turn a target speed and heading into `Controls`.
+
+use bevy_ecs::prelude::*;
+use flockway_core::DT_S;
+use flockway_vehicle::{Controls, Motion, STANDSTILL_MPS, VehicleModel, VehicleParams};
+use serde::{Deserialize, Serialize};
+use std::f32::consts::{PI, TAU};
+
+/// PID gains.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PidGains {
+    /// Proportional gain (output per unit error).
+    pub kp: f32,
+    /// Integral gain (output per unit error·second).
+    pub ki: f32,
+    /// Derivative gain (output per unit error/second).
+    pub kd: f32,
+}
+
+/// A PID loop with output clamped to [-1, 1] and conditional integration (no wind-up).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Pid {
+    integral: f32,
+    last_error: Option<f32>,
+}
+
+impl Pid {
+    /// One update with this error; returns the clamped output.
+    pub fn update(&mut self, gains: &PidGains, error: f32, dt_s: f32) -> f32 {
+        let error = if error.is_finite() { error } else { 0.0 };
+        let derivative = self.last_error.map_or(0.0, |e| (error - e) / dt_s);
+        self.last_error = Some(error);
+        let unclamped = gains.kp * error + gains.ki * self.integral + gains.kd * derivative;
+        // Integrate only while that does not push a saturated output further.
+        let saturated = unclamped.abs() >= 1.0 && unclamped.signum() == error.signum();
+        if !saturated {
+            self.integral += error * dt_s;
+        }
+        (gains.kp * error + gains.ki * self.integral + gains.kd * derivative).clamp(-1.0, 1.0)
+    }
+
+    /// Forgets the integral and derivative history.
+    pub fn reset(&mut self) {
+        *self = Pid::default();
+    }
+}
+
+/// Wraps an angle difference into (−π, π]: from −175° to 175° is a turn of −10°, not 350°.
+pub fn wrap_angle(rad: f32) -> f32 {
+    let w = (rad + PI).rem_euclid(TAU) - PI;
+    if w <= -PI { w + TAU } else { w }
+}
+
+/// Below this target speed, m/s, the controller only brakes (a stop, not a crawl).
+pub const STOP_BELOW_MPS: f32 = 0.3;
+
+/// Brake held by a stopping car on top of the proportional term, as a share of full braking.
+pub const HOLD_BRAKE: f32 = 0.2;
+
+/// What a driver wants: the speed along its heading and the heading, for the shared controller.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct DriveTarget {
+    /// Target speed, m/s (never negative: drivers brake to a stop, they do not reverse).
+    pub speed_mps: f32,
+    /// Target heading: compass angle of the direction of travel in the ground plane, rad
+    /// (0 = +x east, counter-clockwise).
+    pub heading_rad: f32,
+    /// Curvature of the path ahead, 1/m (positive turning left; 0 if unknown): the controller
+    /// steers the matching Ackermann angle up front and leaves only corrections to the PID.
+    pub curvature_per_m: f32,
+}
+
+/// The shared controller of a vehicle: gains and the state of its two PID loops. Vehicles with a
+/// [`DriveTarget`] and this component get their `Controls` from it.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct TargetController {
+    /// Throttle loop on speed error (m/s).
+    pub throttle: PidGains,
+    /// Steering loop on heading error (rad).
+    pub steering: PidGains,
+    throttle_pid: Pid,
+    steering_pid: Pid,
+}
+
+impl TargetController {
+    /// A controller with these gains and fresh loops.
+    pub fn new(throttle: PidGains, steering: PidGains) -> TargetController {
+        TargetController {
+            throttle,
+            steering,
+            throttle_pid: Pid::default(),
+            steering_pid: Pid::default(),
+        }
+    }
+
+    /// The controls for one tick towards `target`, from the vehicle's motion and type.
+    pub fn control(
+        &mut self,
+        target: &DriveTarget,
+        motion: &Motion,
+        vehicle: &VehicleParams,
+    ) -> Controls {
+        let h = DT_S as f32;
+        let f = motion.forward();
+        let heading = f.y.atan2(f.x);
+        let speed_error = target.speed_mps.max(0.0) - motion.forward_mps;
+        let heading_error = wrap_angle(target.heading_rad - heading);
+        let stopping = target.speed_mps < STOP_BELOW_MPS;
+        let throttle = if stopping {
+            // Asked to stop: brake only. The integral remembers the throttle that cruising
+            // needed, and would otherwise creep the car on into whatever it stopped for.
+            self.throttle_pid.reset();
+            if motion.forward_mps > STANDSTILL_MPS {
+                (self.throttle.kp * speed_error - HOLD_BRAKE).clamp(-1.0, 0.0)
+            } else {
+                // Stopped: negative throttle would select reverse; hold with the handbrake.
+                0.0
+            }
+        } else {
+            self.throttle_pid.update(&self.throttle, speed_error, h)
+        };
+        let lock = vehicle
+            .steering
+            .center_angle_rad(1.0, motion.forward_mps.abs() * 3.6)
+            .max(1.0e-3);
+        let feed_forward = (vehicle.wheels.wheelbase_m * target.curvature_per_m).atan() / lock;
+        let correction = self.steering_pid.update(&self.steering, heading_error, h);
+        Controls {
+            throttle,
+            steering: (feed_forward + correction).clamp(-1.0, 1.0),
+            handbrake: stopping && motion.forward_mps <= STANDSTILL_MPS,
+        }
+    }
+}
+
+/// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`].
+pub fn follow_targets(
+    mut vehicles: Query<(
+        &DriveTarget,
+        &Motion,
+        &VehicleModel,
+        &mut TargetController,
+        &mut Controls,
+    )>,
+) {
+    for (target, motion, model, mut controller, mut controls) in &mut vehicles {
+        *controls = controller.control(target, motion, &model.0.params);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heading_error_wraps() {
+        let e = wrap_angle(175f32.to_radians() - (-175f32).to_radians());
+        assert!((e.to_degrees() + 10.0).abs() < 1e-3, "{}", e.to_degrees());
+        let e = wrap_angle((-175f32).to_radians() - 175f32.to_radians());
+        assert!((e.to_degrees() - 10.0).abs() < 1e-3);
+        assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-5);
+        assert_eq!(wrap_angle(0.25), 0.25);
+    }
+
+    #[test]
+    fn pid_output_is_clamped_and_does_not_wind_up() {
+        let gains = PidGains {
+            kp: 1.0,
+            ki: 1.0,
+            kd: 0.0,
+        };
+        let mut pid = Pid::default();
+        for _ in 0..1000 {
+            assert_eq!(pid.update(&gains, 10.0, 0.01), 1.0);
+        }
+        // After a long saturation the output comes off the stop as soon as the error turns.
+        let out = pid.update(&gains, -0.5, 0.01);
+        assert!(out < 0.0, "{out}");
+        assert!(pid.update(&gains, f32::NAN, 0.01).is_finite());
+    }
+
+    #[test]
+    fn pid_integral_removes_a_steady_error() {
+        let gains = PidGains {
+            kp: 0.5,
+            ki: 2.0,
+            kd: 0.0,
+        };
+        let mut pid = Pid::default();
+        // A plant that needs an output of 0.3 to hold zero error: y' = u - 0.3.
+        let mut y = 0.0f32;
+        for _ in 0..5000 {
+            let u = pid.update(&gains, 1.0 - y, 0.01);
+            y += (u - 0.3) * 0.01 * 5.0;
+        }
+        assert!((y - 1.0).abs() < 1e-3, "{y}");
+    }
+}

@@ -1,0 +1,89 @@
+//! Flockway's drivers: what a car sees, how it decides, and how you add your own.
+//!
+//! Each tick, in [`StepSet::Sense`], [`rebuild_lane_index`] sorts every vehicle into a
+//! [`LaneIndex`] per road and lane, so a driver finds its leader, follower and neighbours in
+//! O(log n + k). In [`StepSet::Decide`] every driver system writes a [`DriveTarget`] (a speed and
+//! a heading) for the vehicles it drives — [`drive_flock`] (Reynolds flocking, free or keeping
+//! its lane, and human-like with [`HumanDriver`]) and [`drive_idm`] (the Intelligent Driver
+//! Model) — and then [`follow_targets`] turns targets into `Controls` with two PID loops. A driver
+//! may instead write `Controls` itself.
+//!
+//! A new driver is a component and a system added with [`add_driver`]; see
+//! `examples/custom_driver.rs`.
+
+mod control;
+mod models;
+mod perception;
+mod profile;
+
+pub use control::{DriveTarget, Pid, PidGains, TargetController, follow_targets, wrap_angle};
+pub use models::{
+    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
+    drive_flock, drive_idm, idm_accel, lane_following, update_speed_limits,
+};
+pub use perception::{LaneEntry, LaneIndex, Seen, rebuild_lane_index};
+pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
+
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::ScheduleConfigs;
+use bevy_ecs::system::ScheduleSystem;
+use flockway_core::{Sim, SimPlugin, StepSet};
+use flockway_vehicle::VehiclePlugin;
+
+/// The driver types most users need.
+pub mod prelude {
+    pub use crate::{
+        DriveTarget, DriverSpec, DriversPlugin, FlockDriver, HumanDriver, IdmDriver, LaneIndex,
+        SpeedLimit, TargetController, add_driver,
+    };
+}
+
+/// The driver systems, for ordering against.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DriverSystems {
+    /// Rebuilding the lane index and speed limits (in `Sense`).
+    Perceive,
+    /// Every driver deciding its target (in `Decide`).
+    Decide,
+    /// The shared controller turning targets into controls (in `Decide`, after the drivers).
+    Control,
+}
+
+/// Adds perception, the built-in drivers and the shared controller. Needs the vehicle plugin
+/// (added if missing).
+pub struct DriversPlugin;
+
+impl SimPlugin for DriversPlugin {
+    fn build(&self, sim: &mut Sim) {
+        sim.add_plugin(VehiclePlugin);
+        sim.world_mut().init_resource::<LaneIndex>();
+        sim.schedule_mut().configure_sets((
+            DriverSystems::Perceive.in_set(StepSet::Sense),
+            DriverSystems::Decide.in_set(StepSet::Decide),
+            DriverSystems::Control
+                .after(DriverSystems::Decide)
+                .in_set(StepSet::Decide),
+        ));
+        sim.schedule_mut().add_systems((
+            (rebuild_lane_index, update_speed_limits).in_set(DriverSystems::Perceive),
+            follow_targets.in_set(DriverSystems::Control),
+        ));
+        add_driver(sim, drive_flock);
+        add_driver(sim, drive_idm);
+    }
+}
+
+/// Registers a driver system: it runs every tick in [`DriverSystems::Decide`], after
+/// perception and before the shared controller, and writes [`DriveTarget`] or `Controls` for the
+/// vehicles that carry its component.
+///
+/// Driver systems write the same components for different vehicles (each vehicle carries one
+/// driver component), so they are declared ambiguous with each other rather than ordered; the
+/// single-threaded step still runs them in one fixed order, so results stay deterministic.
+pub fn add_driver<M>(sim: &mut Sim, system: impl IntoScheduleConfigs<ScheduleSystem, M>) {
+    let configs: ScheduleConfigs<ScheduleSystem> = system
+        .into_configs()
+        .in_set(DriverSystems::Decide)
+        .ambiguous_with(DriverSystems::Decide);
+    sim.schedule_mut().add_systems(configs);
+}

@@ -1,0 +1,559 @@
+//! The built-in drivers: Reynolds flocking (free and lane-keeping), human-like, and the IDM.
+
+use crate::control::{DriveTarget, PidGains};
+use crate::perception::{LaneIndex, Seen};
+use bevy_ecs::prelude::*;
+use flockway_core::DT_S;
+use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
+use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Parameters of the flocking drivers (SPEC §4, thesis §3.2.4–3.2.5). Units are in the names.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FlockParams {
+    /// Cruising speed, km/h; `None` drives at the speed limit.
+    pub target_speed_kmh: Option<f32>,
+    /// Weight of speed matching: lane direction × target speed.
+    pub speed_weight: f32,
+    /// Road following: m/s of pull towards the lane centre per metre off it.
+    pub road_weight_per_s: f32,
+    /// Largest sideways speed the road-following pull asks for, m/s (sets how gently a lane
+    /// change moves across).
+    pub max_lateral_mps: f32,
+    /// Collision avoidance strength, m²/s: the push away from a neighbour is
+    /// `weight × (1/clearance − 1/range)` m/s, growing as the clearance between bumpers closes.
+    pub avoid_weight_m2_per_s: f32,
+    /// Detection range in the vehicle's own lane, m (centre to centre, ahead and behind).
+    pub detection_range_m: f32,
+    /// Avoidance looks at the clearance this far ahead in time at the current closing speed, s.
+    pub anticipation_s: f32,
+    /// Detection range in the adjacent lanes, m (flock with lanes only).
+    pub adjacent_range_m: f32,
+    /// How far ahead, in seconds at the current speed, the lane direction is taken.
+    pub lookahead_s: f32,
+    /// Time gap needed ahead of and behind the car in the target lane before a lane change, s.
+    pub lane_change_gap_s: f32,
+    /// Throttle PID on speed error (per m/s).
+    pub throttle: PidGains,
+    /// Steering PID on heading error (per rad).
+    pub steering: PidGains,
+}
+
+impl Default for FlockParams {
+    fn default() -> Self {
+        FlockParams {
+            target_speed_kmh: None,
+            speed_weight: 1.0,
+            road_weight_per_s: 0.5,
+            max_lateral_mps: 1.0,
+            avoid_weight_m2_per_s: 60.0,
+            detection_range_m: 40.0,
+            anticipation_s: 2.0,
+            adjacent_range_m: 8.0,
+            lookahead_s: 0.6,
+            lane_change_gap_s: 1.0,
+            throttle: PidGains {
+                kp: 0.5,
+                ki: 0.2,
+                kd: 0.0,
+            },
+            steering: PidGains {
+                kp: 1.6,
+                ki: 0.4,
+                kd: 0.05,
+            },
+        }
+    }
+}
+
+/// What makes a human-like driver (thesis §3.2.6) on top of its flocking parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HumanParams {
+    /// Flocking behaviour: shorter ranges and harsher gains than the autonomous car.
+    pub flock: FlockParams,
+    /// Reaction delay: it acts on what it decided this long ago, s.
+    pub reaction_time_s: f32,
+    /// Spread of its desired speed around the limit: drawn once, uniform in ±this share.
+    pub speed_spread: f32,
+}
+
+impl Default for HumanParams {
+    fn default() -> Self {
+        HumanParams {
+            flock: FlockParams {
+                detection_range_m: 25.0,
+                anticipation_s: 0.8,
+                adjacent_range_m: 5.0,
+                avoid_weight_m2_per_s: 45.0,
+                throttle: PidGains {
+                    kp: 1.2,
+                    ki: 0.3,
+                    kd: 0.0,
+                },
+                ..FlockParams::default()
+            },
+            reaction_time_s: 0.6,
+            speed_spread: 0.1,
+        }
+    }
+}
+
+/// Parameters of the Intelligent Driver Model (Treiber, Hennecke & Helbing 2000), with lane
+/// keeping from the flocking driver's road following.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IdmParams {
+    /// Desired speed v₀, km/h; `None` drives at the speed limit.
+    pub target_speed_kmh: Option<f32>,
+    /// Safe time headway T, s.
+    pub time_headway_s: f32,
+    /// Minimum bumper-to-bumper gap s₀, m.
+    pub min_gap_m: f32,
+    /// Maximum acceleration a, m/s².
+    pub max_accel_mps2: f32,
+    /// Comfortable deceleration b, m/s².
+    pub comfortable_decel_mps2: f32,
+    /// Acceleration exponent δ.
+    pub delta: f32,
+    /// How far ahead it looks for a leader, m.
+    pub detection_range_m: f32,
+    /// The acceleration is tracked as a target speed this far ahead in time, s.
+    pub accel_horizon_s: f32,
+    /// Road following, as for the flocking driver (m/s per m).
+    pub road_weight_per_s: f32,
+    /// Largest sideways speed asked for, m/s.
+    pub max_lateral_mps: f32,
+    /// Lane direction look-ahead, s.
+    pub lookahead_s: f32,
+    /// Throttle PID on speed error (per m/s).
+    pub throttle: PidGains,
+    /// Steering PID on heading error (per rad).
+    pub steering: PidGains,
+}
+
+impl Default for IdmParams {
+    fn default() -> Self {
+        let flock = FlockParams::default();
+        IdmParams {
+            target_speed_kmh: None,
+            time_headway_s: 1.5,
+            min_gap_m: 2.0,
+            max_accel_mps2: 1.0,
+            comfortable_decel_mps2: 1.5,
+            delta: 4.0,
+            detection_range_m: 150.0,
+            accel_horizon_s: 0.5,
+            road_weight_per_s: flock.road_weight_per_s,
+            max_lateral_mps: flock.max_lateral_mps,
+            lookahead_s: flock.lookahead_s,
+            throttle: PidGains {
+                kp: 0.8,
+                ki: 0.2,
+                kd: 0.0,
+            },
+            steering: flock.steering,
+        }
+    }
+}
+
+/// The speed limit a vehicle obeys, km/h: its road's, until a trigger sets another.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct SpeedLimit {
+    /// Limit, km/h.
+    pub kmh: f32,
+    /// The road it was taken from; entering another road resets it to that road's limit.
+    pub road: Option<RoadId>,
+}
+
+impl Default for SpeedLimit {
+    fn default() -> Self {
+        SpeedLimit {
+            kmh: 50.0,
+            road: None,
+        }
+    }
+}
+
+/// Sets each vehicle's limit from its road when it enters one (triggers overwrite `kmh` later).
+pub fn update_speed_limits(
+    network: Res<RoadNetwork>,
+    mut vehicles: Query<(&RoadTrack, &mut SpeedLimit)>,
+) {
+    for (track, mut limit) in &mut vehicles {
+        if limit.road != Some(track.road)
+            && let Some(g) = network.get(track.road)
+        {
+            *limit = SpeedLimit {
+                kmh: g.speed_limit_kmh() as f32,
+                road: Some(track.road),
+            };
+        }
+    }
+}
+
+/// Reynolds flocking: free (avoidance in any direction) or lane-keeping (avoidance only along
+/// the lane, own and adjacent lanes with their own ranges, lane changes on command).
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct FlockDriver {
+    /// Its parameters; edits take effect at the next tick.
+    pub params: FlockParams,
+    /// Lane-keeping (`FlockLanes`) or free (`Flock`).
+    pub keep_lane: bool,
+    /// The lane it follows now.
+    pub lane: u32,
+    /// The lane it wants: set this to change lanes; it moves over when the gap allows.
+    pub target_lane: u32,
+}
+
+impl FlockDriver {
+    /// A driver in `lane`.
+    pub fn new(params: FlockParams, keep_lane: bool, lane: u32) -> FlockDriver {
+        FlockDriver {
+            params,
+            keep_lane,
+            lane,
+            target_lane: lane,
+        }
+    }
+}
+
+/// Makes a flocking driver human-like: its own desired speed and a reaction delay.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct HumanDriver {
+    /// Its desired speed as a share of the limit (drawn once, 1 ± spread).
+    pub speed_factor: f32,
+    /// Reaction delay, s.
+    pub reaction_time_s: f32,
+    pending: VecDeque<DriveTarget>,
+}
+
+impl HumanDriver {
+    /// A human with this speed factor and delay.
+    pub fn new(speed_factor: f32, reaction_time_s: f32) -> HumanDriver {
+        HumanDriver {
+            speed_factor,
+            reaction_time_s,
+            pending: VecDeque::new(),
+        }
+    }
+
+    /// Queues this tick's decision and returns the one made a reaction time ago (the oldest
+    /// while the queue fills).
+    pub fn react(&mut self, decided: DriveTarget) -> DriveTarget {
+        let delay = (self.reaction_time_s.max(0.0) / DT_S as f32).round() as usize;
+        self.pending.push_back(decided);
+        while self.pending.len() > delay + 1 {
+            self.pending.pop_front();
+        }
+        self.pending.front().copied().unwrap_or(decided)
+    }
+}
+
+/// The Intelligent Driver Model with lane keeping.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct IdmDriver {
+    /// Its parameters; edits take effect at the next tick.
+    pub params: IdmParams,
+    /// The lane it follows.
+    pub lane: u32,
+}
+
+/// Lane following for a car in `lane`: speed matching along the lane direction plus road
+/// following towards the lane centre (the pull capped at `max_lateral_mps`), and the lane's
+/// curvature a little ahead for the steering feed-forward. Returns
+/// `(lane direction here, desired velocity without avoidance, curvature ahead in 1/m)`.
+#[allow(clippy::too_many_arguments)]
+pub fn lane_following(
+    geometry: &RoadGeometry,
+    track: &RoadTrack,
+    lane: u32,
+    speed_mps: f32,
+    target_speed_mps: f32,
+    speed_weight: f32,
+    road_weight_per_s: f32,
+    max_lateral_mps: f32,
+    lookahead_s: f32,
+) -> (Vec3, Vec3, f32) {
+    let lanes = geometry.lanes().max(1);
+    let centre = lane_offset(f64::from(track.width_m), lanes, lane.min(lanes - 1));
+    let error = (centre - track.lateral_m) as f32;
+    let (dir, left) = (track.tangent, track.left);
+    // Curvature from the turn of the lane direction over the look-ahead distance (signed,
+    // positive turning left), for the steering feed-forward: it steers into a bend as it
+    // arrives instead of waiting for a heading error to build.
+    let ahead = speed_mps.max(2.0) * lookahead_s;
+    let curvature = match track.frame_ahead(geometry, f64::from(ahead)) {
+        Some(f) if ahead > 0.1 => {
+            let t2 = f.tangent.as_vec3();
+            let turn = dir.x * t2.y - dir.y * t2.x;
+            let along = dir.x * t2.x + dir.y * t2.y;
+            turn.atan2(along) / ahead
+        }
+        _ => 0.0,
+    };
+    let pull = (error * road_weight_per_s).clamp(-max_lateral_mps, max_lateral_mps);
+    (dir, dir * (target_speed_mps * speed_weight) + left * pull, curvature)
+}
+
+/// The avoidance push from one seen vehicle, m/s, in the road's frame at the observer. The
+/// clearance between bumpers is taken as it will be after `anticipation_s` at the current
+/// closing speed, so a fast approach pushes as hard as a near one.
+#[allow(clippy::too_many_arguments)]
+fn avoid_push(
+    seen: &Seen,
+    me_lateral: f32,
+    me_speed: f32,
+    me_length: f32,
+    range_m: f32,
+    weight: f32,
+    anticipation_s: f32,
+    tangent: Vec3,
+    left: Vec3,
+) -> Vec3 {
+    let along = seen.gap_m as f32;
+    let across = seen.entry.lateral_m - me_lateral;
+    let dist = (along * along + across * across).sqrt().max(1.0e-3);
+    let half_lengths = 0.5 * (me_length + seen.entry.length_m);
+    let closing = (me_speed - seen.entry.speed_mps) * along.signum() * (along.abs() / dist);
+    let clearance = (dist - half_lengths - closing.max(0.0) * anticipation_s).max(0.3);
+    let reach = (range_m - half_lengths).max(1.0);
+    let strength = weight * (1.0 / clearance - 1.0 / reach).max(0.0);
+    -(tangent * along + left * across) / dist * strength
+}
+
+/// Target speed and heading from a desired velocity: speed along the lane (never backwards);
+/// heading along the desired velocity, or along the lane when avoidance has cancelled it.
+fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> DriveTarget {
+    let speed = desired.dot(dir).max(0.0);
+    let h = if steer_by.truncate().length() > 1.0e-3 {
+        steer_by
+    } else {
+        dir
+    };
+    DriveTarget {
+        speed_mps: speed,
+        heading_rad: h.y.atan2(h.x),
+        curvature_per_m,
+    }
+}
+
+/// Decides every flocking (and human-like) vehicle's target: speed matching + road following +
+/// collision avoidance (SPEC §4).
+#[allow(clippy::type_complexity)]
+pub fn drive_flock(
+    network: Res<RoadNetwork>,
+    index: Res<LaneIndex>,
+    mut vehicles: Query<(
+        Entity,
+        &RoadTrack,
+        &Motion,
+        &VehicleModel,
+        &SpeedLimit,
+        &mut FlockDriver,
+        Option<&mut HumanDriver>,
+        &mut DriveTarget,
+    )>,
+) {
+    let mut seen = Vec::new();
+    for (me, track, motion, model, limit, mut driver, human, mut target) in &mut vehicles {
+        let Some(geometry) = network.get(track.road) else {
+            continue;
+        };
+        let p = &driver.params;
+        let lanes = geometry.lanes().max(1);
+        let speed_factor = human.as_ref().map_or(1.0, |h| h.speed_factor);
+        let v_target = p
+            .target_speed_kmh
+            .unwrap_or(limit.kmh * speed_factor)
+            .max(0.0)
+            / 3.6;
+        let length = model.0.params.chassis.length_m;
+        let v = motion.forward_mps;
+
+        // A lane change waits for room in the target lane: a time gap ahead and behind.
+        let target_lane = driver.target_lane.min(lanes - 1);
+        if driver.keep_lane && target_lane != driver.lane {
+            let step = if target_lane > driver.lane { 1 } else { -1 };
+            let next = (driver.lane as i64 + step) as u32;
+            let need = |speed: f32| f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0);
+            let ahead_ok = index
+                .leader(track.road, next, track.s_m, me, 200.0)
+                .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
+            let behind_ok = index
+                .follower(track.road, next, track.s_m, me, 200.0)
+                .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
+            if ahead_ok && behind_ok {
+                driver.lane = next;
+            }
+        }
+        let lane = driver.lane.min(lanes - 1);
+        let p = &driver.params;
+        let (dir, base, curvature) = lane_following(
+            geometry,
+            track,
+            lane,
+            v,
+            v_target,
+            p.speed_weight,
+            p.road_weight_per_s,
+            p.max_lateral_mps,
+            p.lookahead_s,
+        );
+        let me_lat = track.lateral_m as f32;
+        let me_speed = motion.linvel.dot(track.tangent);
+        let mut avoid = Vec3::ZERO;
+        seen.clear();
+        let own = f64::from(p.detection_range_m);
+        index.within(track.road, lane, track.s_m, own, own, Some(me), &mut seen);
+        let own_count = seen.len();
+        let adj = f64::from(p.adjacent_range_m);
+        if lane > 0 {
+            index.within(track.road, lane - 1, track.s_m, adj, adj, Some(me), &mut seen);
+        }
+        if lane + 1 < lanes {
+            index.within(track.road, lane + 1, track.s_m, adj, adj, Some(me), &mut seen);
+        }
+        for (i, s) in seen.iter().enumerate() {
+            let range = if i < own_count {
+                p.detection_range_m
+            } else {
+                p.adjacent_range_m
+            };
+            avoid += avoid_push(
+                s,
+                me_lat,
+                me_speed,
+                length,
+                range,
+                p.avoid_weight_m2_per_s,
+                p.anticipation_s,
+                track.tangent,
+                track.left,
+            );
+        }
+        if driver.keep_lane {
+            // Brake or speed up, never swerve: only the part along the lane.
+            avoid = dir * avoid.dot(dir);
+        }
+        let desired = base + avoid;
+        let steer_by = if driver.keep_lane { base } else { desired };
+        let decided = to_target(desired, steer_by, dir, curvature);
+        *target = match human {
+            Some(mut h) => h.react(decided),
+            None => decided,
+        };
+    }
+}
+
+/// The IDM acceleration, m/s², for speed `v`, desired speed `v0`, and a leader at bumper gap
+/// `gap_m` closing at `dv` (own speed minus leader's), if any.
+pub fn idm_accel(p: &IdmParams, v: f32, v0: f32, leader: Option<(f32, f32)>) -> f32 {
+    let v = v.max(0.0);
+    let free = 1.0 - (v / v0.max(0.1)).powf(p.delta);
+    let interaction = match leader {
+        Some((gap, dv)) => {
+            let s_star = p.min_gap_m
+                + (v * p.time_headway_s
+                    + v * dv / (2.0 * (p.max_accel_mps2 * p.comfortable_decel_mps2).sqrt()))
+                .max(0.0);
+            let s = gap.max(0.1);
+            (s_star / s).powi(2)
+        }
+        None => 0.0,
+    };
+    p.max_accel_mps2 * (free - interaction)
+}
+
+/// Decides every IDM vehicle's target: IDM acceleration behind its leader, lane keeping.
+pub fn drive_idm(
+    network: Res<RoadNetwork>,
+    index: Res<LaneIndex>,
+    mut vehicles: Query<(
+        Entity,
+        &RoadTrack,
+        &Motion,
+        &VehicleModel,
+        &SpeedLimit,
+        &IdmDriver,
+        &mut DriveTarget,
+    )>,
+) {
+    for (me, track, motion, model, limit, driver, mut target) in &mut vehicles {
+        let Some(geometry) = network.get(track.road) else {
+            continue;
+        };
+        let p = &driver.params;
+        let lane = driver.lane.min(geometry.lanes().max(1) - 1);
+        let v0 = p.target_speed_kmh.unwrap_or(limit.kmh).max(0.0) / 3.6;
+        let v = motion.forward_mps;
+        let length = model.0.params.chassis.length_m;
+        let leader = index
+            .leader(
+                track.road,
+                lane,
+                track.s_m,
+                me,
+                f64::from(p.detection_range_m),
+            )
+            .map(|l| {
+                let gap = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
+                (gap, v - l.entry.speed_mps)
+            });
+        let a = idm_accel(p, v, v0, leader);
+        let speed = (v + a * p.accel_horizon_s).max(0.0);
+        let (dir, base, curvature) = lane_following(
+            geometry,
+            track,
+            lane,
+            v,
+            speed,
+            1.0,
+            p.road_weight_per_s,
+            p.max_lateral_mps,
+            p.lookahead_s,
+        );
+        *target = to_target(dir * speed, base, dir, curvature);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn idm_matches_the_published_equation() {
+        let p = IdmParams::default();
+        // Free road at half the desired speed: a (1 − 0.5⁴) = 0.9375 a.
+        assert!((idm_accel(&p, 10.0, 20.0, None) - 0.9375).abs() < 1e-6);
+        // At the desired speed on a free road: zero.
+        assert!(idm_accel(&p, 20.0, 20.0, None).abs() < 1e-6);
+        // Standing behind a stopped leader at exactly s₀: free term 1, interaction (s₀/s₀)² = 1.
+        assert!(idm_accel(&p, 0.0, 20.0, Some((2.0, 0.0))).abs() < 1e-6);
+        // Following at 20 m/s, 30 m gap, same speed: s* = 2 + 30 = 32; a(1 − 1 − (32/30)²).
+        let a = idm_accel(&p, 20.0, 20.0, Some((30.0, 0.0)));
+        assert!((a + (32.0f32 / 30.0).powi(2)).abs() < 1e-5, "{a}");
+        // Closing fast on a near leader: hard braking.
+        assert!(idm_accel(&p, 20.0, 20.0, Some((15.0, 10.0))) < -5.0);
+    }
+
+    #[test]
+    fn human_reacts_after_its_delay() {
+        let mut h = HumanDriver::new(1.0, 0.5);
+        let t = |v: f32| DriveTarget {
+            speed_mps: v,
+            heading_rad: 0.0,
+            curvature_per_m: 0.0,
+        };
+        let delay = (0.5 / DT_S).round() as usize;
+        for i in 0..delay {
+            assert_eq!(h.react(t(i as f32 + 1.0)).speed_mps, 1.0);
+        }
+        // Tick `delay` returns what was decided `delay` ticks before.
+        assert_eq!(h.react(t(100.0)).speed_mps, 1.0);
+        assert_eq!(h.react(t(101.0)).speed_mps, 2.0);
+    }
+}

@@ -1,0 +1,296 @@
+//! Driver profiles: a built-in model with parameters from RON and overrides by name, ready to put
+//! on a vehicle.
+
+use crate::control::{DriveTarget, TargetController};
+use crate::models::{
+    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
+};
+use bevy_ecs::prelude::*;
+use flockway_core::EntityRng;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The driver models Flockway provides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum BuiltinModel {
+    /// Reynolds flocking with free avoidance.
+    Flock,
+    /// Flocking that keeps its lane (the default autonomous car).
+    FlockLanes,
+    /// Human-like flocking: shorter range, reaction delay, harsher, own desired speed.
+    Human,
+    /// The Intelligent Driver Model.
+    Idm,
+}
+
+impl BuiltinModel {
+    /// Every built-in model.
+    pub const ALL: [BuiltinModel; 4] = [
+        BuiltinModel::Flock,
+        BuiltinModel::FlockLanes,
+        BuiltinModel::Human,
+        BuiltinModel::Idm,
+    ];
+
+    /// The model's name in levels and telemetry.
+    pub fn name(self) -> &'static str {
+        match self {
+            BuiltinModel::Flock => "Flock",
+            BuiltinModel::FlockLanes => "FlockLanes",
+            BuiltinModel::Human => "Human",
+            BuiltinModel::Idm => "Idm",
+        }
+    }
+
+    /// The parameter file shipped for this model, under `assets/`.
+    pub fn default_params_path(self) -> &'static str {
+        match self {
+            BuiltinModel::Flock => "drivers/flock.ron",
+            BuiltinModel::FlockLanes => "drivers/flock_lanes.ron",
+            BuiltinModel::Human => "drivers/human.ron",
+            BuiltinModel::Idm => "drivers/idm.ron",
+        }
+    }
+}
+
+/// A built-in model with its parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DriverSpec {
+    /// Free flocking.
+    Flock(FlockParams),
+    /// Lane-keeping flocking.
+    FlockLanes(FlockParams),
+    /// Human-like.
+    Human(HumanParams),
+    /// IDM.
+    Idm(IdmParams),
+}
+
+/// Why a driver profile could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DriverParamsError {
+    /// The parameter text is not valid RON for the model.
+    #[error("{path}:{line}:{column}: {message}")]
+    Parse {
+        /// File (or a description of the text).
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What was expected.
+        message: String,
+    },
+    /// An override names no parameter of the model.
+    #[error("`{name}` is not a parameter of {model}; its parameters are {known}")]
+    UnknownParameter {
+        /// The name given.
+        name: String,
+        /// The model.
+        model: &'static str,
+        /// The names it has.
+        known: String,
+    },
+    /// An override's value does not fit the parameter, or a value is out of range.
+    #[error("{model}: {message}")]
+    Invalid {
+        /// The model.
+        model: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl DriverSpec {
+    /// The model's built-in defaults.
+    pub fn default_for(model: BuiltinModel) -> DriverSpec {
+        match model {
+            BuiltinModel::Flock => DriverSpec::Flock(FlockParams::default()),
+            BuiltinModel::FlockLanes => DriverSpec::FlockLanes(FlockParams::default()),
+            BuiltinModel::Human => DriverSpec::Human(HumanParams::default()),
+            BuiltinModel::Idm => DriverSpec::Idm(IdmParams::default()),
+        }
+    }
+
+    /// Which model this is.
+    pub fn model(&self) -> BuiltinModel {
+        match self {
+            DriverSpec::Flock(_) => BuiltinModel::Flock,
+            DriverSpec::FlockLanes(_) => BuiltinModel::FlockLanes,
+            DriverSpec::Human(_) => BuiltinModel::Human,
+            DriverSpec::Idm(_) => BuiltinModel::Idm,
+        }
+    }
+
+    /// Builds a profile: `params` (RON text of the model's parameters, partial files allowed;
+    /// `None` for the defaults; `path` names it in errors) with `overrides` by dotted name
+    /// (`"target_speed_kmh"`, `"throttle.kp"`, `"flock.detection_range_m"`).
+    pub fn build(
+        model: BuiltinModel,
+        params: Option<(&str, &str)>,
+        overrides: &BTreeMap<String, f64>,
+    ) -> Result<DriverSpec, DriverParamsError> {
+        Ok(match model {
+            BuiltinModel::Flock => DriverSpec::Flock(load(model, params, overrides)?),
+            BuiltinModel::FlockLanes => DriverSpec::FlockLanes(load(model, params, overrides)?),
+            BuiltinModel::Human => DriverSpec::Human(load(model, params, overrides)?),
+            BuiltinModel::Idm => DriverSpec::Idm(load(model, params, overrides)?),
+        })
+    }
+
+    /// The components that make `entity` drive this way in `lane`: the model's component, a
+    /// [`DriveTarget`], a [`TargetController`] with the model's gains and a [`SpeedLimit`]. A
+    /// human-like driver draws its desired speed from `rng` (the vehicle's own stream).
+    pub fn insert(&self, entity: &mut EntityWorldMut, lane: u32, rng: &mut EntityRng) {
+        let target = DriveTarget {
+            speed_mps: 0.0,
+            heading_rad: 0.0,
+            curvature_per_m: 0.0,
+        };
+        entity.insert((target, SpeedLimit::default(), DriverLabel(self.model().name().into())));
+        match self {
+            DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
+                let keep = matches!(self, DriverSpec::FlockLanes(_));
+                entity.insert((
+                    FlockDriver::new(p.clone(), keep, lane),
+                    TargetController::new(p.throttle, p.steering),
+                ));
+            }
+            DriverSpec::Human(h) => {
+                let spread = f64::from(h.speed_spread.clamp(0.0, 0.9));
+                let factor = rng.uniform(1.0 - spread, 1.0 + spread) as f32;
+                entity.insert((
+                    FlockDriver::new(h.flock.clone(), true, lane),
+                    HumanDriver::new(factor, h.reaction_time_s),
+                    TargetController::new(h.flock.throttle, h.flock.steering),
+                ));
+            }
+            DriverSpec::Idm(p) => {
+                entity.insert((
+                    IdmDriver {
+                        params: p.clone(),
+                        lane,
+                    },
+                    TargetController::new(p.throttle, p.steering),
+                ));
+            }
+        }
+    }
+}
+
+/// The name of the driver a vehicle has (its model, or the profile's name), for telemetry.
+#[derive(Component, Debug, Clone, PartialEq, Eq)]
+pub struct DriverLabel(pub Arc<str>);
+
+fn load<P: Serialize + DeserializeOwned + Default>(
+    model: BuiltinModel,
+    params: Option<(&str, &str)>,
+    overrides: &BTreeMap<String, f64>,
+) -> Result<P, DriverParamsError> {
+    let base: P = match params {
+        Some((path, text)) => ron::Options::default().from_str(text).map_err(|e| {
+            DriverParamsError::Parse {
+                path: path.to_owned(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: e.code.to_string(),
+            }
+        })?,
+        None => P::default(),
+    };
+    if overrides.is_empty() {
+        return Ok(base);
+    }
+    let invalid = |message: String| DriverParamsError::Invalid {
+        model: model.name(),
+        message,
+    };
+    let mut value = serde_json::to_value(&base).map_err(|e| invalid(e.to_string()))?;
+    let mut known = Vec::new();
+    leaf_names(&value, "", &mut known);
+    for (name, v) in overrides {
+        let Some(slot) = name
+            .split('.')
+            .try_fold(&mut value, |node, key| node.get_mut(key))
+        else {
+            return Err(DriverParamsError::UnknownParameter {
+                name: name.clone(),
+                model: model.name(),
+                known: known.join(", "),
+            });
+        };
+        if slot.is_object() {
+            return Err(DriverParamsError::UnknownParameter {
+                name: name.clone(),
+                model: model.name(),
+                known: known.join(", "),
+            });
+        }
+        if !v.is_finite() {
+            return Err(invalid(format!("{name}: {v} is not a finite number")));
+        }
+        *slot = Value::from(*v);
+    }
+    serde_json::from_value(value).map_err(|e| invalid(e.to_string()))
+}
+
+fn leaf_names(v: &Value, prefix: &str, out: &mut Vec<String>) {
+    match v {
+        Value::Object(map) => {
+            for (k, child) in map {
+                let name = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                leaf_names(child, &name, out);
+            }
+        }
+        _ => out.push(prefix.to_owned()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overrides_set_nested_values_and_unknown_names_are_errors() {
+        let mut set = BTreeMap::new();
+        set.insert("target_speed_kmh".to_owned(), 80.0);
+        set.insert("throttle.kp".to_owned(), 0.9);
+        let spec = DriverSpec::build(BuiltinModel::FlockLanes, None, &set).expect("valid");
+        let DriverSpec::FlockLanes(p) = spec else {
+            panic!("wrong model")
+        };
+        assert_eq!(p.target_speed_kmh, Some(80.0));
+        assert_eq!(p.throttle.kp, 0.9);
+        let mut set = BTreeMap::new();
+        set.insert("flock.detection_range_m".to_owned(), 12.0);
+        let DriverSpec::Human(h) =
+            DriverSpec::build(BuiltinModel::Human, None, &set).expect("valid")
+        else {
+            panic!("wrong model")
+        };
+        assert_eq!(h.flock.detection_range_m, 12.0);
+        let mut bad = BTreeMap::new();
+        bad.insert("detection_rnage_m".to_owned(), 12.0);
+        let err = DriverSpec::build(BuiltinModel::Flock, None, &bad).expect_err("typo");
+        let text = err.to_string();
+        assert!(text.contains("detection_rnage_m") && text.contains("detection_range_m"), "{text}");
+    }
+
+    #[test]
+    fn parameter_text_errors_have_positions() {
+        let err = DriverSpec::build(
+            BuiltinModel::Idm,
+            Some(("idm.ron", "(\n  time_headway_s: \"long\",\n)")),
+            &BTreeMap::new(),
+        )
+        .expect_err("a string is not a number");
+        assert!(err.to_string().starts_with("idm.ron:2:"), "{err}");
+    }
+}

@@ -1,0 +1,217 @@
+//! The drivers in the full simulation: lane keeping, speed holding, car following, lane changes,
+//! human-like speeds and determinism.
+
+use bevy_ecs::prelude::*;
+use flockway_core::{IdKind, RngStreams, Sim, StableId, TICKS_PER_SECOND};
+use flockway_drivers::{BuiltinModel, DriverSpec, DriversPlugin};
+use flockway_road::{Road, RoadId, RoadSpec, lane_offset};
+use flockway_vehicle::{
+    ContactWith, Motion, RoadTrack, VehicleContact, VehicleParams, VehicleSpawn, VehicleType,
+    spawn_vehicle,
+};
+use glam::DVec3;
+use std::path::Path;
+use std::sync::Arc;
+
+fn world_with(roads: Vec<RoadSpec>, seed: u64) -> Sim {
+    let mut sim = Sim::new(seed);
+    sim.add_plugin(DriversPlugin);
+    for (i, spec) in roads.into_iter().enumerate() {
+        sim.world_mut().spawn((RoadId(i as u32), Road(spec)));
+    }
+    sim.prepare().expect("the driver systems are unambiguous");
+    sim.step();
+    sim
+}
+
+fn ticks(seconds: f32) -> u64 {
+    (seconds * TICKS_PER_SECOND as f32) as u64
+}
+
+/// Spawns a driven car in `lane` at `s_m`, moving at `kmh`.
+fn car(sim: &mut Sim, model: BuiltinModel, lane: u32, s_m: f64, kmh: f32, id: u32) -> Entity {
+    car_with(sim, DriverSpec::default_for(model), lane, s_m, kmh, id)
+}
+
+fn car_with(sim: &mut Sim, spec: DriverSpec, lane: u32, s_m: f64, kmh: f32, id: u32) -> Entity {
+    let geometry = sim
+        .world()
+        .resource::<flockway_road::RoadNetwork>()
+        .get(RoadId(0))
+        .expect("road 0")
+        .clone();
+    let width = geometry.frame_at(s_m).width_m;
+    let lateral = lane_offset(width, geometry.lanes(), lane);
+    let vehicle = if spec.model() == BuiltinModel::Human {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/vehicles/sedan_human.ron");
+        VehicleType::new(VehicleParams::load(&path).expect("sedan_human.ron"))
+    } else {
+        VehicleType::default()
+    };
+    let entity = spawn_vehicle(
+        sim.world_mut(),
+        VehicleSpawn {
+            model: Arc::new(vehicle),
+            road: RoadId(0),
+            s_m,
+            lateral_m: lateral,
+            speed_mps: kmh / 3.6,
+        },
+    )
+    .expect("spawns");
+    let mut rng = sim
+        .world()
+        .resource::<RngStreams>()
+        .stream(StableId::new(IdKind::Vehicle, id));
+    let mut e = sim.world_mut().entity_mut(entity);
+    spec.insert(&mut e, lane, &mut rng);
+    entity
+}
+
+fn motion(sim: &Sim, e: Entity) -> Motion {
+    *sim.world().get::<Motion>(e).expect("motion")
+}
+
+fn track(sim: &Sim, e: Entity) -> RoadTrack {
+    *sim.world().get::<RoadTrack>(e).expect("track")
+}
+
+fn straight(lanes: u32, kmh: f64, length_m: f64) -> RoadSpec {
+    let n = (length_m / 250.0).ceil() as usize;
+    let pts: Vec<DVec3> = (0..=n)
+        .map(|i| DVec3::new(length_m * i as f64 / n as f64, 0.0, 0.0))
+        .collect();
+    RoadSpec::through("straight", lanes, kmh, &pts)
+}
+
+/// A road with a 200 m radius quarter turn to the left between two straights.
+fn curved(lanes: u32, kmh: f64) -> RoadSpec {
+    let mut pts = vec![DVec3::new(-400.0, -200.0, 0.0), DVec3::new(-200.0, -200.0, 0.0)];
+    for i in 0..=8 {
+        let a = -std::f64::consts::FRAC_PI_2 + std::f64::consts::FRAC_PI_2 * f64::from(i) / 8.0;
+        pts.push(DVec3::new(200.0 * a.cos(), 200.0 * a.sin(), 0.0));
+    }
+    pts.push(DVec3::new(200.0, 200.0, 0.0));
+    pts.push(DVec3::new(200.0, 500.0, 0.0));
+    pts.push(DVec3::new(200.0, 900.0, 0.0));
+    RoadSpec::through("curve", lanes, kmh, &pts)
+}
+
+fn lane_error(sim: &Sim, e: Entity, lane: u32) -> f64 {
+    let t = track(sim, e);
+    let geometry = sim
+        .world()
+        .resource::<flockway_road::RoadNetwork>()
+        .get(t.road)
+        .expect("road")
+        .clone();
+    (t.lateral_m - lane_offset(f64::from(t.width_m), geometry.lanes(), lane)).abs()
+}
+
+/// Ten lane-keeping cars on three lanes, spawned 0.15 m off their lane centres at 55 km/h:
+/// the worst speed error (km/h) and lane-centre error (m) after `settle_s`, over `measure_s`.
+fn ten_cars(road: RoadSpec, settle_s: f32, measure_s: f32) -> (f32, f64) {
+    let mut sim = world_with(vec![road], 1);
+    let cars: Vec<(Entity, u32)> = (0..10u32)
+        .map(|i| {
+            let lane = i % 3;
+            let s = 120.0 + f64::from(i / 3) * 60.0 + f64::from(lane) * 13.0;
+            let e = car(&mut sim, BuiltinModel::FlockLanes, lane, s, 55.0, i);
+            (e, lane)
+        })
+        .collect();
+    for (i, &(e, _)) in cars.iter().enumerate() {
+        let off = if i % 2 == 0 { 0.15 } else { -0.15 };
+        let body = sim.world().get::<flockway_vehicle::Chassis>(e).expect("chassis").body;
+        let mut physics = sim.world_mut().resource_mut::<flockway_vehicle::Physics>();
+        if let Some(b) = physics.world.bodies.get_mut(body) {
+            let mut pose = *b.position();
+            pose.translation += pose.rotation * glam::Vec3::new(0.0, off, 0.0);
+            b.set_position(pose, true);
+        }
+    }
+    sim.run_ticks(ticks(settle_s));
+    let (mut worst_speed, mut worst_lane) = (0.0f32, 0.0f64);
+    for _ in 0..ticks(measure_s) {
+        sim.step();
+        for &(e, lane) in &cars {
+            worst_speed = worst_speed.max((motion(&sim, e).forward_mps * 3.6 - 60.0).abs());
+            worst_lane = worst_lane.max(lane_error(&sim, e, lane));
+        }
+    }
+    (worst_speed, worst_lane)
+}
+
+#[test]
+fn ten_lane_keeping_cars_hold_60_kmh_and_their_lanes_on_a_straight() {
+    let (speed, lane) = ten_cars(straight(3, 60.0, 3000.0), 15.0, 30.0);
+    eprintln!("straight: speed error {speed} km/h, lane error {lane} m");
+    assert!(speed <= 1.0, "speed strayed {speed} km/h from 60");
+    assert!(lane <= 0.3, "strayed {lane} m from the lane centre");
+}
+
+#[test]
+fn ten_lane_keeping_cars_hold_their_lanes_through_a_curve() {
+    // From the straight through the 200 m curve and onto the next straight.
+    let (speed, lane) = ten_cars(curved(3, 60.0), 10.0, 40.0);
+    eprintln!("curve: speed error {speed} km/h, lane error {lane} m");
+    assert!(lane <= 0.5, "strayed {lane} m from the lane centre");
+    assert!(speed <= 3.0, "speed strayed {speed} km/h from 60");
+}
+
+/// A scripted leader braking from 60 km/h to a stop at 6 m/s², and a follower driven by `model`
+/// settled behind it: the smallest bumper gap (m) and whether the two bodies ever touched.
+fn brake_test(model: BuiltinModel) -> (f32, bool, f32) {
+    let mut sim = world_with(vec![straight(3, 60.0, 3000.0)], 3);
+    let leader = car(&mut sim, BuiltinModel::FlockLanes, 1, 400.0, 60.0, 0);
+    // The test drives the leader: remove its driver, keep the shared controller.
+    sim.world_mut().entity_mut(leader).remove::<flockway_drivers::FlockDriver>();
+    let follower = car(&mut sim, model, 1, 340.0, 60.0, 1);
+    let set_leader = |sim: &mut Sim, kmh: f32| {
+        let mut t = sim
+            .world_mut()
+            .get_mut::<flockway_drivers::DriveTarget>(leader)
+            .expect("target");
+        t.speed_mps = kmh / 3.6;
+        t.heading_rad = 0.0;
+    };
+    for _ in 0..ticks(20.0) {
+        set_leader(&mut sim, 60.0);
+        sim.step();
+    }
+    let gap = |sim: &Sim| {
+        motion(sim, leader).position.x - motion(sim, follower).position.x - 4.6
+    };
+    let mut min_gap = gap(&sim);
+    let mut touched = false;
+    let settled_gap = min_gap;
+    for i in 0..ticks(20.0) {
+        let t = i as f32 / TICKS_PER_SECOND as f32;
+        set_leader(&mut sim, (60.0 - 6.0 * 3.6 * t).max(0.0));
+        sim.step();
+        min_gap = min_gap.min(gap(&sim));
+        let contacts = sim.world().resource::<Messages<VehicleContact>>();
+        touched |= contacts.iter_current_update_messages().any(|c| {
+            c.started
+                && ((c.vehicle == follower && c.other == ContactWith::Vehicle(leader))
+                    || (c.vehicle == leader && c.other == ContactWith::Vehicle(follower)))
+        });
+    }
+    assert!(motion(&sim, leader).forward_mps.abs() < 0.2, "the leader stopped");
+    assert!(motion(&sim, follower).forward_mps.abs() < 0.5, "the follower stopped");
+    (min_gap, touched, settled_gap)
+}
+
+#[test]
+fn a_flock_car_stops_behind_a_leader_braking_at_6_mps2() {
+    let (min_gap, touched, settled) = brake_test(BuiltinModel::FlockLanes);
+    eprintln!("flock: following gap {settled} m, smallest gap {min_gap} m");
+    assert!(!touched && min_gap > 0.5, "gap fell to {min_gap} m");
+}
+
+#[test]
+fn an_idm_car_stops_behind_a_leader_braking_at_6_mps2() {
+    let (min_gap, touched, settled) = brake_test(BuiltinModel::Idm);
+    eprintln!("idm: following gap {settled} m, smallest gap {min_gap} m");
+    assert!(!touched && min_gap > 0.5, "gap fell to {min_gap} m");
+}
