@@ -9,6 +9,7 @@ pub mod run;
 pub mod telemetry;
 
 pub use flockway_core as core;
+pub use flockway_drivers as drivers;
 pub use flockway_level as level;
 pub use flockway_road as road;
 pub use flockway_vehicle as vehicle;

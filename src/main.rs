@@ -101,7 +101,9 @@ fn check(levels: &[PathBuf]) -> ExitCode {
         let loaded = load_level(path).map_err(RunError::from).and_then(|level| {
             let name = level_name(&level, path);
             let assets = flockway::run::find_assets_dir(Some(path));
-            flockway::run::load_vehicle_types(&level, &name, &assets).map(|_| (level, name))
+            flockway::run::load_vehicle_types(&level, &name, &assets)?;
+            flockway::run::load_driver_profiles(&level, &name, &assets)?;
+            Ok((level, name))
         });
         match loaded {
             Ok((level, name)) => println!(

@@ -2,6 +2,8 @@
 
 use crate::telemetry::TelemetryWriter;
 use flockway_core::{IdKind, RunStats, Sim, StableId, TICKS_PER_SECOND};
+use flockway_drivers::{BuiltinModel, DriverSpec, DriversPlugin};
+use flockway_level::DriverModel;
 use flockway_level::{Expectation, Level, LevelError};
 use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
 use flockway_vehicle::{VehicleParams, VehicleParamsError, VehiclePlugin, VehicleType};
@@ -37,6 +39,16 @@ pub enum RunError {
         name: String,
         /// What is wrong with its file.
         source: VehicleParamsError,
+    },
+    /// A driver profile the level defines has a bad parameter file or override.
+    #[error("{level}: driver profile `{name}`: {message}")]
+    Driver {
+        /// Level name.
+        level: String,
+        /// The profile's name in the level.
+        name: String,
+        /// What is wrong.
+        message: String,
     },
     /// An output file could not be written.
     #[error("{}: {source}", path.display())]
@@ -229,6 +241,52 @@ fn fmt_value(v: f64) -> String {
     }
 }
 
+/// Builds every driver profile a level defines, by name: the built-in model's parameters from
+/// the profile's file under `assets/` (or the model's defaults) with its `set` overrides.
+/// Profiles of plugin models (`Custom`) are left to their plugin and not listed.
+pub fn load_driver_profiles(
+    level: &Level,
+    level_name: &str,
+    assets: &Path,
+) -> Result<BTreeMap<String, DriverSpec>, RunError> {
+    let mut out = BTreeMap::new();
+    for profile in &level.driver_profiles {
+        let model = match &profile.model {
+            DriverModel::Flock => BuiltinModel::Flock,
+            DriverModel::FlockLanes => BuiltinModel::FlockLanes,
+            DriverModel::Human => BuiltinModel::Human,
+            DriverModel::Idm => BuiltinModel::Idm,
+            DriverModel::Custom(_) => continue,
+        };
+        let fail = |message: String| RunError::Driver {
+            level: level_name.to_owned(),
+            name: profile.name.clone(),
+            message,
+        };
+        let text = match &profile.params {
+            Some(rel) => {
+                let path = assets.join(rel);
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| fail(format!("{}: {e}", path.display())))?;
+                Some((path.display().to_string(), text))
+            }
+            None => None,
+        };
+        let spec = DriverSpec::build(
+            model,
+            text.as_ref().map(|(p, t)| (p.as_str(), t.as_str())),
+            &profile.set,
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        out.insert(profile.name.clone(), spec);
+    }
+    Ok(out)
+}
+
+/// The level's driver profiles, built, by name.
+#[derive(bevy_ecs::resource::Resource, Debug, Clone, Default)]
+pub struct DriverProfiles(pub BTreeMap<String, DriverSpec>);
+
 /// The level's vehicle types, loaded from `assets/`, by name.
 #[derive(bevy_ecs::resource::Resource, Debug, Clone, Default)]
 pub struct VehicleTypes(pub BTreeMap<String, Arc<VehicleType>>);
@@ -238,6 +296,7 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     let mut sim = Sim::new(seed);
     sim.add_plugin(RoadPlugin);
     sim.add_plugin(VehiclePlugin);
+    sim.add_plugin(DriversPlugin);
     for (i, spec) in level.roads.iter().enumerate() {
         sim.world_mut().spawn((
             RoadId(i as u32),
@@ -277,6 +336,8 @@ impl Runner {
         let mut sim = build_sim(&level, seed)?;
         let types = load_vehicle_types(&level, name, &assets)?;
         sim.world_mut().insert_resource(VehicleTypes(types));
+        let profiles = load_driver_profiles(&level, name, &assets)?;
+        sim.world_mut().insert_resource(DriverProfiles(profiles));
         let csv = match &options.csv {
             Some(path) => {
                 Some(
@@ -493,6 +554,42 @@ mod tests {
         level.vehicle_types[0].path = "vehicles/missing.ron".into();
         let err = load_vehicle_types(&level, "t", dir.path()).expect_err("missing file");
         assert!(err.to_string().contains("missing.ron"), "{err}");
+    }
+
+    #[test]
+    fn driver_profiles_build_from_assets_with_overrides_and_name_bad_ones() {
+        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+        let mut level = Level::new(1, 10.0);
+        level.vehicle_types = vec![flockway_level::VehicleType {
+            name: "sedan".into(),
+            path: "vehicles/sedan.ron".into(),
+        }];
+        let mut set = BTreeMap::new();
+        set.insert("target_speed_kmh".to_owned(), 70.0);
+        level.driver_profiles = vec![flockway_level::DriverProfile {
+            name: "auto".into(),
+            model: DriverModel::FlockLanes,
+            vehicle: "sedan".into(),
+            params: Some("drivers/flock_lanes.ron".into()),
+            set,
+        }];
+        let profiles = load_driver_profiles(&level, "t", &assets).expect("valid");
+        let DriverSpec::FlockLanes(p) = &profiles["auto"] else {
+            panic!("wrong model")
+        };
+        assert_eq!(p.target_speed_kmh, Some(70.0));
+        level.driver_profiles[0]
+            .set
+            .insert("speed_wieght".into(), 1.0);
+        let err = load_driver_profiles(&level, "t", &assets).expect_err("typo");
+        assert!(
+            err.to_string()
+                .contains("driver profile `auto`: `speed_wieght`"),
+            "{err}"
+        );
+        level.driver_profiles[0].params = Some("drivers/none.ron".into());
+        let err = load_driver_profiles(&level, "t", &assets).expect_err("missing file");
+        assert!(err.to_string().contains("none.ron"), "{err}");
     }
 
     #[test]

@@ -59,7 +59,7 @@ pub const STOP_BELOW_MPS: f32 = 0.3;
 pub const HOLD_BRAKE: f32 = 0.2;
 
 /// What a driver wants: the speed along its heading and the heading, for the shared controller.
-#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
 pub struct DriveTarget {
     /// Target speed, m/s (never negative: drivers brake to a stop, they do not reverse).
     pub speed_mps: f32,
@@ -132,6 +132,27 @@ impl TargetController {
             handbrake: stopping && motion.forward_mps <= STANDSTILL_MPS,
         }
     }
+}
+
+impl Default for TargetController {
+    /// The lane-keeping flocking car's gains.
+    fn default() -> Self {
+        let p = crate::FlockParams::default();
+        TargetController::new(p.throttle, p.steering)
+    }
+}
+
+/// What a custom driver puts on a vehicle besides its own component to be steered by the shared
+/// controller: a [`DriveTarget`] to write, the [`TargetController`] that follows it, and the
+/// vehicle's [`SpeedLimit`](crate::SpeedLimit).
+#[derive(Bundle, Default)]
+pub struct SharedController {
+    /// The target the driver writes.
+    pub target: DriveTarget,
+    /// The PID loops that follow it.
+    pub controller: TargetController,
+    /// The limit the vehicle obeys.
+    pub limit: crate::SpeedLimit,
 }
 
 /// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`].

@@ -16,7 +16,10 @@ mod models;
 mod perception;
 mod profile;
 
-pub use control::{DriveTarget, Pid, PidGains, TargetController, follow_targets, wrap_angle};
+pub use control::{
+    DriveTarget, HOLD_BRAKE, Pid, PidGains, STOP_BELOW_MPS, SharedController, TargetController,
+    follow_targets, wrap_angle,
+};
 pub use models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
     drive_flock, drive_idm, idm_accel, lane_following, update_speed_limits,
@@ -34,7 +37,7 @@ use flockway_vehicle::VehiclePlugin;
 pub mod prelude {
     pub use crate::{
         DriveTarget, DriverSpec, DriversPlugin, FlockDriver, HumanDriver, IdmDriver, LaneIndex,
-        SpeedLimit, TargetController, add_driver,
+        SharedController, SpeedLimit, TargetController, add_driver,
     };
 }
 

@@ -296,7 +296,38 @@ pub fn lane_following(
         _ => 0.0,
     };
     let pull = (error * road_weight_per_s).clamp(-max_lateral_mps, max_lateral_mps);
-    (dir, dir * (target_speed_mps * speed_weight) + left * pull, curvature)
+    (
+        dir,
+        dir * (target_speed_mps * speed_weight) + left * pull,
+        curvature,
+    )
+}
+
+impl DriveTarget {
+    /// A target that drives at `target_speed_mps` along `lane`, kept in it the way the built-in
+    /// drivers do (road following and curvature feed-forward with the flocking defaults), for a
+    /// driver that only decides a speed.
+    pub fn keep_lane(
+        geometry: &RoadGeometry,
+        track: &RoadTrack,
+        lane: u32,
+        speed_mps: f32,
+        target_speed_mps: f32,
+    ) -> DriveTarget {
+        let p = FlockParams::default();
+        let (dir, base, curvature) = lane_following(
+            geometry,
+            track,
+            lane,
+            speed_mps,
+            target_speed_mps,
+            1.0,
+            p.road_weight_per_s,
+            p.max_lateral_mps,
+            p.lookahead_s,
+        );
+        to_target(dir * target_speed_mps, base, dir, curvature)
+    }
 }
 
 /// The avoidance push from one seen vehicle, m/s, in the road's frame at the observer. The
@@ -379,7 +410,9 @@ pub fn drive_flock(
         if driver.keep_lane && target_lane != driver.lane {
             let step = if target_lane > driver.lane { 1 } else { -1 };
             let next = (driver.lane as i64 + step) as u32;
-            let need = |speed: f32| f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0);
+            let need = |speed: f32| {
+                f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0)
+            };
             let ahead_ok = index
                 .leader(track.road, next, track.s_m, me, 200.0)
                 .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
@@ -412,10 +445,26 @@ pub fn drive_flock(
         let own_count = seen.len();
         let adj = f64::from(p.adjacent_range_m);
         if lane > 0 {
-            index.within(track.road, lane - 1, track.s_m, adj, adj, Some(me), &mut seen);
+            index.within(
+                track.road,
+                lane - 1,
+                track.s_m,
+                adj,
+                adj,
+                Some(me),
+                &mut seen,
+            );
         }
         if lane + 1 < lanes {
-            index.within(track.road, lane + 1, track.s_m, adj, adj, Some(me), &mut seen);
+            index.within(
+                track.road,
+                lane + 1,
+                track.s_m,
+                adj,
+                adj,
+                Some(me),
+                &mut seen,
+            );
         }
         for (i, s) in seen.iter().enumerate() {
             let range = if i < own_count {

@@ -120,7 +120,10 @@ impl LaneIndex {
     /// Every vehicle in `lane` whose arc distance from `s_m` lies in `[-behind_m, ahead_m]`,
     /// except `exclude`, appended to `out` in arc order. Wraps around loops. (`out` is the
     /// caller's, so a driver reuses one buffer for every query of a tick.)
-    #[expect(clippy::too_many_arguments, reason = "a query's coordinates, each one number")]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
     pub fn within(
         &self,
         road: RoadId,
@@ -202,7 +205,7 @@ impl LaneIndex {
     }
 
     /// The nearest vehicle ahead in `lane` within `range_m` (strictly ahead of `s_m`, or level
-    /// with it but later in entity order), following loops and connections.
+    /// with it but later in entity order), following loops and connections. O(log n).
     pub fn leader(
         &self,
         road: RoadId,
@@ -211,15 +214,39 @@ impl LaneIndex {
         me: Entity,
         range_m: f64,
     ) -> Option<Seen> {
-        let mut found = Vec::new();
-        self.within(road, lane, s_m, 0.0, range_m, Some(me), &mut found);
-        found
-            .into_iter()
-            .filter(|v| v.gap_m > 0.0 || (v.gap_m == 0.0 && v.entry.entity > me))
-            .min_by(|a, b| a.gap_m.total_cmp(&b.gap_m).then(a.entry.entity.cmp(&b.entry.entity)))
+        let r = self.roads.get(&road)?;
+        let entries = r.lanes.get(lane as usize)?;
+        let ahead = |e: &LaneEntry| e.s_m > s_m || (e.s_m == s_m && e.entity > me);
+        let seen = |e: &LaneEntry, gap_m: f64, lane: u32| {
+            (gap_m <= range_m).then_some(Seen {
+                gap_m,
+                lane,
+                entry: *e,
+            })
+        };
+        let i = entries.partition_point(|e| !ahead(e));
+        if let Some(e) = entries.get(i) {
+            return seen(e, e.s_m - s_m, lane);
+        }
+        if r.closed {
+            // Round the loop: the first vehicle of the lane (never ourselves, unless alone).
+            return entries
+                .first()
+                .filter(|e| e.entity != me)
+                .and_then(|e| seen(e, e.s_m + r.length_m - s_m, lane));
+        }
+        let next = r.next?;
+        let lanes = self.lanes(next);
+        if lanes == 0 {
+            return None;
+        }
+        let lane2 = lane.min(lanes - 1);
+        let e = self.roads.get(&next)?.lanes.get(lane2 as usize)?.first()?;
+        seen(e, r.length_m - s_m + e.s_m, lane2)
     }
 
-    /// The nearest vehicle behind in `lane` within `range_m`, following loops.
+    /// The nearest vehicle behind in `lane` within `range_m` (strictly behind, or level with
+    /// `s_m` but earlier in entity order), following loops. O(log n).
     pub fn follower(
         &self,
         road: RoadId,
@@ -228,12 +255,28 @@ impl LaneIndex {
         me: Entity,
         range_m: f64,
     ) -> Option<Seen> {
-        let mut found = Vec::new();
-        self.within(road, lane, s_m, range_m, 0.0, Some(me), &mut found);
-        found
-            .into_iter()
-            .filter(|v| v.gap_m < 0.0 || (v.gap_m == 0.0 && v.entry.entity < me))
-            .max_by(|a, b| a.gap_m.total_cmp(&b.gap_m).then(b.entry.entity.cmp(&a.entry.entity)))
+        let r = self.roads.get(&road)?;
+        let entries = r.lanes.get(lane as usize)?;
+        let behind = |e: &LaneEntry| e.s_m < s_m || (e.s_m == s_m && e.entity < me);
+        let seen = |e: &LaneEntry, gap_m: f64| {
+            (-gap_m <= range_m).then_some(Seen {
+                gap_m,
+                lane,
+                entry: *e,
+            })
+        };
+        let i = entries.partition_point(behind);
+        if i > 0 {
+            let e = &entries[i - 1];
+            return seen(e, e.s_m - s_m);
+        }
+        if r.closed {
+            return entries
+                .last()
+                .filter(|e| e.entity != me)
+                .and_then(|e| seen(e, e.s_m - r.length_m - s_m));
+        }
+        None
     }
 }
 
@@ -249,4 +292,208 @@ pub fn rebuild_lane_index(
             .iter()
             .map(|(e, t, m, model)| (e, t, m, model.0.params.chassis.length_m)),
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_road::RoadSpec;
+    use glam::DVec3;
+
+    /// A tiny deterministic generator for test placements.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// An index over `n` random placements on road 0 (a ring or an open road) and road 1 (its
+    /// connected successor when open), built directly from entries.
+    fn placements(closed: bool, n: usize, seed: u64) -> (LaneIndex, Vec<(RoadId, u32, LaneEntry)>) {
+        let mut rng = Lcg(seed);
+        let specs = if closed {
+            vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 60.0, 12)]
+        } else {
+            let mut a =
+                RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
+            a.next = Some("b".into());
+            let b = RoadSpec::through(
+                "b",
+                2,
+                50.0,
+                &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
+            );
+            vec![a, b]
+        };
+        let network = RoadNetwork::build(&specs).expect("valid roads");
+        let mut world = World::new();
+        let mut all = Vec::new();
+        let mut index = LaneIndex::default();
+        index.rebuild(&network, std::iter::empty());
+        for _ in 0..n {
+            let road = if closed || rng.next() < 0.7 {
+                RoadId(0)
+            } else {
+                RoadId(1)
+            };
+            let g = network.get(road).expect("road");
+            let lane = (rng.next() * f64::from(g.lanes())) as u32;
+            // Some vehicles share an arc position exactly, to test tie-breaking.
+            let s = if rng.next() < 0.05 {
+                100.0
+            } else {
+                rng.next() * g.length_m()
+            };
+            let e = LaneEntry {
+                entity: world.spawn_empty().id(),
+                s_m: s,
+                lateral_m: 0.0,
+                speed_mps: 10.0,
+                length_m: 4.6,
+            };
+            index.roads.get_mut(&road).expect("indexed road").lanes[lane as usize].push(e);
+            all.push((road, lane, e));
+        }
+        for r in index.roads.values_mut() {
+            for l in &mut r.lanes {
+                l.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
+            }
+        }
+        index.vehicles = n;
+        (index, all)
+    }
+
+    /// The signed arc gap from (road 0 or 1, s) to a vehicle by brute force, if it is reachable
+    /// within the window.
+    fn brute_gap(closed: bool, len0: f64, from: (RoadId, f64), to: (RoadId, f64)) -> Vec<f64> {
+        let mut gaps = Vec::new();
+        if from.0 == to.0 {
+            gaps.push(to.1 - from.1);
+            if closed {
+                gaps.push(to.1 - from.1 + len0);
+                gaps.push(to.1 - from.1 - len0);
+            }
+        } else if from.0 == RoadId(0) && to.0 == RoadId(1) {
+            gaps.push(len0 - from.1 + to.1);
+        }
+        gaps
+    }
+
+    #[test]
+    fn queries_match_a_brute_force_scan() {
+        for closed in [true, false] {
+            for seed in 1..=20u64 {
+                let (index, all) = placements(closed, 60, seed);
+                let len0 = index.roads[&RoadId(0)].length_m;
+                let mut rng = Lcg(seed * 77);
+                for _ in 0..40 {
+                    let lane = (rng.next() * 3.0) as u32;
+                    let s = rng.next() * len0;
+                    let behind = rng.next() * 80.0;
+                    let ahead = rng.next() * 80.0;
+                    let mut got = Vec::new();
+                    index.within(RoadId(0), lane, s, behind, ahead, None, &mut got);
+                    let mut got: Vec<(Entity, i64)> = got
+                        .iter()
+                        .map(|v| (v.entry.entity, (v.gap_m * 1e6).round() as i64))
+                        .collect();
+                    got.sort();
+                    let mut want: Vec<(Entity, i64)> = Vec::new();
+                    for (road, l, e) in &all {
+                        let lane_matches = if *road == RoadId(0) {
+                            *l == lane
+                        } else {
+                            *l == lane.min(1)
+                        };
+                        if !lane_matches {
+                            continue;
+                        }
+                        let gaps = brute_gap(closed, len0, (RoadId(0), s), (*road, e.s_m));
+                        // The nearest in-window gap (a ring window shorter than the ring has one).
+                        if let Some(g) = gaps
+                            .into_iter()
+                            .filter(|g| *g >= -behind && *g <= ahead)
+                            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+                        {
+                            want.push((e.entity, (g * 1e6).round() as i64));
+                        }
+                    }
+                    want.sort();
+                    assert_eq!(got, want, "closed {closed} seed {seed} lane {lane} s {s}");
+
+                    // Leader and follower: the nearest strictly ahead / behind within 80 m, by
+                    // brute force over every placement.
+                    let me = Entity::PLACEHOLDER;
+                    let gaps_all: Vec<(Entity, f64)> = all
+                        .iter()
+                        .filter(|(road, l, _)| {
+                            if *road == RoadId(0) {
+                                *l == lane
+                            } else {
+                                *l == lane.min(1)
+                            }
+                        })
+                        .flat_map(|(road, _, e)| {
+                            brute_gap(closed, len0, (RoadId(0), s), (*road, e.s_m))
+                                .into_iter()
+                                .map(move |g| (e.entity, g))
+                        })
+                        .collect();
+                    let best_ahead = gaps_all
+                        .iter()
+                        .filter(|(_, g)| *g > 0.0 && *g <= 80.0)
+                        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+                        .map(|(e, _)| *e);
+                    let best_behind = gaps_all
+                        .iter()
+                        .filter(|(_, g)| *g < 0.0 && *g >= -80.0)
+                        // Level vehicles are ordered by entity: the later one is nearer.
+                        .max_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+                        .map(|(e, _)| *e);
+                    assert_eq!(
+                        index
+                            .leader(RoadId(0), lane, s, me, 80.0)
+                            .map(|v| v.entry.entity),
+                        best_ahead,
+                        "leader: closed {closed} seed {seed} lane {lane} s {s}"
+                    );
+                    assert_eq!(
+                        index
+                            .follower(RoadId(0), lane, s, me, 80.0)
+                            .map(|v| v.entry.entity),
+                        best_behind,
+                        "follower: closed {closed} seed {seed} lane {lane} s {s}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn leader_follows_the_loop_and_the_connection() {
+        let (index, _) = placements(true, 0, 1);
+        assert!(index.is_empty());
+        let (index, all) = placements(false, 200, 3);
+        // From near the end of road a, the leader may be on road b.
+        let len0 = index.roads[&RoadId(0)].length_m;
+        let lane0_last = index
+            .lane(RoadId(0), 0)
+            .last()
+            .map(|e| e.s_m)
+            .unwrap_or(0.0);
+        if let Some(l) = index.leader(RoadId(0), 0, lane0_last + 0.001, Entity::PLACEHOLDER, 500.0)
+        {
+            assert!(l.gap_m > 0.0);
+            assert!(l.gap_m >= len0 - lane0_last - 1e-9, "{:?}", l);
+            assert!(
+                all.iter()
+                    .any(|(r, _, e)| *r == RoadId(1) && e.entity == l.entry.entity)
+            );
+        }
+    }
 }

@@ -150,7 +150,11 @@ impl DriverSpec {
             heading_rad: 0.0,
             curvature_per_m: 0.0,
         };
-        entity.insert((target, SpeedLimit::default(), DriverLabel(self.model().name().into())));
+        entity.insert((
+            target,
+            SpeedLimit::default(),
+            DriverLabel(self.model().name().into()),
+        ));
         match self {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
@@ -191,14 +195,16 @@ fn load<P: Serialize + DeserializeOwned + Default>(
     overrides: &BTreeMap<String, f64>,
 ) -> Result<P, DriverParamsError> {
     let base: P = match params {
-        Some((path, text)) => ron::Options::default().from_str(text).map_err(|e| {
-            DriverParamsError::Parse {
-                path: path.to_owned(),
-                line: e.span.start.line,
-                column: e.span.start.col,
-                message: e.code.to_string(),
-            }
-        })?,
+        Some((path, text)) => {
+            ron::Options::default()
+                .from_str(text)
+                .map_err(|e| DriverParamsError::Parse {
+                    path: path.to_owned(),
+                    line: e.span.start.line,
+                    column: e.span.start.col,
+                    message: e.code.to_string(),
+                })?
+        }
         None => P::default(),
     };
     if overrides.is_empty() {
@@ -280,7 +286,10 @@ mod tests {
         bad.insert("detection_rnage_m".to_owned(), 12.0);
         let err = DriverSpec::build(BuiltinModel::Flock, None, &bad).expect_err("typo");
         let text = err.to_string();
-        assert!(text.contains("detection_rnage_m") && text.contains("detection_range_m"), "{text}");
+        assert!(
+            text.contains("detection_rnage_m") && text.contains("detection_range_m"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -43,7 +43,8 @@ fn car_with(sim: &mut Sim, spec: DriverSpec, lane: u32, s_m: f64, kmh: f32, id: 
     let width = geometry.frame_at(s_m).width_m;
     let lateral = lane_offset(width, geometry.lanes(), lane);
     let vehicle = if spec.model() == BuiltinModel::Human {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/vehicles/sedan_human.ron");
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/vehicles/sedan_human.ron");
         VehicleType::new(VehicleParams::load(&path).expect("sedan_human.ron"))
     } else {
         VehicleType::default()
@@ -86,7 +87,10 @@ fn straight(lanes: u32, kmh: f64, length_m: f64) -> RoadSpec {
 
 /// A road with a 200 m radius quarter turn to the left between two straights.
 fn curved(lanes: u32, kmh: f64) -> RoadSpec {
-    let mut pts = vec![DVec3::new(-400.0, -200.0, 0.0), DVec3::new(-200.0, -200.0, 0.0)];
+    let mut pts = vec![
+        DVec3::new(-400.0, -200.0, 0.0),
+        DVec3::new(-200.0, -200.0, 0.0),
+    ];
     for i in 0..=8 {
         let a = -std::f64::consts::FRAC_PI_2 + std::f64::consts::FRAC_PI_2 * f64::from(i) / 8.0;
         pts.push(DVec3::new(200.0 * a.cos(), 200.0 * a.sin(), 0.0));
@@ -122,7 +126,11 @@ fn ten_cars(road: RoadSpec, settle_s: f32, measure_s: f32) -> (f32, f64) {
         .collect();
     for (i, &(e, _)) in cars.iter().enumerate() {
         let off = if i % 2 == 0 { 0.15 } else { -0.15 };
-        let body = sim.world().get::<flockway_vehicle::Chassis>(e).expect("chassis").body;
+        let body = sim
+            .world()
+            .get::<flockway_vehicle::Chassis>(e)
+            .expect("chassis")
+            .body;
         let mut physics = sim.world_mut().resource_mut::<flockway_vehicle::Physics>();
         if let Some(b) = physics.world.bodies.get_mut(body) {
             let mut pose = *b.position();
@@ -165,7 +173,9 @@ fn brake_test(model: BuiltinModel) -> (f32, bool, f32) {
     let mut sim = world_with(vec![straight(3, 60.0, 3000.0)], 3);
     let leader = car(&mut sim, BuiltinModel::FlockLanes, 1, 400.0, 60.0, 0);
     // The test drives the leader: remove its driver, keep the shared controller.
-    sim.world_mut().entity_mut(leader).remove::<flockway_drivers::FlockDriver>();
+    sim.world_mut()
+        .entity_mut(leader)
+        .remove::<flockway_drivers::FlockDriver>();
     let follower = car(&mut sim, model, 1, 340.0, 60.0, 1);
     let set_leader = |sim: &mut Sim, kmh: f32| {
         let mut t = sim
@@ -179,9 +189,7 @@ fn brake_test(model: BuiltinModel) -> (f32, bool, f32) {
         set_leader(&mut sim, 60.0);
         sim.step();
     }
-    let gap = |sim: &Sim| {
-        motion(sim, leader).position.x - motion(sim, follower).position.x - 4.6
-    };
+    let gap = |sim: &Sim| motion(sim, leader).position.x - motion(sim, follower).position.x - 4.6;
     let mut min_gap = gap(&sim);
     let mut touched = false;
     let settled_gap = min_gap;
@@ -197,8 +205,14 @@ fn brake_test(model: BuiltinModel) -> (f32, bool, f32) {
                     || (c.vehicle == leader && c.other == ContactWith::Vehicle(follower)))
         });
     }
-    assert!(motion(&sim, leader).forward_mps.abs() < 0.2, "the leader stopped");
-    assert!(motion(&sim, follower).forward_mps.abs() < 0.5, "the follower stopped");
+    assert!(
+        motion(&sim, leader).forward_mps.abs() < 0.2,
+        "the leader stopped"
+    );
+    assert!(
+        motion(&sim, follower).forward_mps.abs() < 0.5,
+        "the follower stopped"
+    );
     (min_gap, touched, settled_gap)
 }
 
@@ -214,4 +228,141 @@ fn an_idm_car_stops_behind_a_leader_braking_at_6_mps2() {
     let (min_gap, touched, settled) = brake_test(BuiltinModel::Idm);
     eprintln!("idm: following gap {settled} m, smallest gap {min_gap} m");
     assert!(!touched && min_gap > 0.5, "gap fell to {min_gap} m");
+}
+
+#[test]
+fn a_lane_change_on_command_completes_smoothly_and_yields_first() {
+    let mut sim = world_with(vec![straight(3, 60.0, 3000.0)], 5);
+    let me = car(&mut sim, BuiltinModel::FlockLanes, 0, 300.0, 60.0, 0);
+    // A car level with it in the middle lane: it must wait for it to pass.
+    let other = car(&mut sim, BuiltinModel::FlockLanes, 1, 302.0, 60.0, 1);
+    sim.world_mut()
+        .get_mut::<flockway_drivers::FlockDriver>(other)
+        .expect("driver")
+        .params
+        .target_speed_kmh = Some(75.0);
+    sim.run_ticks(ticks(2.0));
+    sim.world_mut()
+        .get_mut::<flockway_drivers::FlockDriver>(me)
+        .expect("driver")
+        .target_lane = 1;
+    let width = f64::from(track(&sim, me).width_m);
+    let centre = |lane| lane_offset(width, 3, lane) as f32;
+    let mut started = None;
+    let mut done = None;
+    let mut widest = f32::MIN;
+    let mut touched = false;
+    for i in 0..ticks(20.0) {
+        sim.step();
+        let t = track(&sim, me);
+        let lateral = t.lateral_m as f32;
+        widest = widest.max(lateral);
+        let lane_now = sim
+            .world()
+            .get::<flockway_drivers::FlockDriver>(me)
+            .expect("driver")
+            .lane;
+        if lane_now == 1 && started.is_none() {
+            started = Some(i);
+            // It waited for the car alongside to get clear ahead.
+            let gap = track(&sim, other).s_m - t.s_m;
+            assert!(
+                gap > 10.0,
+                "it moved over with the other car only {gap} m ahead"
+            );
+        }
+        if started.is_some() && done.is_none() && (lateral - centre(1)).abs() < 0.3 {
+            done = Some(i);
+        }
+        let contacts = sim.world().resource::<Messages<VehicleContact>>();
+        touched |= contacts
+            .iter_current_update_messages()
+            .any(|c| c.started && matches!(c.other, ContactWith::Vehicle(_)));
+    }
+    let (started, done) = (
+        started.expect("it changed lane"),
+        done.expect("it reached the lane"),
+    );
+    let seconds = (done - started) as f32 / TICKS_PER_SECOND as f32;
+    eprintln!(
+        "lane change: {seconds} s, furthest {widest} m (lane 1 centre {})",
+        centre(1)
+    );
+    assert!(seconds < 6.0, "the lane change took {seconds} s");
+    // Lane 2 starts 1.5 m past lane 1's centre: it never crosses into it.
+    assert!(
+        widest < centre(1) + 1.5 - 0.9,
+        "it reached {widest} m, into lane 2"
+    );
+    assert!(!touched, "a contact during the lane change");
+}
+
+#[test]
+fn human_desired_speeds_span_ten_percent_and_follow_the_seed() {
+    let draw = |seed: u64| -> Vec<f32> {
+        let mut world = World::new();
+        let streams = RngStreams::new(seed);
+        let spec = DriverSpec::default_for(BuiltinModel::Human);
+        (0..1000u32)
+            .map(|i| {
+                let mut rng = streams.stream(StableId::new(IdKind::Vehicle, i));
+                let mut e = world.spawn_empty();
+                spec.insert(&mut e, 0, &mut rng);
+                e.get::<flockway_drivers::HumanDriver>()
+                    .expect("a human driver")
+                    .speed_factor
+            })
+            .collect()
+    };
+    let a = draw(7);
+    let (lo, hi) = a
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(lo, hi), &f| (lo.min(f), hi.max(f)));
+    let mean = a.iter().sum::<f32>() / a.len() as f32;
+    assert!(lo >= 0.9 && hi <= 1.1, "{lo}..{hi}");
+    assert!(
+        lo < 0.905 && hi > 1.095,
+        "1000 draws should reach near both ends: {lo}..{hi}"
+    );
+    assert!((mean - 1.0).abs() < 0.01, "mean {mean}");
+    assert_eq!(a, draw(7), "the same seed gives the same speeds");
+    assert_ne!(a, draw(8), "another seed gives other speeds");
+}
+
+/// Ten mixed cars on a ring: final positions as bits.
+fn mixed_ring(seed: u64) -> Vec<[u32; 3]> {
+    let ring = RoadSpec::ring("ring", 2, 50.0, DVec3::ZERO, 120.0, 16);
+    let mut sim = world_with(vec![ring], seed);
+    let models = [
+        BuiltinModel::FlockLanes,
+        BuiltinModel::Human,
+        BuiltinModel::Idm,
+        BuiltinModel::Flock,
+    ];
+    let cars: Vec<Entity> = (0..10u32)
+        .map(|i| {
+            car(
+                &mut sim,
+                models[i as usize % 4],
+                i % 2,
+                f64::from(i) * 70.0,
+                40.0,
+                i,
+            )
+        })
+        .collect();
+    sim.run_ticks(ticks(20.0));
+    cars.iter()
+        .map(|&e| {
+            let p = motion(&sim, e).position;
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+        })
+        .collect()
+}
+
+#[test]
+fn same_seed_same_trajectories_and_another_seed_differs() {
+    let a = mixed_ring(11);
+    assert_eq!(a, mixed_ring(11));
+    assert_ne!(a, mixed_ring(12), "human desired speeds depend on the seed");
 }

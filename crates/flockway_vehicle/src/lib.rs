@@ -31,8 +31,8 @@ pub use params::{
     WheelParams,
 };
 pub use physics::{
-    ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics, VEHICLE_GROUP,
-    VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
+    ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics,
+    VEHICLE_GROUP, VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
 };
 pub use steering::{ackermann, slew};
 pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
@@ -42,6 +42,9 @@ pub use vehicle::{
     WheelState, apply_body_forces, drive_vehicles, rest_pose, spawn_vehicle, sync_vehicles,
     track_road,
 };
+
+/// The rapier version the vehicles run on, for plugins that add their own bodies.
+pub use rapier3d;
 
 use bevy_ecs::prelude::*;
 use flockway_core::{Sim, SimPlugin, StepSet};

@@ -298,6 +298,29 @@ pub struct VehicleSpawn {
     pub speed_mps: f32,
 }
 
+impl VehicleSpawn {
+    /// A vehicle of type `model` at rest on the centre line of `road` at `s_m`.
+    pub fn new(model: Arc<VehicleType>, road: RoadId, s_m: f64) -> VehicleSpawn {
+        VehicleSpawn {
+            model,
+            road,
+            s_m,
+            lateral_m: 0.0,
+            speed_mps: 0.0,
+        }
+    }
+
+    /// The same, `lateral_m` left of the centre line.
+    pub fn lateral(self, lateral_m: f64) -> VehicleSpawn {
+        VehicleSpawn { lateral_m, ..self }
+    }
+
+    /// The same, rolling at `speed_mps`.
+    pub fn speed(self, speed_mps: f32) -> VehicleSpawn {
+        VehicleSpawn { speed_mps, ..self }
+    }
+}
+
 /// Why a vehicle could not be spawned.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SpawnError {

@@ -1,0 +1,86 @@
+//! The lane index: cost of one neighbour query (leader; everything within ±40 m on a lane) and
+//! of the per-tick rebuild, from 100 to 10 000 vehicles at the same density (one car per 25 m of
+//! lane on a 4-lane ring that grows with the count). A query should cost the same at every
+//! size: O(log n + k).
+
+use bevy_ecs::prelude::*;
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use flockway::drivers::LaneIndex;
+use flockway::road::{RoadId, RoadNetwork, RoadSpec, lane_offset};
+use flockway::vehicle::{Motion, RoadTrack};
+use glam::{DVec3, Quat, Vec3};
+
+const QUERIES: usize = 1000;
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("perception");
+    for n in [100usize, 1000, 10_000] {
+        let length = n as f64 / 4.0 * 25.0;
+        let ring = RoadSpec::ring(
+            "ring",
+            4,
+            60.0,
+            DVec3::ZERO,
+            length / std::f64::consts::TAU,
+            32,
+        );
+        let network = RoadNetwork::build(&[ring]).unwrap_or_else(|e| panic!("{e}"));
+        let g = network
+            .get(RoadId(0))
+            .unwrap_or_else(|| panic!("road"))
+            .clone();
+        let mut world = World::new();
+        let cars: Vec<(Entity, RoadTrack, Motion)> = (0..n)
+            .map(|i| {
+                let lane = (i % 4) as u32;
+                // Scattered, not in spawn order, so the rebuild really sorts.
+                let s = ((i * 7919) % n) as f64 / n as f64 * g.length_m();
+                let lateral = lane_offset(g.frame_at(s).width_m, 4, lane);
+                let track = RoadTrack::new(RoadId(0), &g, s, lateral);
+                let motion = Motion {
+                    position: Vec3::ZERO,
+                    rotation: Quat::IDENTITY,
+                    linvel: track.tangent * 16.0,
+                    angvel: Vec3::ZERO,
+                    forward_mps: 16.0,
+                    accel_mps2: 0.0,
+                };
+                (world.spawn_empty().id(), track, motion)
+            })
+            .collect();
+        let mut index = LaneIndex::default();
+        let entries = || cars.iter().map(|(e, t, m)| (*e, t, m, 4.6f32));
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(BenchmarkId::new("rebuild", n), |b| {
+            b.iter(|| index.rebuild(&network, entries()))
+        });
+        index.rebuild(&network, entries());
+        group.throughput(Throughput::Elements(QUERIES.min(n) as u64));
+        group.bench_function(BenchmarkId::new("leader", n), |b| {
+            b.iter(|| {
+                let mut found = 0usize;
+                for (e, t, _) in cars.iter().take(QUERIES) {
+                    found +=
+                        usize::from(index.leader(RoadId(0), t.lane, t.s_m, *e, 200.0).is_some());
+                }
+                found
+            })
+        });
+        let mut seen = Vec::new();
+        group.bench_function(BenchmarkId::new("within_40m", n), |b| {
+            b.iter(|| {
+                let mut found = 0usize;
+                for (e, t, _) in cars.iter().take(QUERIES) {
+                    seen.clear();
+                    index.within(RoadId(0), t.lane, t.s_m, 40.0, 40.0, Some(*e), &mut seen);
+                    found += seen.len();
+                }
+                found
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
