@@ -366,3 +366,53 @@ fn same_seed_same_trajectories_and_another_seed_differs() {
     assert_eq!(a, mixed_ring(11));
     assert_ne!(a, mixed_ring(12), "human desired speeds depend on the seed");
 }
+
+/// 22 cars of one model on the 230 m Sugiyama ring at a 30 km/h limit, spread evenly: after
+/// `settle_s`, the mean over samples of the speed spread across cars and the lowest speed seen
+/// (km/h).
+fn sugiyama(model: BuiltinModel, settle_s: u32, measure_s: u32) -> (f32, f32) {
+    let mut ring = RoadSpec::ring(
+        "ring",
+        1,
+        30.0,
+        DVec3::ZERO,
+        230.0 / std::f64::consts::TAU,
+        16,
+    );
+    ring.lane_width_m = 3.5;
+    let mut sim = world_with(vec![ring], 2008);
+    let cars: Vec<Entity> = (0..22u32)
+        .map(|i| car(&mut sim, model, 0, f64::from(i) * 230.0 / 22.0, 25.0, i))
+        .collect();
+    sim.run_ticks(ticks(settle_s as f32));
+    let (mut spread, mut lowest) = (0.0f32, f32::MAX);
+    for _ in 0..measure_s {
+        sim.run_ticks(ticks(1.0));
+        let v: Vec<f32> = cars
+            .iter()
+            .map(|&c| motion(&sim, c).forward_mps * 3.6)
+            .collect();
+        let mean = v.iter().sum::<f32>() / v.len() as f32;
+        spread += (v.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / v.len() as f32).sqrt();
+        lowest = v.iter().fold(lowest, |a, &x| a.min(x));
+    }
+    (spread / measure_s as f32, lowest)
+}
+
+#[test]
+fn human_drivers_form_stop_and_go_on_the_sugiyama_ring_and_autonomous_ones_do_not() {
+    let (human_spread, human_lowest) = sugiyama(BuiltinModel::Human, 30, 40);
+    let (auto_spread, auto_lowest) = sugiyama(BuiltinModel::FlockLanes, 30, 40);
+    eprintln!(
+        "sugiyama: human spread {human_spread} km/h, lowest {human_lowest}; \
+         autonomous spread {auto_spread}, lowest {auto_lowest}"
+    );
+    assert!(
+        human_spread > 5.0 && human_lowest < 5.0,
+        "no stop-and-go: {human_spread}, {human_lowest}"
+    );
+    assert!(
+        auto_spread < 1.0 && auto_lowest > 25.0,
+        "autonomous cars jammed: {auto_spread}"
+    );
+}
