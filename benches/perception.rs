@@ -7,8 +7,8 @@ use bevy_ecs::prelude::*;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use flockway::drivers::LaneIndex;
 use flockway::road::{RoadId, RoadNetwork, RoadSpec, lane_offset};
-use flockway::vehicle::{Motion, RoadTrack};
-use glam::{DVec3, Quat, Vec3};
+use flockway::vehicle::RoadTrack;
+use glam::DVec3;
 
 const QUERIES: usize = 1000;
 
@@ -30,26 +30,19 @@ fn bench(c: &mut Criterion) {
             .unwrap_or_else(|| panic!("road"))
             .clone();
         let mut world = World::new();
-        let cars: Vec<(Entity, RoadTrack, Motion)> = (0..n)
+        let cars: Vec<(Entity, RoadTrack)> = (0..n)
             .map(|i| {
                 let lane = (i % 4) as u32;
                 // Scattered, not in spawn order, so the rebuild really sorts.
                 let s = ((i * 7919) % n) as f64 / n as f64 * g.length_m();
                 let lateral = lane_offset(g.frame_at(s).width_m, 4, lane);
-                let track = RoadTrack::new(RoadId(0), &g, s, lateral);
-                let motion = Motion {
-                    position: Vec3::ZERO,
-                    rotation: Quat::IDENTITY,
-                    linvel: track.tangent * 16.0,
-                    angvel: Vec3::ZERO,
-                    forward_mps: 16.0,
-                    accel_mps2: 0.0,
-                };
-                (world.spawn_empty().id(), track, motion)
+                let mut track = RoadTrack::new(RoadId(0), &g, s, lateral);
+                track.speed_along_mps = 16.0;
+                (world.spawn_empty().id(), track)
             })
             .collect();
         let mut index = LaneIndex::default();
-        let entries = || cars.iter().map(|(e, t, m)| (*e, t, m, 4.6f32));
+        let entries = || cars.iter().map(|(e, t)| (*e, t, 4.6f32));
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function(BenchmarkId::new("rebuild", n), |b| {
             b.iter(|| index.rebuild(&network, entries()))
@@ -59,7 +52,7 @@ fn bench(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("leader", n), |b| {
             b.iter(|| {
                 let mut found = 0usize;
-                for (e, t, _) in cars.iter().take(QUERIES) {
+                for (e, t) in cars.iter().take(QUERIES) {
                     found +=
                         usize::from(index.leader(RoadId(0), t.lane, t.s_m, *e, 200.0).is_some());
                 }
@@ -70,7 +63,7 @@ fn bench(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("within_40m", n), |b| {
             b.iter(|| {
                 let mut found = 0usize;
-                for (e, t, _) in cars.iter().take(QUERIES) {
+                for (e, t) in cars.iter().take(QUERIES) {
                     seen.clear();
                     index.within(RoadId(0), t.lane, t.s_m, 40.0, 40.0, Some(*e), &mut seen);
                     found += seen.len();

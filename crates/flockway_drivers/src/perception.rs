@@ -2,7 +2,7 @@
 
 use bevy_ecs::prelude::*;
 use flockway_road::{RoadId, RoadNetwork};
-use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use flockway_vehicle::{RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
 /// One vehicle in a lane of the index.
@@ -49,11 +49,11 @@ pub struct LaneIndex {
 }
 
 impl LaneIndex {
-    /// Rebuilds the index from vehicles' `(entity, track, motion, length)`.
+    /// Rebuilds the index from vehicles' `(entity, track, body length in m)`.
     pub fn rebuild<'a>(
         &mut self,
         network: &RoadNetwork,
-        vehicles: impl Iterator<Item = (Entity, &'a RoadTrack, &'a Motion, f32)>,
+        vehicles: impl Iterator<Item = (Entity, &'a RoadTrack, f32)>,
     ) {
         // Keep the allocations of last tick's lanes.
         for road in self.roads.values_mut() {
@@ -68,7 +68,7 @@ impl LaneIndex {
             road.lanes.resize_with(g.lanes() as usize, Vec::new);
         }
         self.vehicles = 0;
-        for (entity, track, motion, length_m) in vehicles {
+        for (entity, track, length_m) in vehicles {
             if !track.on_road {
                 continue;
             }
@@ -82,7 +82,7 @@ impl LaneIndex {
                 entity,
                 s_m: track.s_m,
                 lateral_m: track.lateral_m as f32,
-                speed_mps: motion.linvel.dot(track.tangent),
+                speed_mps: track.speed_along_mps,
                 length_m,
             });
             self.vehicles += 1;
@@ -284,13 +284,13 @@ impl LaneIndex {
 pub fn rebuild_lane_index(
     network: Res<RoadNetwork>,
     mut index: ResMut<LaneIndex>,
-    vehicles: Query<(Entity, &RoadTrack, &Motion, &VehicleModel)>,
+    vehicles: Query<(Entity, &RoadTrack, &VehicleModel)>,
 ) {
     index.rebuild(
         &network,
         vehicles
             .iter()
-            .map(|(e, t, m, model)| (e, t, m, model.0.params.chassis.length_m)),
+            .map(|(e, t, model)| (e, t, model.0.params.chassis.length_m)),
     );
 }
 

@@ -253,6 +253,8 @@ pub struct RoadTrack {
     pub left: Vec3,
     /// Road width at `s_m`, m.
     pub width_m: f32,
+    /// Speed along the road direction, m/s (negative going backwards).
+    pub speed_along_mps: f32,
     cursor: RoadCursor,
 }
 
@@ -270,6 +272,7 @@ impl RoadTrack {
             tangent: frame.tangent.as_vec3(),
             left: frame.left.as_vec3(),
             width_m: frame.width_m as f32,
+            speed_along_mps: 0.0,
             cursor: geometry.cursor_at(s_m),
         }
     }
@@ -388,7 +391,8 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
         forward_mps: spawn.speed_mps,
         accel_mps2: 0.0,
     };
-    let track = RoadTrack::new(spawn.road, &geometry, s_m, spawn.lateral_m);
+    let mut track = RoadTrack::new(spawn.road, &geometry, s_m, spawn.lateral_m);
+    track.speed_along_mps = spawn.speed_mps;
     let entity = world
         .spawn((
             Vehicle,
@@ -908,6 +912,7 @@ pub fn sync_vehicles(
             pose.translation.as_dvec3(),
             rot * Vec3::X,
         );
+        track.speed_along_mps = linvel.dot(track.tangent);
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
         vehicles.iter_mut().for_each(run);
