@@ -36,6 +36,28 @@ enum Command {
         #[arg(required = true, value_name = "LEVEL")]
         levels: Vec<PathBuf>,
     },
+    /// Run many levels (files or directories of .ron files), in parallel, and check their
+    /// expectations: each for the level's seed, or for several seeds.
+    ///
+    /// Prints one line per run and ends with `N passed, N failed`. Exit status: 0 if every run
+    /// passed, 1 if one failed, 2 if a level or argument is invalid.
+    Test {
+        /// Level files or directories.
+        #[arg(required = true, value_name = "LEVEL|DIR")]
+        paths: Vec<PathBuf>,
+        /// Run each level for N seeds: its own seed and the N − 1 after it.
+        #[arg(long, value_name = "N", conflicts_with = "seed_list")]
+        seeds: Option<u64>,
+        /// Run each level for these seeds (comma-separated).
+        #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
+        seed_list: Option<Vec<u64>>,
+        /// Simulated seconds per run instead of each level's duration.
+        #[arg(long, value_name = "S")]
+        seconds: Option<f64>,
+        /// Parallel runs (default: the machine's cores).
+        #[arg(long, short, value_name = "N")]
+        jobs: Option<usize>,
+    },
     /// Measure a vehicle on the test tracks: 0–100 km/h, top speed, 100–0 km/h braking, skid-pad
     /// grip and standstill drift.
     ///
@@ -66,6 +88,9 @@ struct RunArgs {
     /// Stream per-vehicle telemetry to this CSV file as the run goes.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
+    /// Also write one telemetry CSV per vehicle into this directory (vehicle_NNNNNN.csv).
+    #[arg(long, value_name = "DIR")]
+    per_vehicle: Option<PathBuf>,
     /// Write the run summary as JSON to this file (keys documented in the README).
     #[arg(long, value_name = "FILE")]
     summary: Option<PathBuf>,
@@ -87,6 +112,13 @@ fn main() -> ExitCode {
         Command::Run(args) => run(args),
         Command::Check { levels } => check(&levels),
         Command::Dyno { vehicle, json } => dyno(vehicle.as_deref(), json),
+        Command::Test {
+            paths,
+            seeds,
+            seed_list,
+            seconds,
+            jobs,
+        } => test(&paths, seeds, seed_list, seconds, jobs),
     }
 }
 
@@ -136,6 +168,7 @@ fn run(args: RunArgs) -> ExitCode {
         seconds: args.seconds,
         seed: args.seed,
         csv: args.csv.clone(),
+        per_vehicle: args.per_vehicle.clone(),
         assets: Some(flockway::run::find_assets_dir(Some(&args.level))),
     };
     let mut runner = match Runner::new(level, &name, &options) {
@@ -243,4 +276,129 @@ fn dyno_table(name: &str, r: &DynoReport) -> String {
          \x20 standstill drift    {:.4} m  (60 s, no input)\n",
         r.top_speed_kmh, r.braking_100_0_m, r.max_lateral_g, r.standstill_drift_m
     )
+}
+
+/// One run of `flockway test`: a level and a seed.
+struct TestRun {
+    path: PathBuf,
+    seed: Option<u64>,
+}
+
+fn test(
+    paths: &[PathBuf],
+    seeds: Option<u64>,
+    seed_list: Option<Vec<u64>>,
+    seconds: Option<f64>,
+    jobs: Option<usize>,
+) -> ExitCode {
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            match std::fs::read_dir(p) {
+                Ok(entries) => {
+                    let mut found: Vec<PathBuf> = entries
+                        .filter_map(|e| e.ok().map(|e| e.path()))
+                        .filter(|f| f.extension().is_some_and(|x| x == "ron"))
+                        .collect();
+                    found.sort();
+                    files.extend(found);
+                }
+                Err(e) => return fail(format!("{}: {e}", p.display())),
+            }
+        } else {
+            files.push(p.clone());
+        }
+    }
+    if files.is_empty() {
+        return fail("no level files found");
+    }
+    let mut runs = Vec::new();
+    for f in &files {
+        let level = match load_level(f) {
+            Ok(l) => l,
+            Err(e) => return fail(e),
+        };
+        let list: Vec<Option<u64>> = match (&seed_list, seeds) {
+            (Some(list), _) => list.iter().map(|s| Some(*s)).collect(),
+            (None, Some(n)) => (0..n.max(1)).map(|k| Some(level.seed.wrapping_add(k))).collect(),
+            (None, None) => vec![None],
+        };
+        runs.extend(list.into_iter().map(|seed| TestRun {
+            path: f.clone(),
+            seed,
+        }));
+    }
+    let workers = jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .clamp(1, runs.len());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: std::sync::Mutex<Vec<(usize, Result<flockway::run::RunReport, String>)>> =
+        std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(run) = runs.get(i) else { break };
+                    let outcome = run_one(run, seconds);
+                    match &outcome {
+                        Ok(r) => println!(
+                            "{} {} seed {} ({:.0} s simulated in {:.1} s)",
+                            if r.passed { "PASS" } else { "FAIL" },
+                            run.path.display(),
+                            r.seed,
+                            r.sim_seconds,
+                            r.wall_seconds
+                        ),
+                        Err(e) => println!("ERROR {}: {e}", run.path.display()),
+                    }
+                    if let Ok(mut all) = results.lock() {
+                        all.push((i, outcome));
+                    }
+                }
+            });
+        }
+    });
+    let mut results = results.into_inner().unwrap_or_default();
+    results.sort_by_key(|(i, _)| *i);
+    let (mut passed, mut failed, mut errors) = (0, 0, 0);
+    for (i, r) in &results {
+        match r {
+            Ok(report) if report.passed => passed += 1,
+            Ok(report) => {
+                failed += 1;
+                for e in report.expectations.iter().filter(|e| !e.passed) {
+                    let value = e.value.map_or("not measured".to_owned(), |v| format!("{v:.3}"));
+                    println!(
+                        "  {} seed {}: {} (measured {value})",
+                        runs[*i].path.display(),
+                        report.seed,
+                        e.name
+                    );
+                }
+            }
+            Err(_) => errors += 1,
+        }
+    }
+    println!("{passed} passed, {} failed", failed + errors);
+    if errors > 0 {
+        ExitCode::from(2)
+    } else if failed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn run_one(run: &TestRun, seconds: Option<f64>) -> Result<flockway::run::RunReport, String> {
+    let level = load_level(&run.path).map_err(|e| e.to_string())?;
+    let name = level_name(&level, &run.path);
+    let options = RunOptions {
+        seconds,
+        seed: run.seed,
+        assets: Some(flockway::run::find_assets_dir(Some(&run.path))),
+        ..RunOptions::default()
+    };
+    let runner = Runner::new(level, &name, &options).map_err(|e| e.to_string())?;
+    runner.finish().map_err(|e| e.to_string())
 }

@@ -1,8 +1,13 @@
 //! The headless runner: level → world → fixed steps → telemetry, summary and expectations.
 
-use crate::telemetry::TelemetryWriter;
-use flockway_core::{IdKind, RunStats, Sim, StableId, TICKS_PER_SECOND};
+use crate::telemetry::{TelemetryRow, TelemetryWriter};
+use flockway_core::{IdKind, RngStreams, RunStats, Sim, StableId, TICKS_PER_SECOND};
 use flockway_drivers::{BuiltinModel, DriverSpec, DriversPlugin};
+use flockway_traffic::{
+    Destroyer, DestroyerPlace, SpawnChoice, Spawner, TelemetrySamples, TelemetrySettings,
+    TrafficPlugin, TrafficStats, Trigger, TriggerEffect, spawn_driven,
+};
+use flockway_vehicle::VehicleSpawn;
 use flockway_level::DriverModel;
 use flockway_level::{Expectation, Level, LevelError};
 use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
@@ -75,6 +80,8 @@ pub struct RunOptions {
     pub seed: Option<u64>,
     /// Where to stream the telemetry CSV.
     pub csv: Option<PathBuf>,
+    /// A directory for one telemetry CSV per vehicle.
+    pub per_vehicle: Option<PathBuf>,
     /// The `assets/` directory that level asset paths are relative to; `None` finds it with
     /// [`find_assets_dir`].
     pub assets: Option<PathBuf>,
@@ -139,7 +146,7 @@ pub struct ExpectationResult {
 }
 
 /// The keys every summary JSON has: a documented contract, only ever extended.
-pub const SUMMARY_KEYS: [&str; 9] = [
+pub const SUMMARY_KEYS: [&str; 18] = [
     "level",
     "seed",
     "ticks",
@@ -149,6 +156,15 @@ pub const SUMMARY_KEYS: [&str; 9] = [
     "vehicle_steps",
     "passed",
     "expectations",
+    "vehicles_spawned",
+    "vehicles_destroyed",
+    "vehicles_alive_mean",
+    "collisions_guardrail",
+    "collisions_vehicle",
+    "mean_speed_kmh",
+    "speed_std_kmh",
+    "flow_veh_per_h",
+    "mean_travel_time_s",
 ];
 
 /// What a run measured. Its JSON form is a documented contract (see the README).
@@ -179,7 +195,13 @@ pub struct RunReport {
 impl RunReport {
     /// The summary JSON: the contract keys, plus `metrics` with every measured value.
     pub fn to_json(&self) -> Value {
-        json!({
+        let metric = |k: &str| self.metrics.get(k).copied();
+        let flows: BTreeMap<&str, f64> = self
+            .metrics
+            .iter()
+            .filter_map(|(k, v)| k.strip_prefix("flow_veh_per_h.").map(|d| (d, *v)))
+            .collect();
+        let mut out = json!({
             "level": self.level,
             "seed": self.seed,
             "ticks": self.ticks,
@@ -194,7 +216,20 @@ impl RunReport {
                 "value": e.value,
             })).collect::<Vec<_>>(),
             "metrics": self.metrics,
-        })
+        });
+        // The traffic keys (issue 6's contract), next to the foundation's.
+        if let Some(obj) = out.as_object_mut() {
+            obj.insert("vehicles_spawned".into(), json!(metric("vehicles_spawned")));
+            obj.insert("vehicles_destroyed".into(), json!(metric("vehicles_destroyed")));
+            obj.insert("vehicles_alive_mean".into(), json!(metric("vehicles_alive_mean")));
+            obj.insert("collisions_guardrail".into(), json!(metric("collisions_guardrail")));
+            obj.insert("collisions_vehicle".into(), json!(metric("collisions_vehicle")));
+            obj.insert("mean_speed_kmh".into(), json!(metric("mean_speed_kmh")));
+            obj.insert("speed_std_kmh".into(), json!(metric("speed_std_kmh")));
+            obj.insert("flow_veh_per_h".into(), json!(flows));
+            obj.insert("mean_travel_time_s".into(), json!(metric("mean_travel_time_s")));
+        }
+        out
     }
 
     /// The summary as text lines for a terminal.
@@ -210,6 +245,26 @@ impl RunReport {
             self.realtime_factor
         ));
         out.push_str(&format!("vehicle-steps    {}\n", self.vehicle_steps));
+        let traffic = [
+            ("spawned", "vehicles_spawned"),
+            ("destroyed", "vehicles_destroyed"),
+            ("alive (mean)", "vehicles_alive_mean"),
+            ("guardrail hits", "collisions_guardrail"),
+            ("vehicle contacts", "collisions_vehicle"),
+            ("mean speed km/h", "mean_speed_kmh"),
+            ("speed std km/h", "speed_std_kmh"),
+            ("travel time s", "mean_travel_time_s"),
+        ];
+        for (label, key) in traffic {
+            if let Some(v) = self.metrics.get(key) {
+                out.push_str(&format!("{label:<17}{}\n", fmt_value(*v)));
+            }
+        }
+        for (k, v) in &self.metrics {
+            if let Some(d) = k.strip_prefix("flow_veh_per_h.") {
+                out.push_str(&format!("flow {d:<12}{} veh/h\n", fmt_value(*v)));
+            }
+        }
         if !self.expectations.is_empty() {
             out.push_str("expectations\n");
             for e in &self.expectations {
@@ -297,6 +352,7 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     sim.add_plugin(RoadPlugin);
     sim.add_plugin(VehiclePlugin);
     sim.add_plugin(DriversPlugin);
+    sim.add_plugin(TrafficPlugin);
     for (i, spec) in level.roads.iter().enumerate() {
         sim.world_mut().spawn((
             RoadId(i as u32),
@@ -308,6 +364,145 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     Ok(sim)
 }
 
+/// Puts a level's traffic into a world built by [`build_sim`]: telemetry settings, spawners,
+/// destroyers, triggers and the initial vehicles (spawned now, on the level's roads).
+pub fn populate(
+    sim: &mut Sim,
+    level: &Level,
+    level_name: &str,
+    types: &BTreeMap<String, Arc<VehicleType>>,
+    profiles: &BTreeMap<String, DriverSpec>,
+) -> Result<(), RunError> {
+    let fail = |message: String| RunError::Roads {
+        level: level_name.to_owned(),
+        message,
+    };
+    let network = RoadNetwork::build(&level.roads).map_err(|e| fail(e.to_string()))?;
+    let road = |name: &str| {
+        network
+            .id(name)
+            .ok_or_else(|| fail(format!("unknown road `{name}`")))
+    };
+    let ticks_of = |s: f64| (s * f64::from(TICKS_PER_SECOND)).round().max(0.0) as u64;
+    let choice = |profile: &str, weight: f64| -> Result<SpawnChoice, RunError> {
+        let driver = profiles.get(profile).cloned().ok_or_else(|| {
+            fail(format!(
+                "driver profile `{profile}` has a model no plugin of this program provides"
+            ))
+        })?;
+        let p = level
+            .driver_profiles
+            .iter()
+            .find(|p| p.name == profile)
+            .ok_or_else(|| fail(format!("unknown driver profile `{profile}`")))?;
+        let vehicle = types
+            .get(&p.vehicle)
+            .cloned()
+            .ok_or_else(|| fail(format!("unknown vehicle type `{}`", p.vehicle)))?;
+        Ok(SpawnChoice {
+            profile: Arc::from(profile),
+            weight,
+            vehicle,
+            driver,
+        })
+    };
+    let world = sim.world_mut();
+    world.insert_resource(TelemetrySettings {
+        period_ticks: ticks_of(level.telemetry.period_s).max(1),
+        stats_from_tick: ticks_of(level.telemetry.stats_from_s),
+    });
+    let streams = world.resource::<RngStreams>().clone();
+    for (i, sp) in level.spawners.iter().enumerate() {
+        let choices = sp
+            .profiles
+            .iter()
+            .map(|c| choice(&c.profile, c.weight))
+            .collect::<Result<Vec<_>, _>>()?;
+        let spawner = Spawner::new(
+            sp.name.clone(),
+            road(&sp.road)?,
+            sp.lane,
+            sp.s_m,
+            (sp.interval_s.min, sp.interval_s.max),
+            choices,
+            sp.speed_kmh.map(|k| (k / 3.6) as f32),
+            sp.active,
+            sp.max_vehicles,
+            streams.stream(StableId::new(IdKind::Spawner, i as u32)),
+        );
+        world.spawn((spawner, StableId::new(IdKind::Spawner, i as u32)));
+    }
+    for (i, d) in level.destroyers.iter().enumerate() {
+        let place = match &d.place {
+            flockway_level::DestroyerPlace::OnRoad { road: r, s_m } => DestroyerPlace::OnRoad {
+                road: road(r)?,
+                s_m: *s_m,
+            },
+            flockway_level::DestroyerPlace::Volume { min, max } => DestroyerPlace::Volume {
+                min: min.as_vec3(),
+                max: max.as_vec3(),
+            },
+        };
+        world.spawn((
+            Destroyer {
+                name: d.name.clone(),
+                place,
+            },
+            StableId::new(IdKind::Destroyer, i as u32),
+        ));
+    }
+    for (i, t) in level.triggers.iter().enumerate() {
+        let effect = match t.effect {
+            flockway_level::TriggerEffect::SpeedLimit { kmh } => TriggerEffect::SpeedLimit(kmh as f32),
+            flockway_level::TriggerEffect::Friction { scale } => TriggerEffect::Friction(scale as f32),
+        };
+        world.spawn((
+            Trigger {
+                name: t.name.clone(),
+                road: road(&t.road)?,
+                from_m: t.from_m,
+                to_m: t.to_m,
+                lanes: t.lanes.clone(),
+                effect,
+            },
+            StableId::new(IdKind::Trigger, i as u32),
+        ));
+    }
+    // Initial vehicles need the network now, before the first step builds it (to the same
+    // result) from the road components.
+    world.insert_resource(network.clone());
+    for (gi, group) in level.vehicles.iter().enumerate() {
+        let id = road(&group.road)?;
+        let Some(g) = network.get(id) else { continue };
+        let c = choice(&group.profile, 1.0)?;
+        let mut rng = streams.stream(StableId::new(IdKind::InitialVehicles, gi as u32));
+        let from = group.from_m;
+        let span = match group.to_m {
+            Some(to) => to - from,
+            None if g.is_closed() => g.length_m(),
+            None => g.length_m() - from,
+        };
+        let count = f64::from(group.count.max(1));
+        let width = g.frame_at(from).width_m;
+        let lateral = flockway_road::lane_offset(width, g.lanes(), group.lane);
+        let speed = group.speed_kmh.unwrap_or(0.0) as f32 / 3.6;
+        for k in 0..group.count {
+            let jitter = if group.jitter_m > 0.0 {
+                rng.uniform(-group.jitter_m, group.jitter_m)
+            } else {
+                0.0
+            };
+            let s = g.normalize_s(from + span * f64::from(k) / count + jitter);
+            let spawn = VehicleSpawn::new(c.vehicle.clone(), id, s)
+                .lateral(lateral)
+                .speed(speed);
+            spawn_driven(world, spawn, &c.driver, group.lane, c.profile.clone())
+                .map_err(|e| fail(e.to_string()))?;
+        }
+    }
+    Ok(())
+}
+
 /// A run in progress: step it in chunks (for progress reporting), then finish it for the report.
 pub struct Runner {
     sim: Sim,
@@ -315,7 +510,57 @@ pub struct Runner {
     name: String,
     total_ticks: u64,
     csv: Option<TelemetryWriter>,
+    per_vehicle: Option<PerVehicleFiles>,
     stepping: Duration,
+}
+
+/// One CSV per vehicle in a directory (`vehicle_<id>.csv`, the same columns), each closed when
+/// its vehicle is gone.
+struct PerVehicleFiles {
+    dir: PathBuf,
+    open: BTreeMap<u32, TelemetryWriter>,
+}
+
+impl PerVehicleFiles {
+    fn write_sample(&mut self, rows: &[TelemetryRow]) -> Result<(), RunError> {
+        let present: std::collections::BTreeSet<u32> = rows.iter().map(|r| r.vehicle_id).collect();
+        let gone: Vec<u32> = self
+            .open
+            .keys()
+            .filter(|id| !present.contains(id))
+            .copied()
+            .collect();
+        for id in gone {
+            if let Some(w) = self.open.remove(&id) {
+                let path = w.path().to_owned();
+                w.finish().map_err(|source| RunError::Output { path, source })?;
+            }
+        }
+        for r in rows {
+            if !self.open.contains_key(&r.vehicle_id) {
+                let path = self.dir.join(format!("vehicle_{:06}.csv", r.vehicle_id));
+                let w = TelemetryWriter::create(&path)
+                    .map_err(|source| RunError::Output { path, source })?;
+                self.open.insert(r.vehicle_id, w);
+            }
+            if let Some(w) = self.open.get_mut(&r.vehicle_id) {
+                w.write_sample(std::slice::from_ref(r))
+                    .map_err(|source| RunError::Output {
+                        path: w.path().to_owned(),
+                        source,
+                    })?;
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(), RunError> {
+        for (_, w) in self.open {
+            let path = w.path().to_owned();
+            w.finish().map_err(|source| RunError::Output { path, source })?;
+        }
+        Ok(())
+    }
 }
 
 impl Runner {
@@ -335,8 +580,9 @@ impl Runner {
             .unwrap_or_else(|| find_assets_dir(None));
         let mut sim = build_sim(&level, seed)?;
         let types = load_vehicle_types(&level, name, &assets)?;
-        sim.world_mut().insert_resource(VehicleTypes(types));
         let profiles = load_driver_profiles(&level, name, &assets)?;
+        populate(&mut sim, &level, name, &types, &profiles)?;
+        sim.world_mut().insert_resource(VehicleTypes(types));
         sim.world_mut().insert_resource(DriverProfiles(profiles));
         let csv = match &options.csv {
             Some(path) => {
@@ -349,12 +595,26 @@ impl Runner {
             }
             None => None,
         };
+        let per_vehicle = match &options.per_vehicle {
+            Some(dir) => {
+                std::fs::create_dir_all(dir).map_err(|source| RunError::Output {
+                    path: dir.clone(),
+                    source,
+                })?;
+                Some(PerVehicleFiles {
+                    dir: dir.clone(),
+                    open: BTreeMap::new(),
+                })
+            }
+            None => None,
+        };
         Ok(Runner {
             sim,
             level,
             name: name.to_owned(),
             total_ticks,
             csv,
+            per_vehicle,
             stepping: Duration::ZERO,
         })
     }
@@ -377,14 +637,70 @@ impl Runner {
     /// Runs up to `max_ticks` more steps (fewer at the end of the run); returns how many ran.
     pub fn step(&mut self, max_ticks: u64) -> Result<u64, RunError> {
         let n = max_ticks.min(self.total_ticks - self.ticks_done());
-        // Wall-clock time is measured for the report only; it never reaches the simulation.
-        let started = Instant::now();
-        self.sim.run_ticks(n);
-        self.stepping += started.elapsed();
-        if n > 0 && self.sim.tick().0 == n {
-            self.check_roads()?;
+        for _ in 0..n {
+            // Wall-clock time is measured for the report only; it never reaches the simulation.
+            let started = Instant::now();
+            self.sim.step();
+            self.stepping += started.elapsed();
+            if self.sim.tick().0 == 1 {
+                self.check_roads()?;
+            }
+            self.write_samples()?;
         }
         Ok(n)
+    }
+
+    /// Streams the samples taken this tick to the CSV files (flushed per sample time, so a run
+    /// stopped at any moment leaves everything sampled so far).
+    fn write_samples(&mut self) -> Result<(), RunError> {
+        let pending = std::mem::take(
+            &mut self
+                .sim
+                .world_mut()
+                .resource_mut::<TelemetrySamples>()
+                .pending,
+        );
+        if pending.is_empty() || (self.csv.is_none() && self.per_vehicle.is_none()) {
+            return Ok(());
+        }
+        let names: BTreeMap<RoadId, String> = self
+            .sim
+            .world()
+            .resource::<RoadNetwork>()
+            .iter()
+            .map(|(id, g)| (id, g.name().to_owned()))
+            .collect();
+        for (tick, samples) in pending {
+            let time_s = tick as f64 / f64::from(TICKS_PER_SECOND);
+            let rows: Vec<TelemetryRow> = samples
+                .iter()
+                .map(|r| TelemetryRow {
+                    time_s,
+                    vehicle_id: r.vehicle_id,
+                    driver: r.driver.to_string(),
+                    road: names.get(&r.road).cloned().unwrap_or_default(),
+                    lane: r.lane,
+                    s_m: r.s_m,
+                    pos_m: r.position.as_dvec3().to_array(),
+                    speed_kmh: f64::from(r.speed_kmh),
+                    accel_mps2: f64::from(r.accel_mps2),
+                    throttle: f64::from(r.throttle),
+                    steering: f64::from(r.steering),
+                    gear: i32::from(r.gear),
+                    rpm: f64::from(r.rpm),
+                })
+                .collect();
+            if let Some(csv) = &mut self.csv {
+                csv.write_sample(&rows).map_err(|source| RunError::Output {
+                    path: csv.path().to_owned(),
+                    source,
+                })?;
+            }
+            if let Some(dir) = &mut self.per_vehicle {
+                dir.write_sample(&rows)?;
+            }
+        }
+        Ok(())
     }
 
     /// Road edits are validated at load time; a network that still fails to build is reported.
@@ -408,6 +724,9 @@ impl Runner {
             csv.finish()
                 .map_err(|source| RunError::Output { path, source })?;
         }
+        if let Some(files) = self.per_vehicle.take() {
+            files.finish()?;
+        }
         let world = self.sim.world();
         let ticks = self.sim.tick().0;
         let stats = *world.resource::<RunStats>();
@@ -421,6 +740,43 @@ impl Runner {
         );
         for (_, road) in world.resource::<RoadNetwork>().iter() {
             metrics.insert(format!("road_length_m.{}", road.name()), road.length_m());
+        }
+        let traffic = world.resource::<TrafficStats>().clone();
+        let settings = *world.resource::<TelemetrySettings>();
+        metrics.insert("vehicles_spawned".to_owned(), traffic.spawned as f64);
+        metrics.insert("vehicles_destroyed".to_owned(), traffic.destroyed as f64);
+        metrics.insert(
+            "collisions_guardrail".to_owned(),
+            traffic.collisions_guardrail as f64,
+        );
+        metrics.insert(
+            "collisions_vehicle".to_owned(),
+            traffic.collisions_vehicle as f64,
+        );
+        metrics.insert(
+            "collisions".to_owned(),
+            (traffic.collisions_guardrail + traffic.collisions_vehicle) as f64,
+        );
+        if let Some(v) = traffic.mean_speed_kmh() {
+            metrics.insert("mean_speed_kmh".to_owned(), v);
+        }
+        if let Some(v) = traffic.speed_std_kmh() {
+            metrics.insert("speed_std_kmh".to_owned(), v);
+        }
+        if let Some(v) = traffic.mean_travel_time_s() {
+            metrics.insert("mean_travel_time_s".to_owned(), v);
+        }
+        // Flow through each destroyer over the measured part of the run.
+        let measured_s =
+            (ticks.saturating_sub(settings.stats_from_tick)) as f64 / f64::from(TICKS_PER_SECOND);
+        for d in &self.level.destroyers {
+            let n = traffic.destroyed_by.get(&d.name).copied().unwrap_or(0);
+            let flow = if measured_s > 0.0 {
+                n as f64 * 3600.0 / measured_s
+            } else {
+                0.0
+            };
+            metrics.insert(format!("flow_veh_per_h.{}", d.name), flow);
         }
         let expectations: Vec<ExpectationResult> = self
             .level

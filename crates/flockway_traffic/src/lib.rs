@@ -1,0 +1,45 @@
+//! Flockway's traffic: spawners, destroyers, triggers, collision accounting, telemetry samples
+//! and the run statistics that levels' expectations check.
+//!
+//! Everything here is a system over components the headless runner (or the editor) creates from
+//! a level: [`Spawner`] in `Spawn`, [`Trigger`] and collisions in `Triggers`, telemetry in
+//! `Record`, [`Destroyer`] in `Despawn`. Vehicles get a [`VehicleId`] (spawn order, stable across
+//! runs) that keys their random stream and their telemetry rows.
+
+mod spawn;
+mod stats;
+mod zones;
+
+pub use spawn::{
+    SpawnChoice, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners, spawn_driven,
+};
+pub use stats::{
+    TelemetrySample, TelemetrySamples, TelemetrySettings, TrafficStats, sample_telemetry,
+};
+pub use zones::{
+    Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,
+    run_destroyers,
+};
+
+use bevy_ecs::prelude::*;
+use flockway_core::{Sim, SimPlugin, StepSet};
+use flockway_drivers::DriversPlugin;
+
+/// Adds the traffic systems and resources. Needs (and adds) the driver plugin.
+pub struct TrafficPlugin;
+
+impl SimPlugin for TrafficPlugin {
+    fn build(&self, sim: &mut Sim) {
+        sim.add_plugin(DriversPlugin);
+        let world = sim.world_mut();
+        world.init_resource::<VehicleIds>();
+        world.init_resource::<TrafficStats>();
+        world.init_resource::<TelemetrySettings>();
+        world.init_resource::<TelemetrySamples>();
+        world.init_resource::<SpawnerRate>();
+        sim.add_systems(StepSet::Spawn, run_spawners);
+        sim.add_systems(StepSet::Triggers, (count_collisions, apply_triggers).chain());
+        sim.add_systems(StepSet::Record, sample_telemetry);
+        sim.add_systems(StepSet::Despawn, run_destroyers);
+    }
+}

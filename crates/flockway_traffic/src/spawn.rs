@@ -1,0 +1,217 @@
+//! Spawners and the vehicles they create.
+
+use crate::stats::TrafficStats;
+use crate::zones::Travel;
+use bevy_ecs::prelude::*;
+use flockway_core::{EntityRng, IdKind, RngStreams, SimClock, StableId, TICKS_PER_SECOND};
+use flockway_drivers::{DriverLabel, DriverSpec, LaneIndex};
+use flockway_road::{RoadId, RoadNetwork, lane_offset};
+use flockway_vehicle::{SpawnError, VehicleSpawn, VehicleType, spawn_vehicle};
+use std::sync::Arc;
+
+/// A vehicle's stable number: spawn order across the run, the same on every run of a level and
+/// seed. Keys its random stream and its telemetry rows.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct VehicleId(pub u32);
+
+/// Hands out [`VehicleId`]s in spawn order.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct VehicleIds {
+    next: u32,
+}
+
+impl VehicleIds {
+    /// The next id.
+    pub fn allocate(&mut self) -> VehicleId {
+        let id = VehicleId(self.next);
+        self.next += 1;
+        id
+    }
+}
+
+/// One kind of vehicle a spawner can make: a driver profile in its vehicle, with a weight.
+#[derive(Debug, Clone)]
+pub struct SpawnChoice {
+    /// Profile name (the CSV's `driver` column).
+    pub profile: Arc<str>,
+    /// Relative probability.
+    pub weight: f64,
+    /// The car.
+    pub vehicle: Arc<VehicleType>,
+    /// Its driver.
+    pub driver: DriverSpec,
+}
+
+/// Spawns a vehicle every T seconds (T uniform in an interval, from its own random stream) on a
+/// road and lane, choosing a profile by weight; waits while the spot is occupied.
+#[derive(Component, Debug, Clone)]
+pub struct Spawner {
+    /// Name (for the HUD and errors).
+    pub name: String,
+    /// Road.
+    pub road: RoadId,
+    /// Lane.
+    pub lane: u32,
+    /// Arc position, m.
+    pub s_m: f64,
+    /// Shortest interval, s.
+    pub interval_min_s: f64,
+    /// Longest interval, s.
+    pub interval_max_s: f64,
+    /// What it spawns.
+    pub choices: Vec<SpawnChoice>,
+    /// Initial speed, m/s; `None` for the road's speed limit.
+    pub speed_mps: Option<f32>,
+    /// Whether it spawns at all.
+    pub active: bool,
+    /// Stops after this many.
+    pub max_vehicles: Option<u32>,
+    /// How many it has spawned.
+    pub spawned: u32,
+    /// Ticks it has spent waiting for its spot to clear.
+    pub waited_ticks: u64,
+    next_due: Option<u64>,
+    rng: EntityRng,
+}
+
+impl Spawner {
+    /// A spawner whose random stream is `rng` (use the spawner's own `StableId` stream).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        name: String,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        interval_s: (f64, f64),
+        choices: Vec<SpawnChoice>,
+        speed_mps: Option<f32>,
+        active: bool,
+        max_vehicles: Option<u32>,
+        rng: EntityRng,
+    ) -> Spawner {
+        Spawner {
+            name,
+            road,
+            lane,
+            s_m,
+            interval_min_s: interval_s.0,
+            interval_max_s: interval_s.1,
+            choices,
+            speed_mps,
+            active,
+            max_vehicles,
+            spawned: 0,
+            waited_ticks: 0,
+            next_due: None,
+            rng,
+        }
+    }
+
+    fn draw_interval_ticks(&mut self) -> u64 {
+        let (lo, hi) = (self.interval_min_s.max(0.0), self.interval_max_s.max(0.0));
+        let s = if hi > lo { self.rng.uniform(lo, hi) } else { lo };
+        (s * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64
+    }
+}
+
+/// Vehicles spawned per second over the run so far, all spawners together.
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq)]
+pub struct SpawnerRate {
+    /// Vehicles per second.
+    pub per_s: f64,
+}
+
+/// Free length needed around a spawn point in the lane, m, beyond the car's own length.
+const SPAWN_CLEARANCE_M: f64 = 4.0;
+
+/// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
+/// end of the system, in spawner order) and draws its next interval; otherwise it waits.
+pub fn run_spawners(
+    clock: Res<SimClock>,
+    index: Res<LaneIndex>,
+    network: Res<RoadNetwork>,
+    mut spawners: Query<&mut Spawner>,
+    mut commands: Commands,
+) {
+    let tick = clock.tick().0;
+    for mut sp in &mut spawners {
+        if !sp.active || sp.max_vehicles.is_some_and(|m| sp.spawned >= m) || sp.choices.is_empty() {
+            continue;
+        }
+        let due = match sp.next_due {
+            Some(t) => t,
+            None => {
+                let first = tick + sp.draw_interval_ticks();
+                sp.next_due = Some(first);
+                first
+            }
+        };
+        if tick < due {
+            continue;
+        }
+        let weights: Vec<f64> = sp.choices.iter().map(|c| c.weight).collect();
+        let Some(choice) = sp.rng.weighted_index(&weights) else {
+            continue;
+        };
+        let length = f64::from(sp.choices[choice].vehicle.params.chassis.length_m);
+        let mut near = Vec::new();
+        let clear = length + SPAWN_CLEARANCE_M;
+        index.within(sp.road, sp.lane, sp.s_m, clear, clear, None, &mut near);
+        if !near.is_empty() {
+            sp.waited_ticks += 1;
+            continue;
+        }
+        let Some(geometry) = network.get(sp.road) else {
+            continue;
+        };
+        let width = geometry.frame_at(sp.s_m).width_m;
+        let lateral = lane_offset(width, geometry.lanes(), sp.lane);
+        let speed = sp
+            .speed_mps
+            .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
+        let c = sp.choices[choice].clone();
+        let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
+        commands.queue(move |world: &mut World| {
+            let spawn = VehicleSpawn::new(c.vehicle, road, s_m)
+                .lateral(lateral)
+                .speed(speed);
+            if let Err(e) = spawn_driven(world, spawn, &c.driver, lane, c.profile) {
+                tracing::warn!("spawner at {s_m} m: {e}");
+            }
+        });
+        sp.spawned += 1;
+        let next = tick + sp.draw_interval_ticks();
+        sp.next_due = Some(next);
+    }
+}
+
+/// Spawns a driven vehicle: the body, its driver (a human draws its desired speed from the
+/// vehicle's own stream), a fresh [`VehicleId`], its label and travel record. Counts it.
+pub fn spawn_driven(
+    world: &mut World,
+    spawn: VehicleSpawn,
+    driver: &DriverSpec,
+    lane: u32,
+    profile: Arc<str>,
+) -> Result<Entity, SpawnError> {
+    let (road, s_m) = (spawn.road, spawn.s_m);
+    let entity = spawn_vehicle(world, spawn)?;
+    let id = world.resource_mut::<VehicleIds>().allocate();
+    let tick = world.resource::<SimClock>().tick().0;
+    let mut rng = world
+        .resource::<RngStreams>()
+        .stream(StableId::new(IdKind::Vehicle, id.0));
+    let mut e = world.entity_mut(entity);
+    driver.insert(&mut e, lane, &mut rng);
+    e.insert((
+        id,
+        DriverLabel(profile),
+        Travel {
+            spawned_tick: tick,
+            road,
+            s_m,
+        },
+    ));
+    world.resource_mut::<TrafficStats>().spawned += 1;
+    Ok(entity)
+}

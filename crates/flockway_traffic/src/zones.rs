@@ -1,0 +1,231 @@
+//! Places on the roads that act on vehicles: destroyers and triggers, and collision accounting.
+
+use crate::stats::{TelemetrySettings, TrafficStats};
+use bevy_ecs::prelude::*;
+use flockway_core::{SimClock, TICKS_PER_SECOND};
+use flockway_drivers::SpeedLimit;
+use flockway_road::{RoadId, RoadNetwork};
+use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
+use glam::Vec3;
+
+/// Where a destroyer acts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DestroyerPlace {
+    /// Vehicles that pass this arc position of a road (all lanes).
+    OnRoad {
+        /// Road.
+        road: RoadId,
+        /// Arc position, m.
+        s_m: f64,
+    },
+    /// Vehicles whose centre of mass is inside this box (world metres).
+    Volume {
+        /// Lower corner.
+        min: Vec3,
+        /// Upper corner.
+        max: Vec3,
+    },
+}
+
+/// Removes vehicles that reach it, recording their travel times and the flow through it.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct Destroyer {
+    /// Name (keys its flow in the summary).
+    pub name: String,
+    /// Where.
+    pub place: DestroyerPlace,
+}
+
+/// When a vehicle appeared and where it was last tick (to see it pass a point).
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct Travel {
+    /// Tick it was spawned.
+    pub spawned_tick: u64,
+    /// Road it was on last tick.
+    pub road: RoadId,
+    /// Arc position last tick, m.
+    pub s_m: f64,
+}
+
+/// What a trigger does to vehicles in it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TriggerEffect {
+    /// A vehicle entering gets this speed limit, km/h (it keeps it after leaving).
+    SpeedLimit(f32),
+    /// Tyre friction is scaled by this while the vehicle is inside (wet asphalt).
+    Friction(f32),
+}
+
+/// A stretch of road that changes the vehicles in it.
+#[derive(Component, Debug, Clone, PartialEq)]
+pub struct Trigger {
+    /// Name.
+    pub name: String,
+    /// Road.
+    pub road: RoadId,
+    /// Start, m.
+    pub from_m: f64,
+    /// End, m (below `from_m` on a loop: it wraps).
+    pub to_m: f64,
+    /// Lanes it covers; `None` for all.
+    pub lanes: Option<Vec<u32>>,
+    /// Effect.
+    pub effect: TriggerEffect,
+}
+
+impl Trigger {
+    /// Whether a vehicle at `s_m` in `lane` of `road` is inside.
+    pub fn contains(&self, road: RoadId, lane: u32, s_m: f64) -> bool {
+        let along = if self.from_m <= self.to_m {
+            (self.from_m..=self.to_m).contains(&s_m)
+        } else {
+            s_m >= self.from_m || s_m <= self.to_m
+        };
+        road == self.road && along && self.lanes.as_ref().is_none_or(|l| l.contains(&lane))
+    }
+}
+
+/// Applies every trigger to the vehicles inside it: speed limits stick, friction lasts while
+/// inside.
+pub fn apply_triggers(
+    triggers: Query<&Trigger>,
+    mut vehicles: Query<(&RoadTrack, &mut SpeedLimit, &mut VehicleState)>,
+) {
+    if triggers.is_empty() {
+        return;
+    }
+    for (track, mut limit, mut state) in &mut vehicles {
+        let mut friction = 1.0f32;
+        for t in &triggers {
+            if !t.contains(track.road, track.lane, track.s_m) {
+                continue;
+            }
+            match t.effect {
+                TriggerEffect::SpeedLimit(kmh) => {
+                    if limit.kmh != kmh || limit.road != Some(track.road) {
+                        *limit = SpeedLimit {
+                            kmh,
+                            road: Some(track.road),
+                        };
+                    }
+                }
+                TriggerEffect::Friction(scale) => friction *= scale,
+            }
+        }
+        if state.wheels.iter().any(|w| w.friction_scale != friction) {
+            for w in &mut state.wheels {
+                w.friction_scale = friction;
+            }
+        }
+    }
+}
+
+/// Counts contacts: a vehicle touching a guardrail is removed and counted (thesis §3.2.5); each
+/// vehicle–vehicle contact is counted once when it begins.
+pub fn count_collisions(
+    mut contacts: MessageReader<VehicleContact>,
+    mut stats: ResMut<TrafficStats>,
+    mut commands: Commands,
+) {
+    let mut removed: Vec<Entity> = Vec::new();
+    for c in contacts.read() {
+        if !c.started {
+            continue;
+        }
+        match c.other {
+            ContactWith::Guardrail(_) => {
+                if !removed.contains(&c.vehicle) {
+                    removed.push(c.vehicle);
+                    stats.collisions_guardrail += 1;
+                    if let Ok(mut e) = commands.get_entity(c.vehicle) {
+                        e.despawn();
+                    }
+                }
+            }
+            ContactWith::Vehicle(_) => stats.collisions_vehicle += 1,
+            ContactWith::Ground => {}
+        }
+    }
+}
+
+/// Removes vehicles that pass a destroyer's point or are inside its volume, recording their
+/// travel time and the destroyer's count (after the warm-up). Updates every vehicle's
+/// [`Travel`] position.
+pub fn run_destroyers(
+    clock: Res<SimClock>,
+    settings: Res<TelemetrySettings>,
+    network: Res<RoadNetwork>,
+    destroyers: Query<&Destroyer>,
+    mut vehicles: Query<(Entity, &RoadTrack, &Motion, &mut Travel)>,
+    mut stats: ResMut<TrafficStats>,
+    mut commands: Commands,
+) {
+    let tick = clock.tick().0;
+    for (entity, track, motion, mut travel) in &mut vehicles {
+        let passed = destroyers.iter().find(|d| match d.place {
+            DestroyerPlace::OnRoad { road, s_m } => {
+                if track.road != road {
+                    return false;
+                }
+                let Some(g) = network.get(road) else {
+                    return false;
+                };
+                if travel.road == road {
+                    // Crossed between last tick and this one (forwards, across a loop's join too).
+                    let moved = g.delta_s(travel.s_m, track.s_m);
+                    let to_point = g.delta_s(travel.s_m, s_m);
+                    moved > 0.0 && to_point > 0.0 && to_point <= moved
+                } else {
+                    // Came onto the road this tick already past the point.
+                    track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+                }
+            }
+            DestroyerPlace::Volume { min, max } => {
+                let p = motion.position;
+                p.cmpge(min).all() && p.cmple(max).all()
+            }
+        });
+        if let Some(d) = passed {
+            stats.destroyed += 1;
+            if tick >= settings.stats_from_tick {
+                *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
+                stats
+                    .travel_times_s
+                    .push((tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND));
+            }
+            commands.entity(entity).despawn();
+        } else {
+            travel.road = track.road;
+            travel.s_m = track.s_m;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triggers_cover_their_stretch_lanes_and_wrap() {
+        let t = Trigger {
+            name: "t".into(),
+            road: RoadId(0),
+            from_m: 100.0,
+            to_m: 150.0,
+            lanes: Some(vec![1]),
+            effect: TriggerEffect::SpeedLimit(100.0),
+        };
+        assert!(t.contains(RoadId(0), 1, 120.0));
+        assert!(!t.contains(RoadId(0), 0, 120.0));
+        assert!(!t.contains(RoadId(1), 1, 120.0));
+        assert!(!t.contains(RoadId(0), 1, 151.0));
+        let wrap = Trigger {
+            from_m: 200.0,
+            to_m: 10.0,
+            lanes: None,
+            ..t
+        };
+        assert!(wrap.contains(RoadId(0), 3, 205.0) && wrap.contains(RoadId(0), 0, 5.0));
+        assert!(!wrap.contains(RoadId(0), 0, 100.0));
+    }
+}
