@@ -320,7 +320,9 @@ fn test(
         };
         let list: Vec<Option<u64>> = match (&seed_list, seeds) {
             (Some(list), _) => list.iter().map(|s| Some(*s)).collect(),
-            (None, Some(n)) => (0..n.max(1)).map(|k| Some(level.seed.wrapping_add(k))).collect(),
+            (None, Some(n)) => (0..n.max(1))
+                .map(|k| Some(level.seed.wrapping_add(k)))
+                .collect(),
             (None, None) => vec![None],
         };
         runs.extend(list.into_iter().map(|seed| TestRun {
@@ -368,7 +370,9 @@ fn test(
             Ok(report) => {
                 failed += 1;
                 for e in report.expectations.iter().filter(|e| !e.passed) {
-                    let value = e.value.map_or("not measured".to_owned(), |v| format!("{v:.3}"));
+                    let value = e
+                        .value
+                        .map_or("not measured".to_owned(), |v| format!("{v:.3}"));
                     println!(
                         "  {} seed {}: {} (measured {value})",
                         runs[*i].path.display(),

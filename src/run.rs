@@ -3,14 +3,14 @@
 use crate::telemetry::{TelemetryRow, TelemetryWriter};
 use flockway_core::{IdKind, RngStreams, RunStats, Sim, StableId, TICKS_PER_SECOND};
 use flockway_drivers::{BuiltinModel, DriverSpec, DriversPlugin};
+use flockway_level::DriverModel;
+use flockway_level::{Expectation, Level, LevelError};
+use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
 use flockway_traffic::{
     Destroyer, DestroyerPlace, SpawnChoice, Spawner, TelemetrySamples, TelemetrySettings,
     TrafficPlugin, TrafficStats, Trigger, TriggerEffect, spawn_driven,
 };
 use flockway_vehicle::VehicleSpawn;
-use flockway_level::DriverModel;
-use flockway_level::{Expectation, Level, LevelError};
-use flockway_road::{Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin};
 use flockway_vehicle::{VehicleParams, VehicleParamsError, VehiclePlugin, VehicleType};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
@@ -220,14 +220,29 @@ impl RunReport {
         // The traffic keys (issue 6's contract), next to the foundation's.
         if let Some(obj) = out.as_object_mut() {
             obj.insert("vehicles_spawned".into(), json!(metric("vehicles_spawned")));
-            obj.insert("vehicles_destroyed".into(), json!(metric("vehicles_destroyed")));
-            obj.insert("vehicles_alive_mean".into(), json!(metric("vehicles_alive_mean")));
-            obj.insert("collisions_guardrail".into(), json!(metric("collisions_guardrail")));
-            obj.insert("collisions_vehicle".into(), json!(metric("collisions_vehicle")));
+            obj.insert(
+                "vehicles_destroyed".into(),
+                json!(metric("vehicles_destroyed")),
+            );
+            obj.insert(
+                "vehicles_alive_mean".into(),
+                json!(metric("vehicles_alive_mean")),
+            );
+            obj.insert(
+                "collisions_guardrail".into(),
+                json!(metric("collisions_guardrail")),
+            );
+            obj.insert(
+                "collisions_vehicle".into(),
+                json!(metric("collisions_vehicle")),
+            );
             obj.insert("mean_speed_kmh".into(), json!(metric("mean_speed_kmh")));
             obj.insert("speed_std_kmh".into(), json!(metric("speed_std_kmh")));
             obj.insert("flow_veh_per_h".into(), json!(flows));
-            obj.insert("mean_travel_time_s".into(), json!(metric("mean_travel_time_s")));
+            obj.insert(
+                "mean_travel_time_s".into(),
+                json!(metric("mean_travel_time_s")),
+            );
         }
         out
     }
@@ -453,8 +468,12 @@ pub fn populate(
     }
     for (i, t) in level.triggers.iter().enumerate() {
         let effect = match t.effect {
-            flockway_level::TriggerEffect::SpeedLimit { kmh } => TriggerEffect::SpeedLimit(kmh as f32),
-            flockway_level::TriggerEffect::Friction { scale } => TriggerEffect::Friction(scale as f32),
+            flockway_level::TriggerEffect::SpeedLimit { kmh } => {
+                TriggerEffect::SpeedLimit(kmh as f32)
+            }
+            flockway_level::TriggerEffect::Friction { scale } => {
+                TriggerEffect::Friction(scale as f32)
+            }
         };
         world.spawn((
             Trigger {
@@ -533,7 +552,8 @@ impl PerVehicleFiles {
         for id in gone {
             if let Some(w) = self.open.remove(&id) {
                 let path = w.path().to_owned();
-                w.finish().map_err(|source| RunError::Output { path, source })?;
+                w.finish()
+                    .map_err(|source| RunError::Output { path, source })?;
             }
         }
         for r in rows {
@@ -557,7 +577,8 @@ impl PerVehicleFiles {
     fn finish(self) -> Result<(), RunError> {
         for (_, w) in self.open {
             let path = w.path().to_owned();
-            w.finish().map_err(|source| RunError::Output { path, source })?;
+            w.finish()
+                .map_err(|source| RunError::Output { path, source })?;
         }
         Ok(())
     }
@@ -762,6 +783,20 @@ impl Runner {
         }
         if let Some(v) = traffic.speed_std_kmh() {
             metrics.insert("speed_std_kmh".to_owned(), v);
+        }
+        for (profile, st) in &traffic.speed_by_profile {
+            if let (Some(m), Some(sd)) = (st.mean(), st.std()) {
+                metrics.insert(format!("mean_speed_kmh.{profile}"), m);
+                metrics.insert(format!("speed_std_kmh.{profile}"), sd);
+            }
+        }
+        if let Some(v) = traffic.final_speed.mean() {
+            metrics.insert("final_speed_kmh".to_owned(), v);
+        }
+        for (profile, st) in &traffic.final_speed_by_profile {
+            if let Some(m) = st.mean() {
+                metrics.insert(format!("final_speed_kmh.{profile}"), m);
+            }
         }
         if let Some(v) = traffic.mean_travel_time_s() {
             metrics.insert("mean_travel_time_s".to_owned(), v);

@@ -332,7 +332,9 @@ impl DriveTarget {
 
 /// The avoidance push from one seen vehicle, m/s, in the road's frame at the observer. The
 /// clearance between bumpers is taken as it will be after `anticipation_s` at the current
-/// closing speed, so a fast approach pushes as hard as a near one.
+/// closing speed, so a fast approach pushes as hard as a near one. Vehicles ahead push back and
+/// vehicles behind push forward alike (thesis §3.2.4): in a platoon the two cancel, which is
+/// what lets dense traffic hold the limit.
 #[allow(clippy::too_many_arguments)]
 fn avoid_push(
     seen: &Seen,
@@ -492,7 +494,12 @@ pub fn drive_flock(
         let steer_by = if driver.keep_lane { base } else { desired };
         let decided = to_target(desired, steer_by, dir, curvature);
         *target = match human {
-            Some(mut h) => h.react(decided),
+            // The reaction delay is on the response to traffic (the speed); lane keeping is a
+            // continuous skill and follows the road as it is now.
+            Some(mut h) => DriveTarget {
+                speed_mps: h.react(decided).speed_mps,
+                ..decided
+            },
             None => decided,
         };
     }

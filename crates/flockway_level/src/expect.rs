@@ -16,6 +16,8 @@ pub enum Qualifier {
     Road,
     /// The qualifier is a destroyer name (required).
     Destroyer,
+    /// Optionally a driver profile name: the metric over that profile's vehicles only.
+    Profile,
 }
 
 /// A metric that expectations may test, with its unit and meaning.
@@ -96,13 +98,13 @@ pub const METRICS: &[MetricInfo] = &[
     },
     MetricInfo {
         name: "mean_speed_kmh",
-        qualifier: Qualifier::None,
+        qualifier: Qualifier::Profile,
         unit: "km/h",
         description: "mean sampled speed after the warm-up",
     },
     MetricInfo {
         name: "speed_std_kmh",
-        qualifier: Qualifier::None,
+        qualifier: Qualifier::Profile,
         unit: "km/h",
         description: "standard deviation of sampled speeds after the warm-up",
     },
@@ -111,6 +113,12 @@ pub const METRICS: &[MetricInfo] = &[
         qualifier: Qualifier::Destroyer,
         unit: "veh/h",
         description: "vehicles reaching a destroyer per hour",
+    },
+    MetricInfo {
+        name: "final_speed_kmh",
+        qualifier: Qualifier::Profile,
+        unit: "km/h",
+        description: "mean speed of vehicles as destroyers remove them (after the warm-up)",
     },
     MetricInfo {
         name: "mean_travel_time_s",

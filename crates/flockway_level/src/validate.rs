@@ -539,13 +539,14 @@ impl Checker<'_> {
             let known = match info.qualifier {
                 Qualifier::Road => l.roads.iter().any(|r| &r.name == q),
                 Qualifier::Destroyer => l.destroyers.iter().any(|d| &d.name == q),
+                Qualifier::Profile => l.driver_profiles.iter().any(|p| &p.name == q),
                 Qualifier::None => true,
             };
             if !known {
-                let kind = if info.qualifier == Qualifier::Road {
-                    "road"
-                } else {
-                    "destroyer"
+                let kind = match info.qualifier {
+                    Qualifier::Road => "road",
+                    Qualifier::Profile => "driver profile",
+                    _ => "destroyer",
                 };
                 self.issue(
                     vec![Field("expect"), Index(i)],

@@ -14,7 +14,8 @@ pub use spawn::{
     SpawnChoice, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners, spawn_driven,
 };
 pub use stats::{
-    TelemetrySample, TelemetrySamples, TelemetrySettings, TrafficStats, sample_telemetry,
+    SpeedStats, TelemetrySample, TelemetrySamples, TelemetrySettings, TrafficStats,
+    sample_telemetry,
 };
 pub use zones::{
     Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,
@@ -38,7 +39,10 @@ impl SimPlugin for TrafficPlugin {
         world.init_resource::<TelemetrySamples>();
         world.init_resource::<SpawnerRate>();
         sim.add_systems(StepSet::Spawn, run_spawners);
-        sim.add_systems(StepSet::Triggers, (count_collisions, apply_triggers).chain());
+        sim.add_systems(
+            StepSet::Triggers,
+            (count_collisions, apply_triggers).chain(),
+        );
         sim.add_systems(StepSet::Record, sample_telemetry);
         sim.add_systems(StepSet::Despawn, run_destroyers);
     }

@@ -109,7 +109,11 @@ impl Spawner {
 
     fn draw_interval_ticks(&mut self) -> u64 {
         let (lo, hi) = (self.interval_min_s.max(0.0), self.interval_max_s.max(0.0));
-        let s = if hi > lo { self.rng.uniform(lo, hi) } else { lo };
+        let s = if hi > lo {
+            self.rng.uniform(lo, hi)
+        } else {
+            lo
+        };
         (s * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64
     }
 }
@@ -123,6 +127,9 @@ pub struct SpawnerRate {
 
 /// Free length needed around a spawn point in the lane, m, beyond the car's own length.
 const SPAWN_CLEARANCE_M: f64 = 4.0;
+
+/// Extra time gap needed ahead of a spawn point at the spawn speed, s.
+const SPAWN_GAP_S: f64 = 0.3;
 
 /// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
 /// end of the system, in spawner order) and draws its next interval; otherwise it waits.
@@ -155,8 +162,12 @@ pub fn run_spawners(
         };
         let length = f64::from(sp.choices[choice].vehicle.params.chassis.length_m);
         let mut near = Vec::new();
-        let clear = length + SPAWN_CLEARANCE_M;
-        index.within(sp.road, sp.lane, sp.s_m, clear, clear, None, &mut near);
+        let speed_guess = f64::from(sp.speed_mps.unwrap_or(0.0));
+        let behind = length + SPAWN_CLEARANCE_M;
+        // Ahead, also a short time gap at the spawn speed: a car appearing right behind a
+        // slower one would have no room to brake.
+        let ahead = behind + SPAWN_GAP_S * speed_guess;
+        index.within(sp.road, sp.lane, sp.s_m, behind, ahead, None, &mut near);
         if !near.is_empty() {
             sp.waited_ticks += 1;
             continue;

@@ -85,6 +85,43 @@ pub struct TrafficStats {
     pub speed_sum: f64,
     /// Sum of squared sampled speeds, (km/h)².
     pub speed_sq_sum: f64,
+    /// Speed samples after the warm-up, per driver profile.
+    pub speed_by_profile: BTreeMap<String, SpeedStats>,
+    /// Speeds of vehicles as destroyers removed them (after the warm-up), all and per profile.
+    pub final_speed: SpeedStats,
+    /// The same per driver profile.
+    pub final_speed_by_profile: BTreeMap<String, SpeedStats>,
+}
+
+/// Count, sum and sum of squares of speeds, km/h.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SpeedStats {
+    /// Samples.
+    pub n: u64,
+    /// Sum, km/h.
+    pub sum: f64,
+    /// Sum of squares, (km/h)².
+    pub sq_sum: f64,
+}
+
+impl SpeedStats {
+    /// Adds a sample.
+    pub fn add(&mut self, kmh: f64) {
+        self.n += 1;
+        self.sum += kmh;
+        self.sq_sum += kmh * kmh;
+    }
+
+    /// Mean, km/h.
+    pub fn mean(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.sum / self.n as f64)
+    }
+
+    /// Standard deviation, km/h.
+    pub fn std(&self) -> Option<f64> {
+        let m = self.mean()?;
+        Some((self.sq_sum / self.n as f64 - m * m).max(0.0).sqrt())
+    }
 }
 
 impl TrafficStats {
@@ -135,20 +172,22 @@ pub fn sample_telemetry(
     }
     let mut rows: Vec<TelemetrySample> = vehicles
         .iter()
-        .map(|(id, track, motion, controls, state, label)| TelemetrySample {
-            vehicle_id: id.0,
-            driver: label.map_or_else(|| Arc::from("none"), |l| l.0.clone()),
-            road: track.road,
-            lane: track.lane,
-            s_m: track.s_m,
-            position: motion.position,
-            speed_kmh: motion.forward_mps * 3.6,
-            accel_mps2: motion.accel_mps2,
-            throttle: controls.throttle,
-            steering: controls.steering,
-            gear: state.gearbox.gear,
-            rpm: state.rpm(),
-        })
+        .map(
+            |(id, track, motion, controls, state, label)| TelemetrySample {
+                vehicle_id: id.0,
+                driver: label.map_or_else(|| Arc::from("none"), |l| l.0.clone()),
+                road: track.road,
+                lane: track.lane,
+                s_m: track.s_m,
+                position: motion.position,
+                speed_kmh: motion.forward_mps * 3.6,
+                accel_mps2: motion.accel_mps2,
+                throttle: controls.throttle,
+                steering: controls.steering,
+                gear: state.gearbox.gear,
+                rpm: state.rpm(),
+            },
+        )
         .collect();
     rows.sort_unstable_by_key(|r| r.vehicle_id);
     if tick >= settings.stats_from_tick {
@@ -157,6 +196,14 @@ pub fn sample_telemetry(
             stats.speed_samples += 1;
             stats.speed_sum += v;
             stats.speed_sq_sum += v * v;
+            match stats.speed_by_profile.get_mut(&*r.driver) {
+                Some(p) => p.add(v),
+                None => {
+                    let mut p = SpeedStats::default();
+                    p.add(v);
+                    stats.speed_by_profile.insert(r.driver.to_string(), p);
+                }
+            }
         }
     }
     samples.pending.push((tick, rows));

@@ -3,7 +3,7 @@
 use crate::stats::{TelemetrySettings, TrafficStats};
 use bevy_ecs::prelude::*;
 use flockway_core::{SimClock, TICKS_PER_SECOND};
-use flockway_drivers::SpeedLimit;
+use flockway_drivers::{DriverLabel, SpeedLimit};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
@@ -156,12 +156,18 @@ pub fn run_destroyers(
     settings: Res<TelemetrySettings>,
     network: Res<RoadNetwork>,
     destroyers: Query<&Destroyer>,
-    mut vehicles: Query<(Entity, &RoadTrack, &Motion, &mut Travel)>,
+    mut vehicles: Query<(
+        Entity,
+        &RoadTrack,
+        &Motion,
+        &mut Travel,
+        Option<&DriverLabel>,
+    )>,
     mut stats: ResMut<TrafficStats>,
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
-    for (entity, track, motion, mut travel) in &mut vehicles {
+    for (entity, track, motion, mut travel, label) in &mut vehicles {
         let passed = destroyers.iter().find(|d| match d.place {
             DestroyerPlace::OnRoad { road, s_m } => {
                 if track.road != road {
@@ -192,6 +198,15 @@ pub fn run_destroyers(
                 stats
                     .travel_times_s
                     .push((tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND));
+                let kmh = f64::from(motion.forward_mps) * 3.6;
+                stats.final_speed.add(kmh);
+                if let Some(l) = label {
+                    stats
+                        .final_speed_by_profile
+                        .entry(l.0.to_string())
+                        .or_default()
+                        .add(kmh);
+                }
             }
             commands.entity(entity).despawn();
         } else {
