@@ -426,7 +426,7 @@ pub fn populate(
         period_ticks: ticks_of(level.telemetry.period_s).max(1),
         stats_from_tick: ticks_of(level.telemetry.stats_from_s),
     });
-    let streams = world.resource::<RngStreams>().clone();
+    let streams = *world.resource::<RngStreams>();
     for (i, sp) in level.spawners.iter().enumerate() {
         let choices = sp
             .profiles
