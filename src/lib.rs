@@ -12,6 +12,7 @@ pub use flockway_core as core;
 pub use flockway_drivers as drivers;
 pub use flockway_level as level;
 pub use flockway_road as road;
+pub use flockway_traffic as traffic;
 pub use flockway_vehicle as vehicle;
 
 /// The types most programs that drive Flockway need.
