@@ -349,20 +349,7 @@ impl RoadGeometry {
     /// starts from where the cursor was left and leaves it at the answer. Falls back to the
     /// spatial index when the position jumped more than 25 m along the road.
     pub fn project_tracked(&self, pos: DVec3, cursor: &mut RoadCursor) -> RoadProjection {
-        let start = if cursor.0.seg < self.segments.len() {
-            cursor.0
-        } else {
-            self.param_at(0.0)
-        };
-        let before = self.s_of(start);
-        let (proj, p) = self.refine(pos, start);
-        if self.delta_s(before, proj.s_m).abs() > 25.0 {
-            let (proj, p) = self.refine(pos, self.grid.nearest(pos));
-            cursor.0 = p;
-            return proj;
-        }
-        cursor.0 = p;
-        proj
+        self.project_tracked_frame(pos, cursor).0
     }
 
     /// [`project_tracked`](Self::project_tracked) that also returns the road's frame at the
@@ -378,14 +365,14 @@ impl RoadGeometry {
             self.param_at(0.0)
         };
         let before = self.s_of(start);
-        let (proj, p) = self.refine(pos, start);
-        let (proj, p) = if self.delta_s(before, proj.s_m).abs() > 25.0 {
+        let (proj, p, frame) = self.refine(pos, start);
+        let (proj, p, frame) = if self.delta_s(before, proj.s_m).abs() > 25.0 {
             self.refine(pos, self.grid.nearest(pos))
         } else {
-            (proj, p)
+            (proj, p, frame)
         };
         cursor.0 = p;
-        (proj, self.frame_at_param(p, proj.s_m))
+        (proj, frame)
     }
 
     /// The exact road cross-section about `ds_m` along the road from a cursor at arc position
@@ -441,7 +428,7 @@ impl RoadGeometry {
     /// Like [`project`](Self::project), starting from a known nearby arc position (a vehicle's
     /// last one): skips the index, and falls back to it if the hint is more than 25 m off.
     pub fn project_near(&self, pos: DVec3, s_hint_m: f64) -> RoadProjection {
-        let (proj, _) = self.refine(pos, self.param_at(s_hint_m));
+        let (proj, _, _) = self.refine(pos, self.param_at(s_hint_m));
         if self.delta_s(s_hint_m, proj.s_m).abs() > 25.0 {
             self.project(pos)
         } else {
@@ -450,7 +437,7 @@ impl RoadGeometry {
     }
 
     /// Newton's method on the squared distance in the spline parameter, moving across segments.
-    fn refine(&self, q: DVec3, start: SplineParam) -> (RoadProjection, SplineParam) {
+    fn refine(&self, q: DVec3, start: SplineParam) -> (RoadProjection, SplineParam, RoadFrame) {
         let nseg = self.segments.len();
         let mut p = start;
         for _ in 0..16 {
@@ -508,7 +495,7 @@ impl RoadGeometry {
             lane: self.lane_at_offset(lateral_m, f.width_m),
             on_road: lateral_m.abs() <= 0.5 * f.width_m,
         };
-        (proj, p)
+        (proj, p, f)
     }
 
     /// Arc positions at which to place mesh stations: at most `step_m` apart, including every
