@@ -8,6 +8,7 @@
 pub mod run;
 pub mod telemetry;
 
+pub use flockway_analysis as analysis;
 pub use flockway_core as core;
 pub use flockway_drivers as drivers;
 pub use flockway_level as level;

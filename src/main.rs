@@ -1,6 +1,7 @@
 //! The `flockway` command: run, check and (in later releases) edit and plot levels.
 
 use clap::{Args, Parser, Subcommand};
+use flockway::analysis::{PlotFormat, Trace};
 use flockway::run::{RunError, RunOptions, Runner, level_name};
 use flockway_level::{load_level, write_atomic};
 use flockway_vehicle::{DynoReport, DynoSettings, VehicleParams, VehicleType, run_dyno};
@@ -72,6 +73,57 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Draw a run's plots from its telemetry CSV: speed_history, space_time, mean_speed and, for
+    /// runs with destroyers, fundamental_diagram.
+    ///
+    /// Exit status: 0, or 2 if the CSV (or summary) is missing, foreign or malformed.
+    Plot {
+        /// The telemetry CSV of `flockway run --csv`.
+        #[arg(value_name = "RUN.csv")]
+        csv: PathBuf,
+        /// Directory to write the plots into (created if needed).
+        #[arg(long, short, value_name = "DIR", default_value = ".")]
+        output: PathBuf,
+        /// Image format.
+        #[arg(long, value_enum, default_value_t = Format::Png)]
+        format: Format,
+        /// The run's `--summary` JSON: titles get its level and seed, plots its road lengths.
+        #[arg(long, value_name = "FILE")]
+        summary: Option<PathBuf>,
+    },
+    /// Write one self-contained HTML report of a run: summary, expectations and their results,
+    /// the stop-and-go wave, and every plot embedded.
+    ///
+    /// Exit status: 0, or 2 if the CSV (or summary) is missing, foreign or malformed.
+    Report {
+        /// The telemetry CSV of `flockway run --csv`.
+        #[arg(value_name = "RUN.csv")]
+        csv: PathBuf,
+        /// The HTML file to write.
+        #[arg(long, short, value_name = "FILE", required = true)]
+        output: PathBuf,
+        /// The run's `--summary` JSON, for the summary table and the expectations.
+        #[arg(long, value_name = "FILE")]
+        summary: Option<PathBuf>,
+    },
+}
+
+/// Plot image format on the command line.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Format {
+    /// PNG raster images.
+    Png,
+    /// SVG vector images.
+    Svg,
+}
+
+impl From<Format> for PlotFormat {
+    fn from(f: Format) -> PlotFormat {
+        match f {
+            Format::Png => PlotFormat::Png,
+            Format::Svg => PlotFormat::Svg,
+        }
+    }
 }
 
 #[derive(Args)]
@@ -94,6 +146,12 @@ struct RunArgs {
     /// Write the run summary as JSON to this file (keys documented in the README).
     #[arg(long, value_name = "FILE")]
     summary: Option<PathBuf>,
+    /// Write the run's plots into this directory at the end (see `flockway plot`).
+    #[arg(long, value_name = "DIR")]
+    plots: Option<PathBuf>,
+    /// Image format of --plots.
+    #[arg(long, value_enum, default_value_t = Format::Png, requires = "plots")]
+    plot_format: Format,
     /// Print nothing but errors; the exit status tells the outcome.
     #[arg(long, short)]
     quiet: bool,
@@ -119,6 +177,17 @@ fn main() -> ExitCode {
             seconds,
             jobs,
         } => test(&paths, seeds, seed_list, seconds, jobs),
+        Command::Plot {
+            csv,
+            output,
+            format,
+            summary,
+        } => plot(&csv, &output, format.into(), summary.as_deref()),
+        Command::Report {
+            csv,
+            output,
+            summary,
+        } => report(&csv, &output, summary.as_deref()),
     }
 }
 
@@ -170,6 +239,10 @@ fn run(args: RunArgs) -> ExitCode {
         csv: args.csv.clone(),
         per_vehicle: args.per_vehicle.clone(),
         assets: Some(flockway::run::find_assets_dir(Some(&args.level))),
+        plots: args
+            .plots
+            .clone()
+            .map(|dir| (dir, PlotFormat::from(args.plot_format))),
     };
     let mut runner = match Runner::new(level, &name, &options) {
         Ok(r) => r,
@@ -235,6 +308,61 @@ fn run(args: RunArgs) -> ExitCode {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
+    }
+}
+
+/// Loads a run's CSV and, if given, its summary JSON.
+fn load_run(
+    csv: &std::path::Path,
+    summary: Option<&std::path::Path>,
+) -> Result<(Trace, Option<serde_json::Value>), String> {
+    let trace = Trace::read_csv(csv).map_err(|e| e.to_string())?;
+    let summary = match summary {
+        Some(path) => Some(flockway::run::read_summary(path).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    Ok((trace, summary))
+}
+
+fn plot(
+    csv: &std::path::Path,
+    dir: &std::path::Path,
+    format: PlotFormat,
+    summary: Option<&std::path::Path>,
+) -> ExitCode {
+    let (trace, summary) = match load_run(csv, summary) {
+        Ok(r) => r,
+        Err(e) => return fail(e),
+    };
+    let info = flockway::run::plot_info(csv, summary.as_ref());
+    match flockway::analysis::write_plots(&trace, &info, dir, format) {
+        Ok(files) => {
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(e),
+    }
+}
+
+fn report(
+    csv: &std::path::Path,
+    out: &std::path::Path,
+    summary: Option<&std::path::Path>,
+) -> ExitCode {
+    let (trace, summary) = match load_run(csv, summary) {
+        Ok(r) => r,
+        Err(e) => return fail(e),
+    };
+    let info = flockway::run::plot_info(csv, summary.as_ref());
+    let wave = flockway::run::wave_of(&trace, &info, summary.as_ref());
+    match flockway::analysis::write_report(&trace, &info, summary.as_ref(), wave.as_ref(), out) {
+        Ok(()) => {
+            println!("wrote {}", out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(e),
     }
 }
 

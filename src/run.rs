@@ -1,6 +1,7 @@
 //! The headless runner: level → world → fixed steps → telemetry, summary and expectations.
 
 use crate::telemetry::{TelemetryRow, TelemetryWriter};
+use flockway_analysis::{PlotFormat, PlotInfo, Trace, Wave, WaveSettings, measure_wave};
 use flockway_core::{IdKind, RngStreams, RunStats, Sim, StableId, TICKS_PER_SECOND};
 use flockway_drivers::{BuiltinModel, DriverSpec, DriversPlugin};
 use flockway_level::DriverModel;
@@ -66,6 +67,9 @@ pub enum RunError {
     /// A command-line value is out of range.
     #[error("{0}")]
     Argument(String),
+    /// The run's plots could not be made.
+    #[error(transparent)]
+    Analysis(#[from] flockway_analysis::AnalysisError),
 }
 
 /// Longest run the command line accepts, in simulated seconds (one week).
@@ -85,6 +89,8 @@ pub struct RunOptions {
     /// The `assets/` directory that level asset paths are relative to; `None` finds it with
     /// [`find_assets_dir`].
     pub assets: Option<PathBuf>,
+    /// A directory to write the run's plots into at the end, and their format.
+    pub plots: Option<(PathBuf, PlotFormat)>,
 }
 
 /// Environment variable that overrides where `assets/` is.
@@ -146,7 +152,7 @@ pub struct ExpectationResult {
 }
 
 /// The keys every summary JSON has: a documented contract, only ever extended.
-pub const SUMMARY_KEYS: [&str; 18] = [
+pub const SUMMARY_KEYS: [&str; 22] = [
     "level",
     "seed",
     "ticks",
@@ -165,6 +171,10 @@ pub const SUMMARY_KEYS: [&str; 18] = [
     "speed_std_kmh",
     "flow_veh_per_h",
     "mean_travel_time_s",
+    "wave_detected",
+    "wave_speed_kmh",
+    "wave_period_s",
+    "stats_from_s",
 ];
 
 /// What a run measured. Its JSON form is a documented contract (see the README).
@@ -190,6 +200,8 @@ pub struct RunReport {
     pub expectations: Vec<ExpectationResult>,
     /// Whether every expectation held.
     pub passed: bool,
+    /// Start of the measured part of the run (after the warm-up), simulated seconds.
+    pub stats_from_s: f64,
 }
 
 impl RunReport {
@@ -216,6 +228,7 @@ impl RunReport {
                 "value": e.value,
             })).collect::<Vec<_>>(),
             "metrics": self.metrics,
+            "stats_from_s": self.stats_from_s,
         });
         // The traffic keys (issue 6's contract), next to the foundation's.
         if let Some(obj) = out.as_object_mut() {
@@ -243,6 +256,13 @@ impl RunReport {
                 "mean_travel_time_s".into(),
                 json!(metric("mean_travel_time_s")),
             );
+            // Issue 8's wave keys: null when no road was shared by two vehicles, or no wave.
+            obj.insert(
+                "wave_detected".into(),
+                json!(metric("wave_detected").map(|v| v != 0.0)),
+            );
+            obj.insert("wave_speed_kmh".into(), json!(metric("wave_speed_kmh")));
+            obj.insert("wave_period_s".into(), json!(metric("wave_period_s")));
         }
         out
     }
@@ -269,6 +289,9 @@ impl RunReport {
             ("mean speed km/h", "mean_speed_kmh"),
             ("speed std km/h", "speed_std_kmh"),
             ("travel time s", "mean_travel_time_s"),
+            ("wave detected", "wave_detected"),
+            ("wave speed km/h", "wave_speed_kmh"),
+            ("wave period s", "wave_period_s"),
         ];
         for (label, key) in traffic {
             if let Some(v) = self.metrics.get(key) {
@@ -530,6 +553,8 @@ pub struct Runner {
     total_ticks: u64,
     csv: Option<TelemetryWriter>,
     per_vehicle: Option<PerVehicleFiles>,
+    plots: Option<(PathBuf, PlotFormat)>,
+    trace: Trace,
     stepping: Duration,
 }
 
@@ -636,6 +661,8 @@ impl Runner {
             total_ticks,
             csv,
             per_vehicle,
+            plots: options.plots.clone(),
+            trace: Trace::new(),
             stepping: Duration::ZERO,
         })
     }
@@ -681,7 +708,7 @@ impl Runner {
                 .resource_mut::<TelemetrySamples>()
                 .pending,
         );
-        if pending.is_empty() || (self.csv.is_none() && self.per_vehicle.is_none()) {
+        if pending.is_empty() {
             return Ok(());
         }
         let names: BTreeMap<RoadId, String> = self
@@ -711,6 +738,19 @@ impl Runner {
                     rpm: f64::from(r.rpm),
                 })
                 .collect();
+            // Kept as the CSV writes them (3 decimals), so analysing the run or its CSV agrees.
+            let round = |v: f64| (v * 1000.0).round() / 1000.0;
+            for r in &rows {
+                self.trace.push(
+                    round(r.time_s),
+                    r.vehicle_id,
+                    &r.driver,
+                    &r.road,
+                    r.lane,
+                    round(r.s_m),
+                    round(r.speed_kmh),
+                );
+            }
             if let Some(csv) = &mut self.csv {
                 csv.write_sample(&rows).map_err(|source| RunError::Output {
                     path: csv.path().to_owned(),
@@ -722,6 +762,20 @@ impl Runner {
             }
         }
         Ok(())
+    }
+
+    /// The stop-and-go wave over the measured part of the run (after the warm-up).
+    fn wave(&self, road_lengths: &BTreeMap<String, f64>, from_tick: u64) -> Option<Wave> {
+        let settings = WaveSettings {
+            from_s: from_tick as f64 / f64::from(TICKS_PER_SECOND),
+            ..WaveSettings::default()
+        };
+        measure_wave(&self.trace, road_lengths, &settings)
+    }
+
+    /// The telemetry sampled so far, as analysis reads it.
+    pub fn trace(&self) -> &Trace {
+        &self.trace
     }
 
     /// Road edits are validated at load time; a network that still fails to build is reported.
@@ -813,6 +867,30 @@ impl Runner {
             };
             metrics.insert(format!("flow_veh_per_h.{}", d.name), flow);
         }
+        let road_lengths: BTreeMap<String, f64> = world
+            .resource::<RoadNetwork>()
+            .iter()
+            .map(|(_, r)| (r.name().to_owned(), r.length_m()))
+            .collect();
+        let wave = self.wave(&road_lengths, settings.stats_from_tick);
+        if let Some(w) = &wave {
+            metrics.insert("wave_detected".to_owned(), f64::from(u8::from(w.detected)));
+            if let Some(c) = w.speed_kmh() {
+                metrics.insert("wave_speed_kmh".to_owned(), c);
+            }
+            if let Some(p) = w.period_s() {
+                metrics.insert("wave_period_s".to_owned(), p);
+            }
+        }
+        if let Some((dir, format)) = &self.plots {
+            let info = PlotInfo {
+                level: self.name.clone(),
+                seed: Some(self.sim.seed()),
+                road_lengths,
+                destroyers: Some(!self.level.destroyers.is_empty()),
+            };
+            flockway_analysis::write_plots(&self.trace, &info, dir, *format)?;
+        }
         let expectations: Vec<ExpectationResult> = self
             .level
             .expect
@@ -834,6 +912,7 @@ impl Runner {
             },
             vehicle_steps: stats.vehicle_steps,
             passed: expectations.iter().all(|e| e.passed),
+            stats_from_s: settings.stats_from_tick as f64 / f64::from(TICKS_PER_SECOND),
             metrics,
             expectations,
         })
@@ -847,6 +926,73 @@ fn evaluate(e: &Expectation, metrics: &BTreeMap<String, f64>) -> ExpectationResu
         passed: value.is_some_and(|v| e.holds(v)),
         value,
     }
+}
+
+/// Reads a summary JSON written by `flockway run --summary`.
+pub fn read_summary(path: &Path) -> Result<Value, flockway_analysis::AnalysisError> {
+    let bad = |message: String| flockway_analysis::AnalysisError::Summary {
+        path: path.to_owned(),
+        message,
+    };
+    let text =
+        std::fs::read_to_string(path).map_err(|source| flockway_analysis::AnalysisError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+    let value: Value = serde_json::from_str(&text)
+        .map_err(|e| bad(format!("{}:{}: not JSON: {e}", e.line(), e.column())))?;
+    for key in ["level", "seed", "metrics"] {
+        if value.get(key).is_none() {
+            return Err(bad(format!(
+                "missing key `{key}`: expected the JSON of `flockway run --summary`"
+            )));
+        }
+    }
+    Ok(value)
+}
+
+/// Plot titles and road lengths for a run's CSV: from its summary if given, else the file name.
+pub fn plot_info(csv: &Path, summary: Option<&Value>) -> PlotInfo {
+    let stem = csv
+        .file_stem()
+        .map_or_else(|| "run".to_owned(), |s| s.to_string_lossy().into_owned());
+    let Some(summary) = summary else {
+        return PlotInfo {
+            level: stem,
+            ..PlotInfo::default()
+        };
+    };
+    let metrics = summary.get("metrics").and_then(Value::as_object);
+    PlotInfo {
+        level: summary
+            .get("level")
+            .and_then(Value::as_str)
+            .map_or(stem, str::to_owned),
+        seed: summary.get("seed").and_then(Value::as_u64),
+        road_lengths: metrics
+            .into_iter()
+            .flatten()
+            .filter_map(|(k, v)| Some((k.strip_prefix("road_length_m.")?.to_owned(), v.as_f64()?)))
+            .collect(),
+        destroyers: summary
+            .get("flow_veh_per_h")
+            .and_then(Value::as_object)
+            .map(|flows| !flows.is_empty()),
+    }
+}
+
+/// The stop-and-go wave of a run read back from its CSV: measured after the summary's warm-up
+/// (`stats_from_s`), or over the second half of the run without a summary.
+pub fn wave_of(trace: &Trace, info: &PlotInfo, summary: Option<&Value>) -> Option<Wave> {
+    let from_s = summary
+        .and_then(|s| s.get("stats_from_s"))
+        .and_then(Value::as_f64)
+        .unwrap_or(0.5 * trace.end_s());
+    let settings = WaveSettings {
+        from_s,
+        ..WaveSettings::default()
+    };
+    measure_wave(trace, &info.road_lengths, &settings)
 }
 
 /// The name a level is reported under: its `name`, or the file stem.

@@ -32,6 +32,9 @@ pub struct FlockParams {
     pub anticipation_s: f32,
     /// Detection range in the adjacent lanes, m (flock with lanes only).
     pub adjacent_range_m: f32,
+    /// Share of the avoidance push that vehicles behind exert (1: as strong as ahead, the
+    /// flocking rule; 0: looks ahead only, as human drivers do).
+    pub rear_weight: f32,
     /// How far ahead, in seconds at the current speed, the lane direction is taken.
     pub lookahead_s: f32,
     /// Time gap needed ahead of and behind the car in the target lane before a lane change, s.
@@ -53,6 +56,7 @@ impl Default for FlockParams {
             detection_range_m: 40.0,
             anticipation_s: 2.0,
             adjacent_range_m: 8.0,
+            rear_weight: 1.0,
             lookahead_s: 0.6,
             lane_change_gap_s: 1.0,
             throttle: PidGains {
@@ -86,17 +90,18 @@ impl Default for HumanParams {
         HumanParams {
             flock: FlockParams {
                 detection_range_m: 25.0,
-                anticipation_s: 0.8,
+                anticipation_s: 0.3,
                 adjacent_range_m: 5.0,
-                avoid_weight_m2_per_s: 45.0,
+                avoid_weight_m2_per_s: 30.0,
+                rear_weight: 0.0,
                 throttle: PidGains {
-                    kp: 1.2,
-                    ki: 0.3,
+                    kp: 0.6,
+                    ki: 0.05,
                     kd: 0.0,
                 },
                 ..FlockParams::default()
             },
-            reaction_time_s: 0.6,
+            reaction_time_s: 0.7,
             speed_spread: 0.1,
         }
     }
@@ -474,17 +479,19 @@ pub fn drive_flock(
             } else {
                 p.adjacent_range_m
             };
-            avoid += avoid_push(
-                s,
-                me_lat,
-                me_speed,
-                length,
-                range,
-                p.avoid_weight_m2_per_s,
-                p.anticipation_s,
-                track.tangent,
-                track.left,
-            );
+            let share = if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
+            avoid += share
+                * avoid_push(
+                    s,
+                    me_lat,
+                    me_speed,
+                    length,
+                    range,
+                    p.avoid_weight_m2_per_s,
+                    p.anticipation_s,
+                    track.tangent,
+                    track.left,
+                );
         }
         if driver.keep_lane {
             // Brake or speed up, never swerve: only the part along the lane.

@@ -1,0 +1,471 @@
+//! Stop-and-go wave measurement from a run's trajectories.
+//!
+//! The method, in four steps (documented in the README):
+//! 1. **Speed field.** On the road with the most samples, at every sample time from the start of
+//!    the analysis window, the speed is interpolated linearly between consecutive vehicles (by arc
+//!    position, around the loop on a closed road) onto cells of [`WaveSettings::cell_m`]. Each
+//!    time's mean is subtracted, leaving the pattern of slow and fast traffic `D(x, t)`.
+//! 2. **Amplitude.** The root-mean-square of `D` over the window, in km/h.
+//! 3. **Propagation speed.** For each candidate speed `c` the pattern is shifted by `c·τ` for lags
+//!    `τ` of 2, 4, 6 and 8 s and correlated with itself (normalised, 1 = identical). The `c` with
+//!    the highest correlation is the wave speed: negative means against the traffic.
+//! 4. **Period.** The time autocorrelation of `D` at fixed points, averaged over the road: its
+//!    first peak after it has turned negative is the period a fixed observer sees.
+//!
+//! A stop-and-go wave is *detected* when the pattern is strong (amplitude at least
+//! [`WaveSettings::min_relative_amplitude`] of the mean speed), coherent (correlation at least
+//! [`WaveSettings::min_correlation`]) and travels against the traffic (`c` below
+//! −[`WaveSettings::min_speed_kmh`]). Speed patterns that vehicles carry along with them, or that
+//! stand still on the road (braking for a bend), are not stop-and-go waves.
+
+use crate::Trace;
+use std::collections::BTreeMap;
+
+/// Tuning of [`measure_wave`]; the defaults are the documented method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WaveSettings {
+    /// Start of the analysis window, simulated seconds (the warm-up before it is ignored).
+    pub from_s: f64,
+    /// Cell length of the speed field, metres.
+    pub cell_m: f64,
+    /// Smallest pattern amplitude that counts, as a share of the mean speed.
+    pub min_relative_amplitude: f64,
+    /// Smallest correlation of the shifted pattern that counts as coherent.
+    pub min_correlation: f64,
+    /// Slowest upstream propagation that counts as a travelling wave, km/h.
+    pub min_speed_kmh: f64,
+}
+
+impl Default for WaveSettings {
+    fn default() -> Self {
+        WaveSettings {
+            from_s: 0.0,
+            cell_m: 2.0,
+            min_relative_amplitude: 0.10,
+            min_correlation: 0.5,
+            min_speed_kmh: 2.0,
+        }
+    }
+}
+
+/// What [`measure_wave`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wave {
+    /// The road measured (the one with the most samples in the window).
+    pub road: String,
+    /// Whether the road is a loop (vehicles wrap around).
+    pub closed: bool,
+    /// Road length used for the field, metres.
+    pub length_m: f64,
+    /// Mean speed over the window, km/h.
+    pub mean_speed_kmh: f64,
+    /// Root-mean-square of the speed pattern, km/h.
+    pub amplitude_kmh: f64,
+    /// Best propagation speed of the pattern, km/h (negative: against the traffic).
+    pub best_speed_kmh: f64,
+    /// Correlation of the pattern shifted at [`Wave::best_speed_kmh`] (1 = moves unchanged).
+    pub correlation: f64,
+    /// Period at a fixed point, seconds, if the pattern repeats within the window.
+    pub best_period_s: Option<f64>,
+    /// Whether the pattern is a stop-and-go wave (see the module docs).
+    pub detected: bool,
+}
+
+impl Wave {
+    /// The wave's propagation speed, km/h, if one was detected.
+    pub fn speed_kmh(&self) -> Option<f64> {
+        self.detected.then_some(self.best_speed_kmh)
+    }
+
+    /// The wave's period at a fixed point, seconds, if one was detected and repeats.
+    pub fn period_s(&self) -> Option<f64> {
+        if self.detected {
+            self.best_period_s
+        } else {
+            None
+        }
+    }
+}
+
+/// Lags the pattern is followed over, seconds.
+const LAGS_S: [f64; 4] = [2.0, 4.0, 6.0, 8.0];
+
+/// Measures the stop-and-go wave on the busiest road of a run. `road_lengths` gives known road
+/// lengths by name (from the run's summary); without one, a loop's length is estimated from the
+/// vehicles wrapping around it. `None` if fewer than two vehicles share a road in the window.
+pub fn measure_wave(
+    trace: &Trace,
+    road_lengths: &BTreeMap<String, f64>,
+    settings: &WaveSettings,
+) -> Option<Wave> {
+    let window: Vec<_> = trace
+        .samples()
+        .iter()
+        .filter(|s| s.time_s >= settings.from_s - 1e-9)
+        .collect();
+    let mut count = vec![0usize; trace.roads().len()];
+    for s in &window {
+        count[usize::from(s.road)] += 1;
+    }
+    // Ties go to the first road named, so the choice is stable.
+    let road = (0..count.len()).max_by_key(|&i| (count[i], std::cmp::Reverse(i)))? as u16;
+    let name = trace.roads()[usize::from(road)].clone();
+    let (closed, estimated) = loop_length(trace, road);
+    let max_s = window
+        .iter()
+        .filter(|s| s.road == road)
+        .map(|s| s.s_m)
+        .fold(0.0, f64::max);
+    let length_m = road_lengths
+        .get(&name)
+        .copied()
+        .or(estimated)
+        .unwrap_or(max_s)
+        .max(max_s)
+        .max(settings.cell_m);
+
+    // Sample times and their vehicles on the road.
+    let mut frames: Vec<(f64, Vec<(f64, f64)>)> = Vec::new();
+    for s in window.iter().filter(|s| s.road == road) {
+        match frames.last_mut() {
+            Some((t, v)) if *t == s.time_s => v.push((s.s_m, s.speed_kmh)),
+            _ => frames.push((s.time_s, vec![(s.s_m, s.speed_kmh)])),
+        }
+    }
+    frames.retain(|(_, v)| v.len() >= 2);
+    if frames.len() < 2 {
+        return None;
+    }
+    let dt = median_step(&frames.iter().map(|f| f.0).collect::<Vec<_>>());
+    let cells = (length_m / settings.cell_m).ceil() as usize;
+    let cell_m = length_m / cells as f64;
+
+    // The field, one row per sample time on a regular time grid (missing rows stay NaN).
+    let t0 = frames[0].0;
+    let rows = ((frames[frames.len() - 1].0 - t0) / dt).round() as usize + 1;
+    let mut field = vec![f64::NAN; rows * cells];
+    let mut speed_sum = 0.0;
+    let mut speed_n = 0usize;
+    for (t, vehicles) in &mut frames {
+        let row = ((*t - t0) / dt).round() as usize;
+        vehicles.sort_by(|a, b| a.0.total_cmp(&b.0));
+        speed_sum += vehicles.iter().map(|v| v.1).sum::<f64>();
+        speed_n += vehicles.len();
+        let out = &mut field[row * cells..(row + 1) * cells];
+        fill_row(out, vehicles, cell_m, length_m, closed);
+        let valid: Vec<f64> = out.iter().copied().filter(|v| v.is_finite()).collect();
+        let mean = valid.iter().sum::<f64>() / valid.len().max(1) as f64;
+        for v in out.iter_mut() {
+            *v -= mean;
+        }
+    }
+    let mean_speed_kmh = speed_sum / speed_n.max(1) as f64;
+    let (sq, n) = field
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(a, n), v| (a + v * v, n + 1));
+    let amplitude_kmh = (sq / n.max(1) as f64).sqrt();
+
+    // Propagation: the best speed on a 0.5 km/h grid, then refined to 0.05 km/h.
+    let fastest = frames
+        .iter()
+        .flat_map(|f| f.1.iter().map(|v| v.1))
+        .fold(0.0, f64::max);
+    let hi = 60f64.max(1.2 * fastest);
+    let grid = Grid {
+        field: &field,
+        rows,
+        cells,
+        cell_m,
+        dt,
+        closed,
+    };
+    let mut best = (-60.0, f64::NEG_INFINITY);
+    let mut c = -60.0;
+    while c <= hi + 1e-9 {
+        let r = grid.correlation(c);
+        if r > best.1 {
+            best = (c, r);
+        }
+        c += 0.5;
+    }
+    let coarse = best.0;
+    for k in -10..=10 {
+        let c = coarse + f64::from(k) * 0.05;
+        let r = grid.correlation(c);
+        if r > best.1 {
+            best = (c, r);
+        }
+    }
+    let (best_speed_kmh, correlation) = best;
+    let best_period_s = grid.period_s();
+    let detected = amplitude_kmh >= settings.min_relative_amplitude * mean_speed_kmh
+        && correlation >= settings.min_correlation
+        && best_speed_kmh <= -settings.min_speed_kmh;
+    Some(Wave {
+        road: name,
+        closed,
+        length_m,
+        mean_speed_kmh,
+        amplitude_kmh,
+        best_speed_kmh,
+        correlation: if correlation.is_finite() {
+            correlation
+        } else {
+            0.0
+        },
+        best_period_s,
+        detected,
+    })
+}
+
+/// Whether vehicles wrap around `road` (a loop), and its length estimated from the wraps: the
+/// distance a wrapping vehicle covers between two samples, added to where it left off.
+fn loop_length(trace: &Trace, road: u16) -> (bool, Option<f64>) {
+    let mut estimates = Vec::new();
+    for samples in trace.by_vehicle().values() {
+        for w in samples.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if a.road == road && b.road == road && b.s_m + 1.0 < a.s_m {
+                let travelled = 0.5 * (a.speed_kmh + b.speed_kmh) / 3.6 * (b.time_s - a.time_s);
+                estimates.push(a.s_m - b.s_m + travelled);
+            }
+        }
+    }
+    if estimates.is_empty() {
+        return (false, None);
+    }
+    estimates.sort_by(f64::total_cmp);
+    (true, Some(estimates[estimates.len() / 2]))
+}
+
+fn median_step(times: &[f64]) -> f64 {
+    let mut steps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    steps.get(steps.len() / 2).copied().unwrap_or(1.0).max(1e-3)
+}
+
+/// Interpolates speeds between consecutive vehicles onto cell centres.
+fn fill_row(out: &mut [f64], vehicles: &[(f64, f64)], cell_m: f64, length_m: f64, closed: bool) {
+    let n = vehicles.len();
+    for (i, cell) in out.iter_mut().enumerate() {
+        let x = (i as f64 + 0.5) * cell_m;
+        // The first vehicle at or ahead of x.
+        let j = vehicles.partition_point(|v| v.0 < x);
+        let (behind, ahead) = match (j, closed) {
+            (0, true) => (
+                (vehicles[n - 1].0 - length_m, vehicles[n - 1].1),
+                vehicles[0],
+            ),
+            (j, true) if j == n => (vehicles[n - 1], (vehicles[0].0 + length_m, vehicles[0].1)),
+            (0, false) => continue,
+            (j, false) if j == n => continue,
+            (j, _) => (vehicles[j - 1], vehicles[j]),
+        };
+        let span = ahead.0 - behind.0;
+        *cell = if span > 1e-9 {
+            behind.1 + (ahead.1 - behind.1) * (x - behind.0) / span
+        } else {
+            0.5 * (behind.1 + ahead.1)
+        };
+    }
+}
+
+struct Grid<'a> {
+    field: &'a [f64],
+    rows: usize,
+    cells: usize,
+    cell_m: f64,
+    dt: f64,
+    closed: bool,
+}
+
+impl Grid<'_> {
+    fn at(&self, row: usize, x_m: f64) -> f64 {
+        let pos = x_m / self.cell_m - 0.5;
+        let i = pos.floor();
+        let f = pos - i;
+        let n = self.cells as i64;
+        let index = |k: i64| -> Option<usize> {
+            if self.closed {
+                Some(k.rem_euclid(n) as usize)
+            } else if (0..n).contains(&k) {
+                Some(k as usize)
+            } else {
+                None
+            }
+        };
+        match (index(i as i64), index(i as i64 + 1)) {
+            (Some(a), Some(b)) => {
+                let row = &self.field[row * self.cells..(row + 1) * self.cells];
+                row[a] * (1.0 - f) + row[b] * f
+            }
+            _ => f64::NAN,
+        }
+    }
+
+    /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
+    fn correlation(&self, c_kmh: f64) -> f64 {
+        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        for lag_s in LAGS_S {
+            let lag = (lag_s / self.dt).round() as usize;
+            if lag == 0 || lag >= self.rows {
+                continue;
+            }
+            let shift = c_kmh / 3.6 * lag as f64 * self.dt;
+            for row in 0..self.rows - lag {
+                for i in 0..self.cells {
+                    let a = self.field[row * self.cells + i];
+                    if !a.is_finite() {
+                        continue;
+                    }
+                    let b = self.at(row + lag, (i as f64 + 0.5) * self.cell_m + shift);
+                    if b.is_finite() {
+                        ab += a * b;
+                        aa += a * a;
+                        bb += b * b;
+                    }
+                }
+            }
+        }
+        if aa > 0.0 && bb > 0.0 {
+            ab / (aa * bb).sqrt()
+        } else {
+            f64::NEG_INFINITY
+        }
+    }
+
+    /// The first peak of the fixed-point autocorrelation after it has turned negative.
+    fn period_s(&self) -> Option<f64> {
+        let max_lag = self.rows * 3 / 4;
+        let mut r = Vec::with_capacity(max_lag + 1);
+        for lag in 0..=max_lag {
+            let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+            for row in 0..self.rows - lag {
+                for i in 0..self.cells {
+                    let a = self.field[row * self.cells + i];
+                    let b = self.field[(row + lag) * self.cells + i];
+                    if a.is_finite() && b.is_finite() {
+                        ab += a * b;
+                        aa += a * a;
+                        bb += b * b;
+                    }
+                }
+            }
+            r.push(if aa > 0.0 && bb > 0.0 {
+                ab / (aa * bb).sqrt()
+            } else {
+                f64::NAN
+            });
+        }
+        let first_negative = r.iter().position(|v| *v < 0.0)?;
+        (first_negative.max(1)..r.len().saturating_sub(1)).find_map(|k| {
+            let (a, b, c) = (r[k - 1], r[k], r[k + 1]);
+            (b > a && b >= c && b > 0.1).then(|| {
+                // Parabolic refinement of the peak between samples.
+                let denom = a - 2.0 * b + c;
+                let offset = if denom.abs() > 1e-12 {
+                    0.5 * (a - c) / denom
+                } else {
+                    0.0
+                };
+                (k as f64 + offset) * self.dt
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Vehicles on a loop whose speed dips where a jam sits; the jam moves at `c_kmh`.
+    fn ring_with_jam(c_kmh: f64, amplitude_kmh: f64) -> Trace {
+        let length = 230.0;
+        let n = 22;
+        let mean = 25.0 / 3.6;
+        let mut s: Vec<f64> = (0..n).map(|i| i as f64 * length / n as f64).collect();
+        let mut trace = Trace::new();
+        let dt = 0.5;
+        let speed_at = |x: f64, t: f64| -> f64 {
+            let jam = (c_kmh / 3.6 * t).rem_euclid(length);
+            let phase = 2.0 * std::f64::consts::PI * (x - jam) / length;
+            25.0 - amplitude_kmh * phase.cos()
+        };
+        for k in 0..400 {
+            let t = k as f64 * dt;
+            for (id, x) in s.iter_mut().enumerate() {
+                let v = speed_at(*x, t);
+                trace.push(t, id as u32, "human", "ring", 0, *x, v);
+                // Small sub-steps keep the vehicles following the field.
+                for _ in 0..10 {
+                    *x = (*x + speed_at(*x, t) / 3.6 * dt / 10.0).rem_euclid(length);
+                }
+            }
+        }
+        let _ = mean;
+        trace
+    }
+
+    #[test]
+    fn a_backward_moving_jam_is_found_with_its_speed_and_period() {
+        let trace = ring_with_jam(-20.0, 10.0);
+        let lengths = BTreeMap::from([("ring".to_owned(), 230.0)]);
+        let settings = WaveSettings {
+            from_s: 50.0,
+            ..WaveSettings::default()
+        };
+        let w = measure_wave(&trace, &lengths, &settings).expect("measured");
+        assert!(w.detected, "{w:?}");
+        assert!(w.closed);
+        let c = w.speed_kmh().expect("speed");
+        assert!((c + 20.0).abs() < 1.0, "wave speed {c}");
+        // One jam on 230 m passing at 20 km/h: 41.4 s at a fixed point.
+        let period = w.period_s().expect("period");
+        assert!((period - 41.4).abs() < 2.0, "period {period}");
+        assert!(w.amplitude_kmh > 5.0);
+    }
+
+    #[test]
+    fn loop_length_is_estimated_from_wraps_without_a_summary() {
+        let trace = ring_with_jam(-20.0, 10.0);
+        let w = measure_wave(&trace, &BTreeMap::new(), &WaveSettings::default()).expect("measured");
+        assert!((w.length_m - 230.0).abs() < 0.5, "{}", w.length_m);
+        assert!(w.detected);
+    }
+
+    #[test]
+    fn steady_or_weak_patterns_are_not_waves() {
+        let lengths = BTreeMap::from([("ring".to_owned(), 230.0)]);
+        // A standing pattern (a bend everyone brakes for) does not travel.
+        let standing = measure_wave(
+            &ring_with_jam(0.0, 10.0),
+            &lengths,
+            &WaveSettings::default(),
+        )
+        .expect("measured");
+        assert!(!standing.detected, "{standing:?}");
+        assert!(standing.best_speed_kmh.abs() < 1.0);
+        // A travelling ripple of 1 km/h at 25 km/h is not stop-and-go.
+        let weak = measure_wave(
+            &ring_with_jam(-20.0, 1.0),
+            &lengths,
+            &WaveSettings::default(),
+        )
+        .expect("measured");
+        assert!(!weak.detected, "{weak:?}");
+        assert_eq!(weak.speed_kmh(), None);
+        assert_eq!(weak.period_s(), None);
+    }
+
+    #[test]
+    fn no_shared_road_measures_nothing() {
+        let mut trace = Trace::new();
+        trace.push(0.0, 1, "auto", "a", 0, 1.0, 50.0);
+        trace.push(0.5, 1, "auto", "a", 0, 8.0, 50.0);
+        assert_eq!(
+            measure_wave(&trace, &BTreeMap::new(), &WaveSettings::default()),
+            None
+        );
+    }
+}
