@@ -90,6 +90,9 @@ enum Command {
         /// The run's `--summary` JSON: titles get its level and seed, plots its road lengths.
         #[arg(long, value_name = "FILE")]
         summary: Option<PathBuf>,
+        /// Image size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
+        size: (u32, u32),
     },
     /// Write one self-contained HTML report of a run: summary, expectations and their results,
     /// the stop-and-go wave, and every plot embedded.
@@ -182,7 +185,8 @@ fn main() -> ExitCode {
             output,
             format,
             summary,
-        } => plot(&csv, &output, format.into(), summary.as_deref()),
+            size,
+        } => plot(&csv, &output, format.into(), summary.as_deref(), size),
         Command::Report {
             csv,
             output,
@@ -324,18 +328,31 @@ fn load_run(
     Ok((trace, summary))
 }
 
+/// Parses `WIDTHxHEIGHT` (each 200–8000 pixels).
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected WIDTHxHEIGHT in pixels, e.g. 1600x900, found `{text}`");
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(200..=8000).contains(&w) || !(200..=8000).contains(&h) {
+        return Err(format!("{w}x{h}: each side must be 200 to 8000 pixels"));
+    }
+    Ok((w, h))
+}
+
 fn plot(
     csv: &std::path::Path,
     dir: &std::path::Path,
     format: PlotFormat,
     summary: Option<&std::path::Path>,
+    size: (u32, u32),
 ) -> ExitCode {
     let (trace, summary) = match load_run(csv, summary) {
         Ok(r) => r,
         Err(e) => return fail(e),
     };
     let info = flockway::run::plot_info(csv, summary.as_ref());
-    match flockway::analysis::write_plots(&trace, &info, dir, format) {
+    match flockway::analysis::write_plots_sized(&trace, &info, dir, format, size) {
         Ok(files) => {
             for f in files {
                 println!("wrote {}", f.display());

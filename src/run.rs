@@ -852,6 +852,14 @@ impl Runner {
                 metrics.insert(format!("final_speed_kmh.{profile}"), m);
             }
         }
+        if let Some(v) = traffic.final_at_limit.share() {
+            metrics.insert("final_limit_share".to_owned(), v);
+        }
+        for (profile, st) in &traffic.final_at_limit_by_profile {
+            if let Some(v) = st.share() {
+                metrics.insert(format!("final_limit_share.{profile}"), v);
+            }
+        }
         if let Some(v) = traffic.mean_travel_time_s() {
             metrics.insert("mean_travel_time_s".to_owned(), v);
         }

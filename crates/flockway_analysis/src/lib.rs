@@ -12,7 +12,7 @@ mod wave;
 
 pub use plot::{
     FlowDensity, PLOT_NAMES, PLOT_SIZE, PlotFormat, PlotInfo, flow_density, render_plot,
-    write_plots,
+    write_plots, write_plots_sized,
 };
 pub use report::write_report;
 pub use trace::{REQUIRED_COLUMNS, Sample, Trace};

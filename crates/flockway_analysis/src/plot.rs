@@ -68,6 +68,17 @@ pub fn write_plots(
     dir: &Path,
     format: PlotFormat,
 ) -> Result<Vec<PathBuf>, AnalysisError> {
+    write_plots_sized(trace, info, dir, format, PLOT_SIZE)
+}
+
+/// [`write_plots`] at a chosen image size, pixels.
+pub fn write_plots_sized(
+    trace: &Trace,
+    info: &PlotInfo,
+    dir: &Path,
+    format: PlotFormat,
+    size: (u32, u32),
+) -> Result<Vec<PathBuf>, AnalysisError> {
     std::fs::create_dir_all(dir).map_err(|source| AnalysisError::Io {
         path: dir.to_owned(),
         source,
@@ -75,7 +86,7 @@ pub fn write_plots(
     let mut written = Vec::new();
     for name in PLOT_NAMES {
         let path = dir.join(format!("{name}.{}", format.extension()));
-        if render_plot(name, trace, info, &path, format, PLOT_SIZE)? {
+        if render_plot(name, trace, info, &path, format, size)? {
             written.push(path);
         }
     }
@@ -256,6 +267,7 @@ fn speed_history<DB: DrawingBackend>(
         }
         chart
             .configure_series_labels()
+            .legend_area_size(44)
             .label_font(("sans-serif", 24))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
@@ -533,6 +545,7 @@ fn mean_speed<DB: DrawingBackend>(
         }
         chart
             .configure_series_labels()
+            .legend_area_size(44)
             .label_font(("sans-serif", 24))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
@@ -649,6 +662,7 @@ fn fundamental_diagram<DB: DrawingBackend>(
         }
         chart
             .configure_series_labels()
+            .legend_area_size(44)
             .label_font(("sans-serif", 24))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)

@@ -45,6 +45,14 @@ impl EntityRng {
         self.rng.next_u64()
     }
 
+    /// A new stream seeded from this one's next draw: for a part of an entity that draws at its
+    /// own pace (e.g. every tick) without shifting the entity's other draws.
+    pub fn fork(&mut self) -> EntityRng {
+        EntityRng {
+            rng: ChaCha8Rng::seed_from_u64(self.rng.next_u64()),
+        }
+    }
+
     /// A uniform sample in [0, 1), with 53 bits of precision.
     pub fn unit_f64(&mut self) -> f64 {
         (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)

@@ -3,7 +3,7 @@
 use crate::control::{DriveTarget, PidGains};
 use crate::perception::{LaneIndex, Seen};
 use bevy_ecs::prelude::*;
-use flockway_core::DT_S;
+use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use glam::Vec3;
@@ -83,6 +83,11 @@ pub struct HumanParams {
     pub reaction_time_s: f32,
     /// Spread of its desired speed around the limit: drawn once, uniform in ±this share.
     pub speed_spread: f32,
+    /// How far its speed choice wanders from moment to moment (misjudged gaps, attention), km/h:
+    /// the standard deviation of an Ornstein–Uhlenbeck process added to its target speed.
+    pub speed_noise_kmh: f32,
+    /// How long a wander lasts (the process's correlation time), s.
+    pub noise_time_s: f32,
 }
 
 impl Default for HumanParams {
@@ -103,6 +108,8 @@ impl Default for HumanParams {
             },
             reaction_time_s: 0.7,
             speed_spread: 0.1,
+            speed_noise_kmh: 0.0,
+            noise_time_s: 4.0,
         }
     }
 }
@@ -226,24 +233,58 @@ impl FlockDriver {
     }
 }
 
-/// Makes a flocking driver human-like: its own desired speed and a reaction delay.
+/// Makes a flocking driver human-like: its own desired speed, a wandering speed choice and a
+/// reaction delay.
 #[derive(Component, Debug, Clone, PartialEq)]
 pub struct HumanDriver {
     /// Its desired speed as a share of the limit (drawn once, 1 ± spread).
     pub speed_factor: f32,
     /// Reaction delay, s.
     pub reaction_time_s: f32,
+    /// Standard deviation of the wander added to its target speed, m/s.
+    pub speed_noise_mps: f32,
+    /// Correlation time of the wander, s.
+    pub noise_time_s: f32,
+    noise_mps: f32,
+    rng: Option<EntityRng>,
     pending: VecDeque<DriveTarget>,
 }
 
 impl HumanDriver {
-    /// A human with this speed factor and delay.
+    /// A human with this speed factor and delay, whose speed choice does not wander.
     pub fn new(speed_factor: f32, reaction_time_s: f32) -> HumanDriver {
         HumanDriver {
             speed_factor,
             reaction_time_s,
+            speed_noise_mps: 0.0,
+            noise_time_s: 4.0,
+            noise_mps: 0.0,
+            rng: None,
             pending: VecDeque::new(),
         }
+    }
+
+    /// Lets its speed choice wander by `sigma_mps` (standard deviation) over `time_s`, drawing
+    /// from `rng` (its own stream) once per tick.
+    pub fn with_noise(mut self, sigma_mps: f32, time_s: f32, rng: EntityRng) -> HumanDriver {
+        self.speed_noise_mps = sigma_mps.max(0.0);
+        self.noise_time_s = time_s.max(DT_S as f32);
+        self.rng = (sigma_mps > 0.0).then_some(rng);
+        self
+    }
+
+    /// Advances the wander by one tick and returns it, m/s. An Ornstein–Uhlenbeck step with a
+    /// unit-variance uniform kick (cheaper than a Gaussian, the same variance).
+    pub fn wander(&mut self) -> f32 {
+        let Some(rng) = &mut self.rng else {
+            return 0.0;
+        };
+        let dt = DT_S as f32;
+        let kick = (rng.unit_f64() as f32 * 2.0 - 1.0) * 3f32.sqrt();
+        let decay = dt / self.noise_time_s;
+        self.noise_mps +=
+            -self.noise_mps * decay + self.speed_noise_mps * (2.0 * decay).sqrt() * kick;
+        self.noise_mps
     }
 
     /// Queues this tick's decision and returns the one made a reaction time ago (the oldest
@@ -503,10 +544,17 @@ pub fn drive_flock(
         *target = match human {
             // The reaction delay is on the response to traffic (the speed); lane keeping is a
             // continuous skill and follows the road as it is now.
-            Some(mut h) => DriveTarget {
-                speed_mps: h.react(decided).speed_mps,
-                ..decided
-            },
+            Some(mut h) => {
+                let wander = h.wander();
+                let chosen = DriveTarget {
+                    speed_mps: (decided.speed_mps + wander).max(0.0),
+                    ..decided
+                };
+                DriveTarget {
+                    speed_mps: h.react(chosen).speed_mps,
+                    ..decided
+                }
+            }
             None => decided,
         };
     }
@@ -601,6 +649,42 @@ mod tests {
         assert!((a + (32.0f32 / 30.0).powi(2)).abs() < 1e-5, "{a}");
         // Closing fast on a near leader: hard braking.
         assert!(idm_accel(&p, 20.0, 20.0, Some((15.0, 10.0))) < -5.0);
+    }
+
+    #[test]
+    fn a_humans_speed_wander_has_its_spread_and_memory_and_repeats() {
+        let rng = || {
+            flockway_core::RngStreams::new(5).stream(flockway_core::StableId::new(
+                flockway_core::IdKind::Vehicle,
+                1,
+            ))
+        };
+        let mut h = HumanDriver::new(1.0, 0.0).with_noise(1.0, 4.0, rng());
+        let n = 120 * 4000;
+        let xs: Vec<f32> = (0..n).map(|_| h.wander()).collect();
+        let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n as f64;
+        let var = xs
+            .iter()
+            .map(|&x| (f64::from(x) - mean).powi(2))
+            .sum::<f64>()
+            / n as f64;
+        assert!(mean.abs() < 0.1, "mean {mean}");
+        assert!((var.sqrt() - 1.0).abs() < 0.1, "std {}", var.sqrt());
+        // One second apart the wander remembers exp(−1/4) = 0.78 of itself.
+        let lag = 120;
+        let cov = (0..n - lag)
+            .map(|i| (f64::from(xs[i]) - mean) * (f64::from(xs[i + lag]) - mean))
+            .sum::<f64>()
+            / (n - lag) as f64;
+        assert!(
+            (cov / var - 0.7788).abs() < 0.05,
+            "autocorrelation {}",
+            cov / var
+        );
+        // The same stream gives the same wander; no noise gives none.
+        let mut again = HumanDriver::new(1.0, 0.0).with_noise(1.0, 4.0, rng());
+        assert!(xs.iter().take(1000).all(|&x| x == again.wander()));
+        assert_eq!(HumanDriver::new(1.0, 0.0).wander(), 0.0);
     }
 
     #[test]

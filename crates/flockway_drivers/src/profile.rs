@@ -168,7 +168,11 @@ impl DriverSpec {
                 let factor = rng.uniform(1.0 - spread, 1.0 + spread) as f32;
                 entity.insert((
                     FlockDriver::new(h.flock.clone(), true, lane),
-                    HumanDriver::new(factor, h.reaction_time_s),
+                    HumanDriver::new(factor, h.reaction_time_s).with_noise(
+                        h.speed_noise_kmh / 3.6,
+                        h.noise_time_s,
+                        rng.fork(),
+                    ),
                     TargetController::new(h.flock.throttle, h.flock.steering),
                 ));
             }

@@ -121,6 +121,12 @@ pub const METRICS: &[MetricInfo] = &[
         description: "mean speed of vehicles as destroyers remove them (after the warm-up)",
     },
     MetricInfo {
+        name: "final_limit_share",
+        qualifier: Qualifier::Profile,
+        unit: "share 0-1",
+        description: "share of vehicles leaving at 95 % of their speed limit or faster (after the warm-up)",
+    },
+    MetricInfo {
         name: "mean_travel_time_s",
         qualifier: Qualifier::None,
         unit: "s",

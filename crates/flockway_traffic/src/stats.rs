@@ -91,6 +91,38 @@ pub struct TrafficStats {
     pub final_speed: SpeedStats,
     /// The same per driver profile.
     pub final_speed_by_profile: BTreeMap<String, SpeedStats>,
+    /// How many of those vehicles left at their speed limit (all, and per profile).
+    pub final_at_limit: LimitShare,
+    /// The same per driver profile.
+    pub final_at_limit_by_profile: BTreeMap<String, LimitShare>,
+}
+
+/// Of the vehicles counted, how many reached their speed limit.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LimitShare {
+    /// Vehicles counted.
+    pub n: u64,
+    /// Of those, vehicles at [`AT_LIMIT_SHARE`] of their limit or faster.
+    pub reached: u64,
+}
+
+/// A vehicle counts as at its limit from this share of it (its own speed choice and the
+/// controller's tracking keep even a car that wants the limit a little off it).
+pub const AT_LIMIT_SHARE: f64 = 0.95;
+
+impl LimitShare {
+    /// Counts one vehicle leaving at `kmh` under a `limit_kmh` limit.
+    pub fn add(&mut self, kmh: f64, limit_kmh: f64) {
+        self.n += 1;
+        if kmh >= AT_LIMIT_SHARE * limit_kmh {
+            self.reached += 1;
+        }
+    }
+
+    /// The share that reached the limit, 0–1.
+    pub fn share(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.reached as f64 / self.n as f64)
+    }
 }
 
 /// Count, sum and sum of squares of speeds, km/h.

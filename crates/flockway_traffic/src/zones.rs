@@ -148,6 +148,16 @@ pub fn count_collisions(
     }
 }
 
+/// What a destroyer looks at on each vehicle.
+type DestroyerView = (
+    Entity,
+    &'static RoadTrack,
+    &'static Motion,
+    &'static mut Travel,
+    Option<&'static DriverLabel>,
+    Option<&'static SpeedLimit>,
+);
+
 /// Removes vehicles that pass a destroyer's point or are inside its volume, recording their
 /// travel time and the destroyer's count (after the warm-up). Updates every vehicle's
 /// [`Travel`] position.
@@ -156,18 +166,12 @@ pub fn run_destroyers(
     settings: Res<TelemetrySettings>,
     network: Res<RoadNetwork>,
     destroyers: Query<&Destroyer>,
-    mut vehicles: Query<(
-        Entity,
-        &RoadTrack,
-        &Motion,
-        &mut Travel,
-        Option<&DriverLabel>,
-    )>,
+    mut vehicles: Query<DestroyerView>,
     mut stats: ResMut<TrafficStats>,
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
-    for (entity, track, motion, mut travel, label) in &mut vehicles {
+    for (entity, track, motion, mut travel, label, limit) in &mut vehicles {
         let passed = destroyers.iter().find(|d| match d.place {
             DestroyerPlace::OnRoad { road, s_m } => {
                 if track.road != road {
@@ -200,12 +204,19 @@ pub fn run_destroyers(
                     .push((tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND));
                 let kmh = f64::from(motion.forward_mps) * 3.6;
                 stats.final_speed.add(kmh);
+                let limit_kmh = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh));
+                stats.final_at_limit.add(kmh, limit_kmh);
                 if let Some(l) = label {
                     stats
                         .final_speed_by_profile
                         .entry(l.0.to_string())
                         .or_default()
                         .add(kmh);
+                    stats
+                        .final_at_limit_by_profile
+                        .entry(l.0.to_string())
+                        .or_default()
+                        .add(kmh, limit_kmh);
                 }
             }
             commands.entity(entity).despawn();
