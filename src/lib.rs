@@ -9,6 +9,8 @@ pub mod run;
 pub mod telemetry;
 
 pub use flockway_analysis as analysis;
+#[cfg(feature = "window")]
+pub use flockway_app as app;
 pub use flockway_core as core;
 pub use flockway_drivers as drivers;
 pub use flockway_level as level;

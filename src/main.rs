@@ -94,6 +94,31 @@ enum Command {
         #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
         size: (u32, u32),
     },
+    /// Simulate a level headless to a moment and render the scene (no HUD) to a PNG, with the
+    /// window's renderer, on any machine with a Vulkan or GL driver (Mesa's software ones do).
+    ///
+    /// Exit status: 0, or 2 if the level or an argument is invalid or there is no graphics
+    /// adapter.
+    Render {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: PathBuf,
+        /// The PNG to write.
+        #[arg(long, short, value_name = "FILE.png", required = true)]
+        output: PathBuf,
+        /// Simulated seconds before the picture (0: as the level starts, after its first step).
+        #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+        at: f64,
+        /// Image size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Camera.
+        #[arg(long, value_enum, default_value_t = CameraArg::Top)]
+        camera: CameraArg,
+        /// Seed instead of the level's.
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+    },
     /// Write one self-contained HTML report of a run: summary, expectations and their results,
     /// the stop-and-go wave, and every plot embedded.
     ///
@@ -109,6 +134,15 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         summary: Option<PathBuf>,
     },
+}
+
+/// Camera of `flockway render`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum CameraArg {
+    /// Straight down, the whole level in view.
+    Top,
+    /// Perspective from the south-west, the whole level in view.
+    Orbit,
 }
 
 /// Plot image format on the command line.
@@ -192,6 +226,14 @@ fn main() -> ExitCode {
             output,
             summary,
         } => report(&csv, &output, summary.as_deref()),
+        Command::Render {
+            level,
+            output,
+            at,
+            size,
+            camera,
+            seed,
+        } => render(&level, &output, at, size, camera, seed),
     }
 }
 
@@ -381,6 +423,92 @@ fn report(
         }
         Err(e) => fail(e),
     }
+}
+
+#[cfg(feature = "window")]
+fn render(
+    path: &std::path::Path,
+    out: &std::path::Path,
+    at: f64,
+    size: (u32, u32),
+    camera: CameraArg,
+    seed: Option<u64>,
+) -> ExitCode {
+    use flockway::app::{Camera, Gpu, OFFSCREEN_FORMAT, SceneRenderer, StaticScene, VehicleFrame};
+    use flockway::road::RoadNetwork;
+    if !(at.is_finite() && (0.0..=flockway::run::MAX_RUN_SECONDS).contains(&at)) {
+        return fail(format!(
+            "--at {at}: expected simulated seconds from 0 to a week"
+        ));
+    }
+    let level = match load_level(path) {
+        Ok(l) => l,
+        Err(e) => return fail(e),
+    };
+    let name = level_name(&level, path);
+    let options = RunOptions {
+        // At least one step, so the level's initial vehicles are on the road.
+        seconds: Some(at.max(1.0 / 120.0)),
+        seed,
+        assets: Some(flockway::run::find_assets_dir(Some(path))),
+        ..RunOptions::default()
+    };
+    let mut runner = match Runner::new(level, &name, &options) {
+        Ok(r) => r,
+        Err(e) => return fail(e),
+    };
+    while runner.ticks_done() < runner.total_ticks() {
+        if let Err(e) = runner.step(120) {
+            return fail(e);
+        }
+    }
+    let gpu = match Gpu::headless() {
+        Ok(g) => g,
+        Err(e) => return fail(e),
+    };
+    let scene = StaticScene::build(
+        runner.sim().world().resource::<RoadNetwork>(),
+        runner.level(),
+    );
+    let mut vehicles = VehicleFrame::default();
+    vehicles.capture(runner.sim_mut().world_mut());
+    let mut renderer = SceneRenderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    renderer.set_static(&gpu.device, &scene);
+    renderer.set_vehicles(&gpu.device, &gpu.queue, &vehicles.instances);
+    let aspect = size.0 as f32 / size.1 as f32;
+    let cam = match camera {
+        CameraArg::Top => Camera::top_fit(scene.min, scene.max, aspect),
+        CameraArg::Orbit => Camera::orbit_fit(scene.min, scene.max),
+    };
+    let image = match flockway::app::render_image(&gpu, &renderer, &cam, size) {
+        Ok(i) => i,
+        Err(e) => return fail(e),
+    };
+    if let Err(e) = image.save_png(out) {
+        return fail(e);
+    }
+    println!(
+        "wrote {} ({}×{}, {} vehicles at {:.2} s, {})",
+        out.display(),
+        size.0,
+        size.1,
+        vehicles.instances.len(),
+        runner.ticks_done() as f64 / 120.0,
+        gpu.describe()
+    );
+    ExitCode::SUCCESS
+}
+
+#[cfg(not(feature = "window"))]
+fn render(
+    _: &std::path::Path,
+    _: &std::path::Path,
+    _: f64,
+    _: (u32, u32),
+    _: CameraArg,
+    _: Option<u64>,
+) -> ExitCode {
+    fail("this build has no renderer (built without the `window` feature); use `flockway run`")
 }
 
 fn dyno(vehicle: Option<&std::path::Path>, json: bool) -> ExitCode {

@@ -682,6 +682,16 @@ impl Runner {
         &self.sim
     }
 
+    /// The world being run, for tools that query it (the renderer).
+    pub fn sim_mut(&mut self) -> &mut Sim {
+        &mut self.sim
+    }
+
+    /// The level being run.
+    pub fn level(&self) -> &Level {
+        &self.level
+    }
+
     /// Runs up to `max_ticks` more steps (fewer at the end of the run); returns how many ran.
     pub fn step(&mut self, max_ticks: u64) -> Result<u64, RunError> {
         let n = max_ticks.min(self.total_ticks - self.ticks_done());

@@ -1,0 +1,482 @@
+//! What the renderer draws, prepared on the CPU: the static scene (ground, roads, markings,
+//! guardrails, markers) and one instance per vehicle.
+
+use bevy_ecs::prelude::*;
+use flockway_drivers::{FlockDriver, HumanDriver};
+use flockway_level::{DestroyerPlace, Level, TriggerEffect};
+use flockway_road::{Mesh, RoadGeometry, RoadNetwork};
+use flockway_vehicle::{Motion, VehicleModel};
+use glam::{DVec3, Quat, Vec3};
+
+/// One vertex of the static scene.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Vertex {
+    /// Position, metres, world space.
+    pub position: [f32; 3],
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Linear RGBA colour.
+    pub colour: [f32; 4],
+}
+
+/// One vehicle to draw: its pose, size and colour.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VehicleInstance {
+    /// Body origin, metres, world space.
+    pub translation: [f32; 3],
+    /// Body rotation (x, y, z, w).
+    pub rotation: [f32; 4],
+    /// Length, width and height, metres.
+    pub size: [f32; 3],
+    /// Linear RGBA paint colour.
+    pub colour: [f32; 4],
+}
+
+/// Colours of the scene, linear RGB.
+pub mod palette {
+    /// Grass around the roads.
+    pub const GROUND: [f32; 4] = [0.16, 0.25, 0.12, 1.0];
+    /// Asphalt.
+    pub const ASPHALT: [f32; 4] = [0.055, 0.057, 0.062, 1.0];
+    /// Painted lines.
+    pub const MARKING: [f32; 4] = [0.85, 0.85, 0.82, 1.0];
+    /// Guardrail steel.
+    pub const GUARDRAIL: [f32; 4] = [0.45, 0.47, 0.5, 1.0];
+    /// Autonomous (flocking) cars.
+    pub const AUTONOMOUS: [f32; 4] = [0.05, 0.22, 0.8, 1.0];
+    /// Human-like cars: red, as in the thesis.
+    pub const HUMAN: [f32; 4] = [0.75, 0.04, 0.03, 1.0];
+    /// Cars of other drivers (IDM, plugins).
+    pub const OTHER: [f32; 4] = [0.85, 0.6, 0.02, 1.0];
+    /// Spawner posts.
+    pub const SPAWNER: [f32; 4] = [0.1, 0.7, 0.15, 1.0];
+    /// Destroyer gates.
+    pub const DESTROYER: [f32; 4] = [0.8, 0.1, 0.6, 1.0];
+    /// Speed-limit trigger stretches (translucent).
+    pub const SPEED_TRIGGER: [f32; 4] = [1.0, 0.55, 0.0, 0.35];
+    /// Friction trigger stretches (translucent).
+    pub const FRICTION_TRIGGER: [f32; 4] = [0.1, 0.5, 1.0, 0.35];
+}
+
+/// The scene that changes only when the level is edited, as one triangle list.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StaticScene {
+    /// Vertices.
+    pub vertices: Vec<Vertex>,
+    /// Three indices per triangle; opaque triangles first, then [`StaticScene::translucent_from`].
+    pub indices: Vec<u32>,
+    /// Index where the translucent triangles (trigger stretches) begin.
+    pub translucent_from: u32,
+    /// Lowest corner of everything built on the ground, metres.
+    pub min: Vec3,
+    /// Highest corner.
+    pub max: Vec3,
+}
+
+impl StaticScene {
+    /// Builds the ground, every road's surface, markings and guardrails, and markers for the
+    /// level's spawners, destroyers and triggers.
+    pub fn build(network: &RoadNetwork, level: &Level) -> StaticScene {
+        let mut scene = StaticScene {
+            min: Vec3::splat(f32::INFINITY),
+            max: Vec3::splat(f32::NEG_INFINITY),
+            ..StaticScene::default()
+        };
+        for (id, _) in network.iter() {
+            if let Some(m) = network.meshes(id) {
+                scene.add_mesh(&m.surface, palette::ASPHALT);
+                scene.add_mesh(&m.markings, palette::MARKING);
+                scene.add_mesh(&m.guardrails, palette::GUARDRAIL);
+            }
+        }
+        if !scene.min.is_finite() {
+            scene.min = Vec3::new(-50.0, -50.0, 0.0);
+            scene.max = Vec3::new(50.0, 50.0, 0.0);
+        }
+        // Ground: a quad well beyond the roads, just under them.
+        let pad = 0.5 * (scene.max - scene.min).truncate().max_element() + 50.0;
+        let (lo, hi) = (scene.min.truncate() - pad, scene.max.truncate() + pad);
+        let z = scene.min.z - 0.05;
+        scene.quad(
+            [
+                Vec3::new(lo.x, lo.y, z),
+                Vec3::new(hi.x, lo.y, z),
+                Vec3::new(hi.x, hi.y, z),
+                Vec3::new(lo.x, hi.y, z),
+            ],
+            Vec3::Z,
+            palette::GROUND,
+        );
+        let road = |name: &str| network.id(name).and_then(|id| network.get(id));
+        for s in &level.spawners {
+            if let Some(g) = road(&s.road) {
+                let f = g.frame_at(s.s_m);
+                let side = f.offset(-0.5 * f.width_m - 1.2);
+                scene.cuboid(
+                    side.as_vec3(),
+                    f.tangent.as_vec3(),
+                    Vec3::new(0.8, 0.8, 3.0),
+                    palette::SPAWNER,
+                );
+            }
+        }
+        for d in &level.destroyers {
+            match &d.place {
+                DestroyerPlace::OnRoad { road: name, s_m } => {
+                    if let Some(g) = road(name) {
+                        let f = g.frame_at(*s_m);
+                        let t = f.tangent.as_vec3();
+                        for side in [-1.0, 1.0] {
+                            let foot = f.offset(side * (0.5 * f.width_m + 0.8)).as_vec3();
+                            scene.cuboid(foot, t, Vec3::new(0.5, 0.5, 4.0), palette::DESTROYER);
+                        }
+                        let top = f.offset(0.0).as_vec3() + f.up.as_vec3() * 3.6;
+                        scene.cuboid(
+                            top,
+                            t,
+                            Vec3::new(0.4, f.width_m as f32 + 2.1, 0.4),
+                            palette::DESTROYER,
+                        );
+                    }
+                }
+                DestroyerPlace::Volume { min, max } => {
+                    let (a, b) = (min.as_vec3(), max.as_vec3());
+                    let c = 0.5 * (a + b);
+                    scene.cuboid(
+                        Vec3::new(c.x, c.y, a.z),
+                        Vec3::X,
+                        (b - a).abs().max(Vec3::splat(0.1)),
+                        [
+                            palette::DESTROYER[0],
+                            palette::DESTROYER[1],
+                            palette::DESTROYER[2],
+                            0.3,
+                        ],
+                    );
+                }
+            }
+        }
+        scene.translucent_from = scene.indices.len() as u32;
+        for t in &level.triggers {
+            if let Some(g) = road(&t.road) {
+                let colour = match t.effect {
+                    TriggerEffect::SpeedLimit { .. } => palette::SPEED_TRIGGER,
+                    TriggerEffect::Friction { .. } => palette::FRICTION_TRIGGER,
+                };
+                scene.strip(g, t.from_m, t.to_m, colour);
+            }
+        }
+        scene
+    }
+
+    fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    fn add_mesh(&mut self, mesh: &Mesh, colour: [f32; 4]) {
+        let base = self.vertices.len() as u32;
+        for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+            self.grow(Vec3::from_array(*p));
+            self.vertices.push(Vertex {
+                position: *p,
+                normal: *n,
+                colour,
+            });
+        }
+        self.indices.extend(mesh.indices.iter().map(|i| base + i));
+    }
+
+    fn quad(&mut self, corners: [Vec3; 4], normal: Vec3, colour: [f32; 4]) {
+        let base = self.vertices.len() as u32;
+        for c in corners {
+            self.vertices.push(Vertex {
+                position: c.to_array(),
+                normal: normal.to_array(),
+                colour,
+            });
+        }
+        self.indices
+            .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+
+    /// A box standing on `foot`, its length along `forward` (flattened), of `size` (l, w, h).
+    fn cuboid(&mut self, foot: Vec3, forward: Vec3, size: Vec3, colour: [f32; 4]) {
+        let f = Vec3::new(forward.x, forward.y, 0.0).normalize_or(Vec3::X);
+        let l = Vec3::Z.cross(f);
+        let rot = Quat::from_mat3(&glam::Mat3::from_cols(f, l, Vec3::Z));
+        let centre = foot + Vec3::Z * (0.5 * size.z);
+        for (corners, normal) in box_faces(size) {
+            let world = corners.map(|c| centre + rot * c);
+            self.quad(world, rot * normal, colour);
+        }
+    }
+
+    /// A translucent strip over the whole width of a road between two arc positions.
+    fn strip(&mut self, road: &RoadGeometry, from_m: f64, to_m: f64, colour: [f32; 4]) {
+        let len = road.delta_s(from_m, to_m).max(0.0);
+        let steps = ((len / 2.0).ceil() as usize).max(1);
+        let base = self.vertices.len() as u32;
+        for k in 0..=steps {
+            let s = from_m + len * k as f64 / steps as f64;
+            let f = road.frame_at(s);
+            let lift: DVec3 = f.up * 0.03;
+            for lat in [-0.5 * f.width_m, 0.5 * f.width_m] {
+                self.vertices.push(Vertex {
+                    position: (f.offset(lat) + lift).as_vec3().to_array(),
+                    normal: f.up.as_vec3().to_array(),
+                    colour,
+                });
+            }
+        }
+        for k in 0..steps as u32 {
+            let (r0, l0, r1, l1) = (
+                base + 2 * k,
+                base + 2 * k + 1,
+                base + 2 * k + 2,
+                base + 2 * k + 3,
+            );
+            self.indices.extend_from_slice(&[r0, r1, l1, r0, l1, l0]);
+        }
+    }
+}
+
+/// The six faces of a box of `size` centred on the origin: corners counter-clockwise seen from
+/// outside, and the outward normal.
+pub fn box_faces(size: Vec3) -> [([Vec3; 4], Vec3); 6] {
+    let h = 0.5 * size;
+    let c = |x: f32, y: f32, z: f32| Vec3::new(x * h.x, y * h.y, z * h.z);
+    [
+        (
+            [
+                c(1., -1., -1.),
+                c(1., 1., -1.),
+                c(1., 1., 1.),
+                c(1., -1., 1.),
+            ],
+            Vec3::X,
+        ),
+        (
+            [
+                c(-1., 1., -1.),
+                c(-1., -1., -1.),
+                c(-1., -1., 1.),
+                c(-1., 1., 1.),
+            ],
+            -Vec3::X,
+        ),
+        (
+            [
+                c(1., 1., -1.),
+                c(-1., 1., -1.),
+                c(-1., 1., 1.),
+                c(1., 1., 1.),
+            ],
+            Vec3::Y,
+        ),
+        (
+            [
+                c(-1., -1., -1.),
+                c(1., -1., -1.),
+                c(1., -1., 1.),
+                c(-1., -1., 1.),
+            ],
+            -Vec3::Y,
+        ),
+        (
+            [
+                c(-1., -1., 1.),
+                c(1., -1., 1.),
+                c(1., 1., 1.),
+                c(-1., 1., 1.),
+            ],
+            Vec3::Z,
+        ),
+        (
+            [
+                c(-1., 1., -1.),
+                c(1., 1., -1.),
+                c(1., -1., -1.),
+                c(-1., -1., -1.),
+            ],
+            -Vec3::Z,
+        ),
+    ]
+}
+
+/// One vertex of the vehicle mesh, in units of the vehicle's size.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CarVertex {
+    /// Position as a share of (length, width, height), relative to the body origin.
+    pub position: [f32; 3],
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Brightness factor (1 paint, lower for the glasshouse).
+    pub shade: f32,
+}
+
+/// The car shape every vehicle instance scales: a body and a darker glasshouse, with the body
+/// origin at the centre of mass height above the ground (as the physics body is).
+pub fn car_mesh(com_height_share: f32) -> (Vec<CarVertex>, Vec<u16>) {
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    // (centre, size, shade) in units of the car's size; the body sits 0.14 above the ground.
+    let parts = [
+        (
+            Vec3::new(0.0, 0.0, 0.14 + 0.25),
+            Vec3::new(1.0, 1.0, 0.5),
+            1.0,
+        ),
+        (
+            Vec3::new(-0.06, 0.0, 0.64 + 0.18),
+            Vec3::new(0.52, 0.88, 0.36),
+            0.35,
+        ),
+    ];
+    for (centre, size, shade) in parts {
+        for (corners, normal) in box_faces(size) {
+            let base = vertices.len() as u16;
+            for c in corners {
+                let p = centre + c - Vec3::Z * com_height_share;
+                vertices.push(CarVertex {
+                    position: p.to_array(),
+                    normal: normal.to_array(),
+                    shade,
+                });
+            }
+            indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    (vertices, indices)
+}
+
+/// Share of a car's height at which its body origin (the centre of mass) sits above the ground.
+pub const COM_HEIGHT_SHARE: f32 = 0.45 / 1.4;
+
+/// Every vehicle of one fixed step: instances sorted by entity, with their entities.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VehicleFrame {
+    /// The vehicles' entities, ascending.
+    pub ids: Vec<Entity>,
+    /// Their instances, in the same order.
+    pub instances: Vec<VehicleInstance>,
+}
+
+impl VehicleFrame {
+    /// Collects every vehicle's instance from a simulation world.
+    pub fn capture(&mut self, world: &mut World) {
+        let mut query = world.query::<(
+            Entity,
+            &Motion,
+            &VehicleModel,
+            Option<&HumanDriver>,
+            Option<&FlockDriver>,
+        )>();
+        let mut rows: Vec<_> = query
+            .iter(world)
+            .map(|(e, m, model, human, flock)| {
+                let c = &model.0.params.chassis;
+                let colour = match (human, flock) {
+                    (Some(_), _) => palette::HUMAN,
+                    (None, Some(_)) => palette::AUTONOMOUS,
+                    _ => palette::OTHER,
+                };
+                (
+                    e,
+                    VehicleInstance {
+                        translation: m.position.to_array(),
+                        rotation: m.rotation.to_array(),
+                        size: [c.length_m, c.width_m, c.height_m],
+                        colour,
+                    },
+                )
+            })
+            .collect();
+        rows.sort_by_key(|(e, _)| *e);
+        self.ids.clear();
+        self.instances.clear();
+        for (e, i) in rows {
+            self.ids.push(e);
+            self.instances.push(i);
+        }
+    }
+
+    /// Blends the previous step's poses into this step's for a frame between them (`alpha` 0
+    /// is `prev`, 1 is `self`), matching vehicles by entity; a vehicle new in this step is drawn
+    /// as it is.
+    pub fn interpolate(&self, prev: &VehicleFrame, alpha: f32, out: &mut Vec<VehicleInstance>) {
+        out.clear();
+        let mut j = 0;
+        for (id, n) in self.ids.iter().zip(&self.instances) {
+            while j < prev.ids.len() && prev.ids[j] < *id {
+                j += 1;
+            }
+            out.push(match prev.ids.get(j) {
+                Some(pid) if pid == id => {
+                    let p = &prev.instances[j];
+                    let t = Vec3::from_array(p.translation)
+                        .lerp(Vec3::from_array(n.translation), alpha);
+                    let r = Quat::from_array(p.rotation).slerp(Quat::from_array(n.rotation), alpha);
+                    VehicleInstance {
+                        translation: t.to_array(),
+                        rotation: r.to_array(),
+                        ..*n
+                    }
+                }
+                _ => *n,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn instance(x: f32) -> VehicleInstance {
+        VehicleInstance {
+            translation: [x, 0.0, 0.0],
+            rotation: Quat::IDENTITY.to_array(),
+            size: [4.6, 1.8, 1.4],
+            colour: palette::HUMAN,
+        }
+    }
+
+    #[test]
+    fn interpolation_matches_vehicles_by_entity_across_spawns_and_despawns() {
+        let mut world = World::new();
+        let mut ids = [(); 3].map(|_| world.spawn_empty().id());
+        // Frames hold entities ascending, whatever order the world hands them out in.
+        ids.sort();
+        let [a, b, c] = ids;
+        let prev = VehicleFrame {
+            ids: vec![a, b],
+            instances: vec![instance(0.0), instance(10.0)],
+        };
+        // `a` left, `c` arrived: `b` blends with its own previous pose, `c` is drawn as is.
+        let next = VehicleFrame {
+            ids: vec![b, c],
+            instances: vec![instance(12.0), instance(50.0)],
+        };
+        let mut out = Vec::new();
+        next.interpolate(&prev, 0.25, &mut out);
+        assert_eq!(out.len(), 2);
+        assert!((out[0].translation[0] - 10.5).abs() < 1e-6);
+        assert_eq!(out[1].translation[0], 50.0);
+    }
+
+    #[test]
+    fn box_faces_point_outwards_and_wind_counter_clockwise() {
+        for (corners, normal) in box_faces(Vec3::new(2.0, 1.0, 0.5)) {
+            let n = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .normalize();
+            assert!((n - normal).length() < 1e-6, "{n} vs {normal}");
+            let centre = corners.iter().copied().sum::<Vec3>() / 4.0;
+            assert!(centre.dot(normal) > 0.0);
+        }
+    }
+}
