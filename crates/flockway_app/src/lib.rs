@@ -3,10 +3,12 @@
 //! crates below it build and test without a display.
 
 mod camera;
+mod editor;
 mod render;
 mod scene;
 
 pub use camera::{Camera, ORBIT_FOV_RAD};
+pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
 pub use render::{
     DEPTH_FORMAT, Gpu, Image, MSAA_SAMPLES, OFFSCREEN_FORMAT, RenderError, SKY, SceneRenderer,
     Targets, render_image,

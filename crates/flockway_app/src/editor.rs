@@ -1,0 +1,964 @@
+//! The editor's model, apart from any window: a level, the commands that edit it, undo and
+//! redo, and saving (atomic, exactly the RON `flockway run` loads) with autosave and recovery.
+//!
+//! Every edit is a [`Command`]. [`Editor::apply`] runs it and keeps the level as it was before,
+//! so undo restores that state exactly and redo re-applies the command. A drag sends many
+//! [`Command::MovePoint`]s (or [`Command::MoveMarker`]s) through [`Editor::drag`]: they merge into
+//! one undo step until [`Editor::end_drag`].
+
+use flockway_level::{
+    Destroyer, DestroyerPlace, Level, LevelError, Spawner, Trigger, level_to_string, parse_level,
+    write_atomic,
+};
+use flockway_road::{ControlPoint, RoadSpec};
+use glam::DVec3;
+use std::path::{Path, PathBuf};
+
+/// Which kind of marker a command addresses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MarkerKind {
+    /// A spawner.
+    Spawner,
+    /// A destroyer on a road.
+    Destroyer,
+    /// A trigger stretch.
+    Trigger,
+}
+
+/// One edit of a level. Roads and markers are addressed by their index in the level.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Starts a new road (named `road N`) with its first control point.
+    AddRoad {
+        /// Where the point goes, metres.
+        at: DVec3,
+    },
+    /// Adds a control point at the end of a road.
+    AppendPoint {
+        /// The road.
+        road: usize,
+        /// Where, metres.
+        at: DVec3,
+    },
+    /// Inserts a control point before point `index`.
+    InsertPoint {
+        /// The road.
+        road: usize,
+        /// The point it goes before.
+        index: usize,
+        /// Where, metres.
+        at: DVec3,
+    },
+    /// Moves a control point.
+    MovePoint {
+        /// The road.
+        road: usize,
+        /// The point.
+        index: usize,
+        /// Its new position, metres.
+        to: DVec3,
+    },
+    /// Deletes a control point (the last one deletes the road).
+    DeletePoint {
+        /// The road.
+        road: usize,
+        /// The point.
+        index: usize,
+    },
+    /// Deletes a road, the markers on it and the connections onto it.
+    DeleteRoad {
+        /// The road.
+        road: usize,
+    },
+    /// Closes a road into a loop, or opens it.
+    SetClosed {
+        /// The road.
+        road: usize,
+        /// Whether it is a loop.
+        closed: bool,
+    },
+    /// Connects a road's end to another road's start (or removes the connection).
+    Connect {
+        /// The road whose end connects.
+        road: usize,
+        /// The road it leads onto, by name.
+        next: Option<String>,
+    },
+    /// Replaces a control point's properties (width, bank, guardrails, elevation in `pos.z`).
+    SetPoint {
+        /// The road.
+        road: usize,
+        /// The point.
+        index: usize,
+        /// The new point.
+        point: ControlPoint,
+    },
+    /// Sets a road's own properties; a new name is followed by everything that refers to it.
+    SetRoad {
+        /// The road.
+        road: usize,
+        /// Name.
+        name: String,
+        /// Lanes.
+        lanes: u32,
+        /// Lane width, metres.
+        lane_width_m: f64,
+        /// Speed limit, km/h.
+        speed_limit_kmh: f64,
+    },
+    /// Adds a spawner.
+    AddSpawner(Spawner),
+    /// Replaces a spawner.
+    SetSpawner(usize, Spawner),
+    /// Adds a destroyer.
+    AddDestroyer(Destroyer),
+    /// Replaces a destroyer.
+    SetDestroyer(usize, Destroyer),
+    /// Adds a trigger.
+    AddTrigger(Trigger),
+    /// Replaces a trigger.
+    SetTrigger(usize, Trigger),
+    /// Moves a marker along its road (a trigger keeps its length).
+    MoveMarker {
+        /// What kind of marker.
+        kind: MarkerKind,
+        /// Its index.
+        index: usize,
+        /// New arc position, metres (a trigger's start).
+        s_m: f64,
+    },
+    /// Deletes a marker.
+    DeleteMarker {
+        /// What kind of marker.
+        kind: MarkerKind,
+        /// Its index.
+        index: usize,
+    },
+}
+
+impl Command {
+    /// A short description for the undo menu.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Command::AddRoad { .. } => "add road",
+            Command::AppendPoint { .. } | Command::InsertPoint { .. } => "add point",
+            Command::MovePoint { .. } => "move point",
+            Command::DeletePoint { .. } => "delete point",
+            Command::DeleteRoad { .. } => "delete road",
+            Command::SetClosed { .. } => "close/open loop",
+            Command::Connect { .. } => "connect roads",
+            Command::SetPoint { .. } => "edit point",
+            Command::SetRoad { .. } => "edit road",
+            Command::AddSpawner(_) => "add spawner",
+            Command::AddDestroyer(_) => "add destroyer",
+            Command::AddTrigger(_) => "add trigger",
+            Command::SetSpawner(..) | Command::SetDestroyer(..) | Command::SetTrigger(..) => {
+                "edit marker"
+            }
+            Command::MoveMarker { .. } => "move marker",
+            Command::DeleteMarker { .. } => "delete marker",
+        }
+    }
+
+    /// What a drag moves: consecutive drags of the same thing merge into one undo step.
+    fn drag_target(&self) -> Option<(u8, usize, usize)> {
+        match self {
+            Command::MovePoint { road, index, .. } => Some((0, *road, *index)),
+            Command::MoveMarker { kind, index, .. } => Some((1 + *kind as u8, *index, 0)),
+            _ => None,
+        }
+    }
+}
+
+/// Why an edit or a save was refused. The level is unchanged.
+#[derive(Debug, thiserror::Error)]
+pub enum EditError {
+    /// A road, point or marker index that does not exist.
+    #[error("{0}")]
+    NoSuchThing(String),
+    /// A name already taken, or empty.
+    #[error("{0}")]
+    BadName(String),
+    /// A value out of range.
+    #[error("{0}")]
+    BadValue(String),
+    /// Saving would write a level that `flockway run` rejects: fix these first.
+    #[error("the level is not valid yet, so it was not saved: {0}")]
+    Invalid(String),
+    /// Reading or writing a file failed.
+    #[error(transparent)]
+    File(#[from] LevelError),
+}
+
+/// A state in the history: the level before an edit, and that edit.
+#[derive(Debug, Clone)]
+struct Step {
+    command: Command,
+    before: Level,
+    before_id: u64,
+    after_id: u64,
+}
+
+/// A level being edited, its file, and its history.
+#[derive(Debug, Clone)]
+pub struct Editor {
+    level: Level,
+    path: Option<PathBuf>,
+    undo: Vec<Step>,
+    redo: Vec<(Step, Level)>,
+    /// Identity of the current state; each edit makes a new one, undo returns to an old one.
+    state: u64,
+    next_state: u64,
+    saved_state: Option<u64>,
+    autosaved_state: u64,
+    dragging: bool,
+}
+
+/// How many edits undo remembers.
+pub const UNDO_DEPTH: usize = 500;
+
+impl Editor {
+    /// A new, empty, unsaved level.
+    pub fn new() -> Editor {
+        let mut level = Level::new(1, 120.0);
+        level.name = "untitled".to_owned();
+        Editor::with_level(level, None)
+    }
+
+    /// Edits `level`, which was loaded from (and saves to) `path`.
+    pub fn with_level(level: Level, path: Option<PathBuf>) -> Editor {
+        let saved = path.is_some().then_some(0);
+        Editor {
+            level,
+            path,
+            undo: Vec::new(),
+            redo: Vec::new(),
+            state: 0,
+            next_state: 1,
+            saved_state: saved,
+            autosaved_state: 0,
+            dragging: false,
+        }
+    }
+
+    /// Opens a level file.
+    pub fn open(path: &Path) -> Result<Editor, EditError> {
+        let level = flockway_level::load_level(path)?;
+        Ok(Editor::with_level(level, Some(path.to_owned())))
+    }
+
+    /// The level as edited.
+    pub fn level(&self) -> &Level {
+        &self.level
+    }
+
+    /// The file it saves to, if it has one.
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// Whether there are changes that are not saved (the title bar's marker).
+    pub fn is_dirty(&self) -> bool {
+        self.saved_state != Some(self.state)
+    }
+
+    /// Whether there is an edit to undo, and its label.
+    pub fn undo_label(&self) -> Option<&'static str> {
+        self.undo.last().map(|s| s.command.label())
+    }
+
+    /// Whether there is an edit to redo, and its label.
+    pub fn redo_label(&self) -> Option<&'static str> {
+        self.redo.last().map(|(s, _)| s.command.label())
+    }
+
+    /// Applies an edit as its own undo step.
+    pub fn apply(&mut self, command: Command) -> Result<(), EditError> {
+        self.dragging = false;
+        self.push(command)
+    }
+
+    /// Applies one movement of a drag: drags of the same point or marker merge into one undo
+    /// step until [`Editor::end_drag`].
+    pub fn drag(&mut self, command: Command) -> Result<(), EditError> {
+        let target = command.drag_target();
+        let merges = self.dragging
+            && target.is_some()
+            && self.undo.last().and_then(|s| s.command.drag_target()) == target;
+        if merges {
+            let mut level = self.level.clone();
+            apply(&mut level, &command)?;
+            self.level = level;
+            if let Some(step) = self.undo.last_mut() {
+                step.command = command;
+            }
+            // The merged step ends in a new state (it differs from what was saved mid-drag).
+            self.state = self.next_state;
+            self.next_state += 1;
+            if let Some(step) = self.undo.last_mut() {
+                step.after_id = self.state;
+            }
+            return Ok(());
+        }
+        self.push(command)?;
+        self.dragging = target.is_some();
+        Ok(())
+    }
+
+    /// Ends a drag (the mouse button was released).
+    pub fn end_drag(&mut self) {
+        self.dragging = false;
+    }
+
+    fn push(&mut self, command: Command) -> Result<(), EditError> {
+        let mut level = self.level.clone();
+        apply(&mut level, &command)?;
+        let before = std::mem::replace(&mut self.level, level);
+        let before_id = self.state;
+        self.state = self.next_state;
+        self.next_state += 1;
+        self.undo.push(Step {
+            command,
+            before,
+            before_id,
+            after_id: self.state,
+        });
+        if self.undo.len() > UNDO_DEPTH {
+            self.undo.remove(0);
+        }
+        self.redo.clear();
+        Ok(())
+    }
+
+    /// Undoes the last edit; false if there is none.
+    pub fn undo(&mut self) -> bool {
+        self.dragging = false;
+        let Some(step) = self.undo.pop() else {
+            return false;
+        };
+        let after = std::mem::replace(&mut self.level, step.before.clone());
+        self.state = step.before_id;
+        self.redo.push((step, after));
+        true
+    }
+
+    /// Redoes the last undone edit; false if there is none.
+    pub fn redo(&mut self) -> bool {
+        self.dragging = false;
+        let Some((step, after)) = self.redo.pop() else {
+            return false;
+        };
+        self.level = after;
+        self.state = step.after_id;
+        self.undo.push(step);
+        true
+    }
+
+    /// Saves to its file (atomically). Refuses, saying why, a level `flockway run` would reject.
+    pub fn save(&mut self) -> Result<PathBuf, EditError> {
+        let path = self.path.clone().ok_or_else(|| {
+            EditError::BadName("the level has no file yet: use Save As".to_owned())
+        })?;
+        self.save_as(&path)
+    }
+
+    /// Saves to `path` (atomically), which becomes its file.
+    pub fn save_as(&mut self, path: &Path) -> Result<PathBuf, EditError> {
+        let text = self.checked_text(path)?;
+        write_atomic(path, text.as_bytes())?;
+        self.path = Some(path.to_owned());
+        self.saved_state = Some(self.state);
+        // The autosave is older than the file now.
+        if let Some(a) = autosave_path(Some(path)) {
+            let _ = std::fs::remove_file(a);
+        }
+        Ok(path.to_owned())
+    }
+
+    /// The level's RON text, checked by the same parser and validation `flockway run` uses.
+    pub fn checked_text(&self, path: &Path) -> Result<String, EditError> {
+        let text = level_to_string(&self.level)?;
+        parse_level(&text, path).map_err(|e| EditError::Invalid(e.to_string()))?;
+        Ok(text)
+    }
+
+    /// Writes the autosave file if anything changed since the last autosave (valid or not: it
+    /// keeps work in progress). Returns the file written.
+    pub fn autosave(&mut self) -> Result<Option<PathBuf>, EditError> {
+        if self.autosaved_state == self.state || !self.is_dirty() {
+            return Ok(None);
+        }
+        let Some(path) = autosave_path(self.path.as_deref()) else {
+            return Ok(None);
+        };
+        let text = level_to_string(&self.level)?;
+        write_atomic(&path, text.as_bytes())?;
+        self.autosaved_state = self.state;
+        Ok(Some(path))
+    }
+}
+
+impl Default for Editor {
+    fn default() -> Self {
+        Editor::new()
+    }
+}
+
+/// Where the autosave of a level file lives: a hidden file beside it; for an unsaved level, in
+/// the system's temporary directory.
+pub fn autosave_path(level_path: Option<&Path>) -> Option<PathBuf> {
+    match level_path {
+        Some(p) => {
+            let name = p.file_name()?.to_string_lossy().into_owned();
+            Some(p.with_file_name(format!(".{name}.autosave")))
+        }
+        None => Some(std::env::temp_dir().join("flockway-untitled.ron.autosave")),
+    }
+}
+
+/// An autosave left by a session that did not end cleanly (newer than the level file, or of an
+/// unsaved level), as an editor to offer the user.
+pub fn recover(level_path: Option<&Path>) -> Option<Editor> {
+    let auto = autosave_path(level_path)?;
+    let auto_time = std::fs::metadata(&auto).and_then(|m| m.modified()).ok()?;
+    if let Some(p) = level_path
+        && let Ok(file_time) = std::fs::metadata(p).and_then(|m| m.modified())
+        && file_time > auto_time
+    {
+        return None;
+    }
+    let text = std::fs::read_to_string(&auto).ok()?;
+    // Work in progress may not validate: read the schema only.
+    let level: Level = ron::Options::default()
+        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .from_str(&text)
+        .ok()?;
+    let mut editor = Editor::with_level(level, level_path.map(Path::to_owned));
+    // Recovered work is not what the file holds.
+    editor.saved_state = None;
+    Some(editor)
+}
+
+fn road_mut(level: &mut Level, road: usize) -> Result<&mut RoadSpec, EditError> {
+    let n = level.roads.len();
+    level.roads.get_mut(road).ok_or_else(|| {
+        EditError::NoSuchThing(format!("there is no road {road} (the level has {n})"))
+    })
+}
+
+fn point_index(spec: &RoadSpec, index: usize) -> Result<usize, EditError> {
+    if index < spec.points.len() {
+        Ok(index)
+    } else {
+        Err(EditError::NoSuchThing(format!(
+            "road `{}` has no point {index} (it has {})",
+            spec.name,
+            spec.points.len()
+        )))
+    }
+}
+
+fn finite(v: DVec3) -> Result<DVec3, EditError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(EditError::BadValue(format!("position {v} is not finite")))
+    }
+}
+
+fn marker_count(level: &Level, kind: MarkerKind) -> usize {
+    match kind {
+        MarkerKind::Spawner => level.spawners.len(),
+        MarkerKind::Destroyer => level.destroyers.len(),
+        MarkerKind::Trigger => level.triggers.len(),
+    }
+}
+
+/// Runs one command on a level; on error the level may be partly changed (callers apply to a
+/// copy).
+fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::AddRoad { at } => {
+            let at = finite(*at)?;
+            let mut n = level.roads.len() + 1;
+            while level.road(&format!("road {n}")).is_some() {
+                n += 1;
+            }
+            let mut spec = RoadSpec::through(&format!("road {n}"), 2, 50.0, &[]);
+            spec.points.push(ControlPoint::at(at));
+            level.roads.push(spec);
+        }
+        Command::AppendPoint { road, at } => {
+            let at = finite(*at)?;
+            road_mut(level, *road)?.points.push(ControlPoint::at(at));
+        }
+        Command::InsertPoint { road, index, at } => {
+            let at = finite(*at)?;
+            let spec = road_mut(level, *road)?;
+            if *index > spec.points.len() {
+                return Err(EditError::NoSuchThing(format!(
+                    "road `{}` has no point {index} to insert before",
+                    spec.name
+                )));
+            }
+            spec.points.insert(*index, ControlPoint::at(at));
+        }
+        Command::MovePoint { road, index, to } => {
+            let to = finite(*to)?;
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points[i].pos = to;
+        }
+        Command::DeletePoint { road, index } => {
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points.remove(i);
+            if spec.points.is_empty() {
+                return apply(level, &Command::DeleteRoad { road: *road });
+            }
+        }
+        Command::DeleteRoad { road } => {
+            let name = road_mut(level, *road)?.name.clone();
+            level.roads.remove(*road);
+            for r in &mut level.roads {
+                if r.next.as_deref() == Some(&name) {
+                    r.next = None;
+                }
+            }
+            level.spawners.retain(|s| s.road != name);
+            level.triggers.retain(|t| t.road != name);
+            level.vehicles.retain(|v| v.road != name);
+            level.destroyers.retain(
+                |d| !matches!(&d.place, DestroyerPlace::OnRoad { road, .. } if *road == name),
+            );
+            level.expect.retain(|e| {
+                e.qualifier.as_deref() != Some(name.as_str()) || e.metric != "road_length_m"
+            });
+        }
+        Command::SetClosed { road, closed } => {
+            let spec = road_mut(level, *road)?;
+            spec.closed = *closed;
+            if *closed {
+                spec.next = None;
+            }
+        }
+        Command::Connect { road, next } => {
+            if let Some(n) = next
+                && level.road(n).is_none()
+            {
+                return Err(EditError::NoSuchThing(format!(
+                    "there is no road named `{n}`"
+                )));
+            }
+            let spec = road_mut(level, *road)?;
+            if next.as_deref() == Some(spec.name.as_str()) {
+                return Err(EditError::BadValue(
+                    "a road cannot lead onto itself: close it into a loop instead".to_owned(),
+                ));
+            }
+            spec.next = next.clone();
+            if next.is_some() {
+                spec.closed = false;
+            }
+        }
+        Command::SetPoint { road, index, point } => {
+            finite(point.pos)?;
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points[i] = point.clone();
+        }
+        Command::SetRoad {
+            road,
+            name,
+            lanes,
+            lane_width_m,
+            speed_limit_kmh,
+        } => {
+            let name = name.trim().to_owned();
+            let old = road_mut(level, *road)?.name.clone();
+            if name.is_empty() {
+                return Err(EditError::BadName("a road needs a name".to_owned()));
+            }
+            if name != old && level.road(&name).is_some() {
+                return Err(EditError::BadName(format!(
+                    "another road is named `{name}`"
+                )));
+            }
+            if !(1..=16).contains(lanes) {
+                return Err(EditError::BadValue(format!(
+                    "{lanes} lanes: expected 1 to 16"
+                )));
+            }
+            if !(lane_width_m.is_finite() && (2.0..=6.0).contains(lane_width_m)) {
+                return Err(EditError::BadValue(format!(
+                    "lane width {lane_width_m} m: expected 2 to 6 m"
+                )));
+            }
+            if !(speed_limit_kmh.is_finite() && (1.0..=300.0).contains(speed_limit_kmh)) {
+                return Err(EditError::BadValue(format!(
+                    "speed limit {speed_limit_kmh} km/h: expected 1 to 300 km/h"
+                )));
+            }
+            let spec = road_mut(level, *road)?;
+            spec.name = name.clone();
+            spec.lanes = *lanes;
+            spec.lane_width_m = *lane_width_m;
+            spec.speed_limit_kmh = *speed_limit_kmh;
+            if name != old {
+                rename_road(level, &old, &name);
+            }
+        }
+        Command::AddSpawner(s) => level.spawners.push(s.clone()),
+        Command::AddDestroyer(d) => level.destroyers.push(d.clone()),
+        Command::AddTrigger(t) => level.triggers.push(t.clone()),
+        Command::SetSpawner(i, s) => *marker(&mut level.spawners, *i)? = s.clone(),
+        Command::SetDestroyer(i, d) => *marker(&mut level.destroyers, *i)? = d.clone(),
+        Command::SetTrigger(i, t) => *marker(&mut level.triggers, *i)? = t.clone(),
+        Command::MoveMarker { kind, index, s_m } => {
+            if !s_m.is_finite() || *s_m < 0.0 {
+                return Err(EditError::BadValue(format!("arc position {s_m} m")));
+            }
+            match kind {
+                MarkerKind::Spawner => marker(&mut level.spawners, *index)?.s_m = *s_m,
+                MarkerKind::Destroyer => match &mut marker(&mut level.destroyers, *index)?.place {
+                    DestroyerPlace::OnRoad { s_m: at, .. } => *at = *s_m,
+                    DestroyerPlace::Volume { .. } => {
+                        return Err(EditError::BadValue(
+                            "a volume destroyer is not on a road: edit its corners".to_owned(),
+                        ));
+                    }
+                },
+                MarkerKind::Trigger => {
+                    let t = marker(&mut level.triggers, *index)?;
+                    let len = t.to_m - t.from_m;
+                    t.from_m = *s_m;
+                    t.to_m = *s_m + len;
+                }
+            }
+        }
+        Command::DeleteMarker { kind, index } => {
+            let n = marker_count(level, *kind);
+            if *index >= n {
+                return Err(EditError::NoSuchThing(format!(
+                    "there is no {kind:?} {index}"
+                )));
+            }
+            match kind {
+                MarkerKind::Spawner => drop(level.spawners.remove(*index)),
+                MarkerKind::Destroyer => drop(level.destroyers.remove(*index)),
+                MarkerKind::Trigger => drop(level.triggers.remove(*index)),
+            }
+        }
+    }
+    Ok(())
+}
+
+fn marker<T>(list: &mut [T], index: usize) -> Result<&mut T, EditError> {
+    let n = list.len();
+    list.get_mut(index).ok_or_else(|| {
+        EditError::NoSuchThing(format!("there is no marker {index} (there are {n})"))
+    })
+}
+
+/// Follows a road's new name everywhere the level refers to it.
+fn rename_road(level: &mut Level, old: &str, new: &str) {
+    let fix = |s: &mut String| {
+        if s == old {
+            *s = new.to_owned();
+        }
+    };
+    for r in &mut level.roads {
+        if let Some(n) = &mut r.next {
+            fix(n);
+        }
+    }
+    level.spawners.iter_mut().for_each(|s| fix(&mut s.road));
+    level.triggers.iter_mut().for_each(|t| fix(&mut t.road));
+    level.vehicles.iter_mut().for_each(|v| fix(&mut v.road));
+    for d in &mut level.destroyers {
+        if let DestroyerPlace::OnRoad { road, .. } = &mut d.place {
+            fix(road);
+        }
+    }
+    for e in &mut level.expect {
+        if e.metric == "road_length_m"
+            && let Some(q) = &mut e.qualifier
+        {
+            fix(q);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64, y: f64) -> DVec3 {
+        DVec3::new(x, y, 0.0)
+    }
+
+    /// Four clicks: a road and three more points.
+    fn four_points(e: &mut Editor) {
+        e.apply(Command::AddRoad { at: p(0.0, 0.0) })
+            .expect("add road");
+        for at in [p(100.0, 0.0), p(200.0, 50.0), p(300.0, 50.0)] {
+            e.apply(Command::AppendPoint { road: 0, at })
+                .expect("append");
+        }
+    }
+
+    #[test]
+    fn clicks_drag_undo_redo_and_save_give_the_level_run_loads() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("drawn.ron");
+        let mut e = Editor::new();
+        assert!(!e.is_dirty() || e.path().is_none());
+        four_points(&mut e);
+        assert_eq!(e.level().roads[0].points.len(), 4);
+        // A drag: many small moves, one undo step.
+        for k in 1..=10 {
+            e.drag(Command::MovePoint {
+                road: 0,
+                index: 2,
+                to: p(200.0, 50.0 + f64::from(k)),
+            })
+            .expect("drag");
+        }
+        e.end_drag();
+        assert_eq!(e.level().roads[0].points[2].pos, p(200.0, 60.0));
+        assert!(e.undo());
+        assert_eq!(
+            e.level().roads[0].points[2].pos,
+            p(200.0, 50.0),
+            "one undo undoes the drag"
+        );
+        assert_eq!(e.redo_label(), Some("move point"));
+        assert!(e.redo());
+        assert_eq!(e.level().roads[0].points[2].pos, p(200.0, 60.0));
+        assert!(e.is_dirty());
+        assert!(
+            matches!(e.save(), Err(EditError::BadName(_))),
+            "no file yet"
+        );
+        e.save_as(&path).expect("save");
+        assert!(!e.is_dirty());
+        let loaded = flockway_level::load_level(&path).expect("flockway run loads it");
+        assert_eq!(&loaded, e.level());
+        // Undo after saving makes it dirty; redo back to the saved state makes it clean.
+        assert!(e.undo());
+        assert!(e.is_dirty());
+        assert!(e.redo());
+        assert!(!e.is_dirty());
+    }
+
+    #[test]
+    fn every_edit_undoes_to_the_exact_level_before_it() {
+        let mut e = Editor::with_level(
+            flockway_level::load_level(Path::new("../../levels/speed_limit_change.ron"))
+                .expect("shipped level"),
+            None,
+        );
+        let original = e.level().clone();
+        let road_name = original.roads[0].name.clone();
+        let commands = vec![
+            Command::InsertPoint {
+                road: 0,
+                index: 1,
+                at: p(5.0, 5.0),
+            },
+            Command::SetPoint {
+                road: 0,
+                index: 0,
+                point: ControlPoint {
+                    width_m: Some(16.0),
+                    bank_deg: 2.0,
+                    guardrail_left: false,
+                    ..original.roads[0].points[0].clone()
+                },
+            },
+            Command::SetRoad {
+                road: 0,
+                name: "highway".to_owned(),
+                lanes: 3,
+                lane_width_m: 3.5,
+                speed_limit_kmh: 80.0,
+            },
+            Command::MoveMarker {
+                kind: MarkerKind::Trigger,
+                index: 0,
+                s_m: 300.0,
+            },
+            Command::MoveMarker {
+                kind: MarkerKind::Spawner,
+                index: 0,
+                s_m: 2.0,
+            },
+            Command::DeleteMarker {
+                kind: MarkerKind::Destroyer,
+                index: 0,
+            },
+            Command::SetClosed {
+                road: 0,
+                closed: true,
+            },
+            Command::AddRoad {
+                at: p(-50.0, -50.0),
+            },
+            Command::DeletePoint { road: 1, index: 0 },
+            Command::DeleteRoad { road: 0 },
+        ];
+        let mut states = vec![e.level().clone()];
+        for c in commands {
+            e.apply(c.clone())
+                .unwrap_or_else(|err| panic!("{c:?}: {err}"));
+            states.push(e.level().clone());
+        }
+        // The rename followed the road into every marker before the road was deleted.
+        assert!(states[3].spawners.iter().all(|s| s.road == "highway"));
+        assert!(states[3].triggers.iter().all(|t| t.road == "highway"));
+        assert_ne!(road_name, "highway");
+        // Deleting the road took its markers with it.
+        assert!(e.level().roads.is_empty() && e.level().spawners.is_empty());
+        for want in states.iter().rev().skip(1) {
+            assert!(e.undo());
+            assert_eq!(e.level(), want);
+        }
+        assert!(!e.undo(), "nothing left to undo");
+        assert_eq!(e.level(), &original);
+        // Redo walks forward through the same states.
+        for want in states.iter().skip(1) {
+            assert!(e.redo());
+            assert_eq!(e.level(), want);
+        }
+    }
+
+    #[test]
+    fn refused_edits_leave_the_level_and_history_alone() {
+        let mut e = Editor::new();
+        four_points(&mut e);
+        let before = e.level().clone();
+        let depth = e.undo.len();
+        for bad in [
+            Command::MovePoint {
+                road: 0,
+                index: 9,
+                to: p(0.0, 0.0),
+            },
+            Command::MovePoint {
+                road: 3,
+                index: 0,
+                to: p(0.0, 0.0),
+            },
+            Command::AppendPoint {
+                road: 0,
+                at: DVec3::new(f64::NAN, 0.0, 0.0),
+            },
+            Command::Connect {
+                road: 0,
+                next: Some("nowhere".to_owned()),
+            },
+            Command::SetRoad {
+                road: 0,
+                name: " ".to_owned(),
+                lanes: 2,
+                lane_width_m: 3.0,
+                speed_limit_kmh: 50.0,
+            },
+            Command::SetRoad {
+                road: 0,
+                name: "r".to_owned(),
+                lanes: 0,
+                lane_width_m: 3.0,
+                speed_limit_kmh: 50.0,
+            },
+            Command::DeleteMarker {
+                kind: MarkerKind::Spawner,
+                index: 0,
+            },
+        ] {
+            assert!(e.apply(bad.clone()).is_err(), "{bad:?} was accepted");
+            assert_eq!(e.level(), &before);
+            assert_eq!(e.undo.len(), depth);
+        }
+    }
+
+    #[test]
+    fn an_invalid_level_is_not_saved_but_is_autosaved_and_recovered() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("wip.ron");
+        let mut e = Editor::new();
+        e.apply(Command::AddRoad { at: p(0.0, 0.0) }).expect("add");
+        // One point is not a road yet: saving says so and writes nothing.
+        let err = e.save_as(&path).expect_err("invalid");
+        assert!(matches!(err, EditError::Invalid(_)), "{err}");
+        assert!(!path.exists());
+        e.apply(Command::AppendPoint {
+            road: 0,
+            at: p(50.0, 0.0),
+        })
+        .expect("append");
+        e.save_as(&path).expect("valid now");
+        // Work after the save is autosaved beside the file, and offered back after a crash.
+        e.apply(Command::AppendPoint {
+            road: 0,
+            at: p(90.0, 20.0),
+        })
+        .expect("append");
+        let auto = e.autosave().expect("autosave").expect("written");
+        assert_eq!(auto, autosave_path(Some(&path)).expect("a path"));
+        assert_eq!(
+            e.autosave().expect("again"),
+            None,
+            "nothing new to autosave"
+        );
+        let back = recover(Some(&path)).expect("recovered");
+        assert_eq!(back.level().roads[0].points.len(), 3);
+        assert!(back.is_dirty());
+        // Saving removes the autosave: nothing to recover.
+        e.save().expect("save");
+        assert!(!auto.exists());
+        assert!(recover(Some(&path)).is_none());
+    }
+
+    #[test]
+    fn connecting_roads_opens_loops_and_refuses_itself() {
+        let mut e = Editor::new();
+        four_points(&mut e);
+        e.apply(Command::AddRoad { at: p(300.0, 50.0) })
+            .expect("second road");
+        e.apply(Command::AppendPoint {
+            road: 1,
+            at: p(400.0, 50.0),
+        })
+        .expect("append");
+        e.apply(Command::SetClosed {
+            road: 0,
+            closed: true,
+        })
+        .expect("close");
+        e.apply(Command::Connect {
+            road: 0,
+            next: Some("road 2".to_owned()),
+        })
+        .expect("connect");
+        assert!(!e.level().roads[0].closed);
+        assert_eq!(e.level().roads[0].next.as_deref(), Some("road 2"));
+        assert!(
+            e.apply(Command::Connect {
+                road: 1,
+                next: Some("road 2".to_owned())
+            })
+            .is_err()
+        );
+        // Renaming the target keeps the connection.
+        e.apply(Command::SetRoad {
+            road: 1,
+            name: "exit".to_owned(),
+            lanes: 2,
+            lane_width_m: 3.0,
+            speed_limit_kmh: 50.0,
+        })
+        .expect("rename");
+        assert_eq!(e.level().roads[0].next.as_deref(), Some("exit"));
+    }
+}
