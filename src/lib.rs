@@ -5,8 +5,8 @@
 //! `flockway` command uses: [`run::Runner`] turns a [`level::Level`] into a world, steps it,
 //! streams telemetry and checks the level's expectations.
 
-pub mod run;
-pub mod telemetry;
+pub use flockway_runner as run;
+pub use flockway_runner::telemetry;
 
 pub use flockway_analysis as analysis;
 #[cfg(feature = "window")]

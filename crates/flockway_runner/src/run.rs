@@ -1,4 +1,4 @@
-//! The headless runner: level → world → fixed steps → telemetry, summary and expectations.
+//! The runner: level → world → fixed steps → telemetry, summary and expectations.
 
 use crate::telemetry::{TelemetryRow, TelemetryWriter};
 use flockway_analysis::{PlotFormat, PlotInfo, Trace, Wave, WaveSettings, measure_wave};
@@ -116,7 +116,7 @@ pub fn find_assets_dir(level_path: Option<&Path>) -> PathBuf {
     if cwd.is_dir() {
         return cwd;
     }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
 }
 
 /// Loads and validates every vehicle type a level names, by name.
@@ -1113,7 +1113,7 @@ mod tests {
 
     #[test]
     fn driver_profiles_build_from_assets_with_overrides_and_name_bad_ones() {
-        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
         let mut level = Level::new(1, 10.0);
         level.vehicle_types = vec![flockway_level::VehicleType {
             name: "sedan".into(),
@@ -1149,7 +1149,7 @@ mod tests {
 
     #[test]
     fn the_shipped_assets_are_found_from_a_level_path() {
-        let level = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/dense_road.ron");
+        let level = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../levels/dense_road.ron");
         let assets = find_assets_dir(Some(&level));
         assert!(
             assets.join("vehicles/sedan.ron").is_file(),
