@@ -94,6 +94,20 @@ enum Command {
         #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
         size: (u32, u32),
     },
+    /// Open the editor on a level (a new empty level without one).
+    ///
+    /// Needs a display; without one, use `flockway run` or `flockway render`.
+    Edit {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: Option<PathBuf>,
+    },
+    /// Open a level in the window and start playing it.
+    Play {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: PathBuf,
+    },
     /// Simulate a level headless to a moment and render the scene (no HUD) to a PNG, with the
     /// window's renderer, on any machine with a Vulkan or GL driver (Mesa's software ones do).
     ///
@@ -226,6 +240,8 @@ fn main() -> ExitCode {
             output,
             summary,
         } => report(&csv, &output, summary.as_deref()),
+        Command::Edit { level } => window(level.as_deref(), false),
+        Command::Play { level } => window(Some(&level), true),
         Command::Render {
             level,
             output,
@@ -423,6 +439,44 @@ fn report(
         }
         Err(e) => fail(e),
     }
+}
+
+#[cfg(feature = "window")]
+fn window(level: Option<&std::path::Path>, play: bool) -> ExitCode {
+    use flockway::app::{AppState, Editor};
+    let editor = match level {
+        Some(path) => match Editor::open(path) {
+            Ok(e) => e,
+            Err(e) => return fail(e),
+        },
+        None => Editor::new(),
+    };
+    let assets = flockway::run::find_assets_dir(level);
+    let levels_dir = assets.parent().map(|p| p.join("levels"));
+    let mut app = AppState::new(editor, assets);
+    if let Some(dir) = levels_dir
+        && let Ok(entries) = std::fs::read_dir(dir)
+    {
+        let mut shipped: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+            .collect();
+        shipped.sort();
+        app.shipped = shipped;
+    }
+    app.recovered = flockway::app::recover(level);
+    if play {
+        app.play();
+    }
+    match flockway::app::run(app) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(e),
+    }
+}
+
+#[cfg(not(feature = "window"))]
+fn window(_: Option<&std::path::Path>, _: bool) -> ExitCode {
+    fail("this build has no window (built without the `window` feature); use `flockway run`")
 }
 
 #[cfg(feature = "window")]

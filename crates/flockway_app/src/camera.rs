@@ -106,3 +106,123 @@ mod tests {
         }
     }
 }
+
+impl Camera {
+    /// The ray through a pixel (`px` from the top-left, in a viewport of `size` pixels):
+    /// `(origin, unit direction)` in world space.
+    pub fn ray(&self, px: glam::Vec2, size: glam::Vec2) -> (Vec3, Vec3) {
+        let inv = self.view_proj(size.x / size.y.max(1.0)).inverse();
+        let ndc = glam::Vec2::new(2.0 * px.x / size.x - 1.0, 1.0 - 2.0 * px.y / size.y);
+        let near = inv.project_point3(ndc.extend(0.0));
+        let far = inv.project_point3(ndc.extend(1.0));
+        (near, (far - near).normalize_or(-Vec3::Z))
+    }
+
+    /// Where the ray through a pixel meets the horizontal plane at height `z`.
+    pub fn ground_point(&self, px: glam::Vec2, size: glam::Vec2, z: f32) -> Option<Vec3> {
+        let (o, d) = self.ray(px, size);
+        if d.z.abs() < 1e-6 {
+            return None;
+        }
+        let t = (z - o.z) / d.z;
+        (t > 0.0).then(|| o + d * t)
+    }
+
+    /// The pixel a world point is drawn at, if it is in front of the camera.
+    pub fn to_screen(&self, p: Vec3, size: glam::Vec2) -> Option<glam::Vec2> {
+        let c = self.view_proj(size.x / size.y.max(1.0)) * p.extend(1.0);
+        if c.w <= 0.0 {
+            return None;
+        }
+        let ndc = c.truncate() / c.w;
+        Some(glam::Vec2::new(
+            (ndc.x + 1.0) * 0.5 * size.x,
+            (1.0 - ndc.y) * 0.5 * size.y,
+        ))
+    }
+
+    /// Zooms by `factor` (below 1 zooms in).
+    pub fn zoom(&mut self, factor: f32) {
+        match self {
+            Camera::Top { half_height_m, .. } => {
+                *half_height_m = (*half_height_m * factor).clamp(2.0, 50_000.0)
+            }
+            Camera::Orbit { distance_m, .. } => {
+                *distance_m = (*distance_m * factor).clamp(3.0, 50_000.0)
+            }
+        }
+    }
+
+    /// Moves what is looked at by a screen drag of `delta` pixels.
+    pub fn pan(&mut self, delta: glam::Vec2, size: glam::Vec2) {
+        match self {
+            Camera::Top {
+                centre,
+                half_height_m,
+            } => {
+                let m_per_px = 2.0 * *half_height_m / size.y.max(1.0);
+                *centre += Vec3::new(-delta.x, delta.y, 0.0) * m_per_px;
+            }
+            Camera::Orbit {
+                target,
+                distance_m,
+                yaw_rad,
+                ..
+            } => {
+                let m_per_px = *distance_m * ORBIT_FOV_RAD / size.y.max(1.0);
+                let right = Vec3::new(-yaw_rad.sin(), yaw_rad.cos(), 0.0);
+                let fwd = Vec3::new(-yaw_rad.cos(), -yaw_rad.sin(), 0.0);
+                *target += (-right * delta.x + fwd * delta.y) * m_per_px;
+            }
+        }
+    }
+
+    /// Turns the orbit view by a drag of `delta` pixels (the top view pans instead).
+    pub fn orbit(&mut self, delta: glam::Vec2, size: glam::Vec2) {
+        match self {
+            Camera::Orbit {
+                yaw_rad, pitch_rad, ..
+            } => {
+                *yaw_rad -= delta.x * 0.01;
+                *pitch_rad = (*pitch_rad + delta.y * 0.01).clamp(0.05, 1.55);
+            }
+            Camera::Top { .. } => self.pan(delta, size),
+        }
+    }
+
+    /// Centres the view on `p`, keeping the zoom.
+    pub fn look_at(&mut self, p: Vec3) {
+        match self {
+            Camera::Top { centre, .. } => *centre = p,
+            Camera::Orbit { target, .. } => *target = p,
+        }
+    }
+}
+
+#[cfg(test)]
+mod picking_tests {
+    use super::*;
+    use glam::Vec2;
+
+    #[test]
+    fn a_pixel_and_its_ground_point_round_trip_in_both_views() {
+        let (min, max) = (Vec3::new(-100.0, -50.0, 0.0), Vec3::new(100.0, 50.0, 0.0));
+        let size = Vec2::new(1280.0, 720.0);
+        for cam in [
+            Camera::top_fit(min, max, size.x / size.y),
+            Camera::orbit_fit(min, max),
+        ] {
+            for px in [
+                Vec2::new(640.0, 360.0),
+                Vec2::new(300.0, 500.0),
+                Vec2::new(1000.0, 200.0),
+            ] {
+                let Some(g) = cam.ground_point(px, size, 0.0) else {
+                    continue;
+                };
+                let back = cam.to_screen(g, size).expect("in front");
+                assert!((back - px).length() < 0.5, "{cam:?}: {px} → {g} → {back}");
+            }
+        }
+    }
+}

@@ -2,13 +2,19 @@
 //! mode and the HUD. This is the only crate that depends on winit, wgpu and egui; the simulation
 //! crates below it build and test without a display.
 
+mod app;
 mod camera;
 mod editor;
+mod play;
 mod render;
 mod scene;
+mod ui;
+mod window;
 
+pub use app::{AppState, PICK_PX, Pending, Selection, Tool};
 pub use camera::{Camera, ORBIT_FOV_RAD};
 pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
+pub use play::{FRAME_BUDGET, HudStats, PlaySession, PlaySpeed};
 pub use render::{
     DEPTH_FORMAT, Gpu, Image, MSAA_SAMPLES, OFFSCREEN_FORMAT, RenderError, SKY, SceneRenderer,
     Targets, render_image,
@@ -17,3 +23,5 @@ pub use scene::{
     COM_HEIGHT_SHARE, CarVertex, StaticScene, VehicleFrame, VehicleInstance, Vertex, box_faces,
     car_mesh, palette,
 };
+pub use ui::{PANEL_WIDTH, ui};
+pub use window::{WindowError, run};

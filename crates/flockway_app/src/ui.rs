@@ -1,0 +1,467 @@
+//! The egui panels: file and tool bar, inspector, play controls, HUD with its live chart, and
+//! the status bar. Pure functions of [`AppState`], so they are snapshot-tested without a window.
+
+use crate::app::{AppState, Pending, Selection, Tool};
+use crate::editor::{Command, MarkerKind};
+use crate::play::PlaySpeed;
+use flockway_drivers::DriverLabel;
+use flockway_level::{DestroyerPlace, TriggerEffect};
+use flockway_vehicle::{Controls, Motion, VehicleState};
+use std::path::PathBuf;
+
+/// Width of the side panel, points.
+pub const PANEL_WIDTH: f32 = 300.0;
+
+/// Draws every panel; the rest of the window is the 3D scene.
+pub fn ui(ui: &mut egui::Ui, app: &mut AppState) {
+    egui::Panel::top("bar").show(ui, |ui| top_bar(ui, app));
+    egui::Panel::bottom("status").show(ui, |ui| {
+        ui.horizontal(|ui| {
+            ui.label(&app.status);
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                ui.weak(
+                    "left: select / draw · drag: move · right-drag: orbit · middle-drag: pan · \
+                     wheel: zoom",
+                );
+            });
+        });
+    });
+    egui::Panel::right("side")
+        .resizable(false)
+        .exact_size(PANEL_WIDTH)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                if app.play.is_some() {
+                    play_panel(ui, app);
+                } else {
+                    play_controls(ui, app);
+                    ui.separator();
+                    inspector(ui, app);
+                }
+            });
+        });
+    dialogs(ui, app);
+}
+
+fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
+    ui.horizontal_wrapped(|ui| {
+        if ui.button("New").clicked() {
+            app.request(Pending::New);
+        }
+        ui.add(egui::TextEdit::singleline(&mut app.file_field).desired_width(220.0));
+        if ui.button("Open").clicked() {
+            let path = PathBuf::from(app.file_field.trim());
+            app.request(Pending::Open(path));
+        }
+        if ui.button("Save").on_hover_text("Ctrl+S").clicked() {
+            let _ = app.save();
+        }
+        if ui.button("Save As").clicked() {
+            let _ = app.save_as();
+        }
+        ui.separator();
+        let editing = app.play.is_none();
+        ui.add_enabled_ui(editing, |ui| {
+            let undo = app.editor.undo_label();
+            if ui
+                .add_enabled(undo.is_some(), egui::Button::new("Undo"))
+                .on_hover_text(format!("Ctrl+Z: {}", undo.unwrap_or("nothing")))
+                .clicked()
+            {
+                app.undo();
+            }
+            let redo = app.editor.redo_label();
+            if ui
+                .add_enabled(redo.is_some(), egui::Button::new("Redo"))
+                .on_hover_text(format!("Ctrl+Shift+Z: {}", redo.unwrap_or("nothing")))
+                .clicked()
+            {
+                app.redo();
+            }
+            ui.separator();
+            for (tool, label) in [
+                (Tool::Select, "Select"),
+                (Tool::Road, "Road"),
+                (Tool::Spawner, "Spawner"),
+                (Tool::Destroyer, "Destroyer"),
+                (Tool::Trigger, "Trigger"),
+            ] {
+                ui.selectable_value(&mut app.tool, tool, label);
+            }
+        });
+        ui.separator();
+        if ui.button("Top / Orbit").on_hover_text("Tab").clicked() {
+            app.toggle_camera(16.0 / 9.0);
+        }
+        if ui.button("Fit").clicked() {
+            app.fit_view(16.0 / 9.0);
+        }
+        ui.separator();
+        ui.label(app.title());
+    });
+}
+
+fn play_controls(ui: &mut egui::Ui, app: &mut AppState) {
+    ui.heading("Play");
+    ui.horizontal(|ui| {
+        let playing = app.play.as_ref().is_some_and(|p| !p.paused);
+        if ui
+            .add_enabled(!playing, egui::Button::new("Play"))
+            .clicked()
+        {
+            app.play();
+        }
+        if ui
+            .add_enabled(playing, egui::Button::new("Pause"))
+            .on_hover_text("Space")
+            .clicked()
+        {
+            app.toggle_pause();
+        }
+        if ui
+            .add_enabled(app.play.is_some(), egui::Button::new("Stop"))
+            .clicked()
+        {
+            app.stop();
+        }
+        if ui.button("Step").on_hover_text("one fixed step").clicked() {
+            if app.play.is_none() {
+                app.play();
+            }
+            app.single_step();
+        }
+    });
+    if let Some(p) = &mut app.play {
+        ui.horizontal(|ui| {
+            ui.label("speed");
+            for s in [PlaySpeed::X1, PlaySpeed::X2, PlaySpeed::X5, PlaySpeed::Max] {
+                ui.selectable_value(&mut p.speed, s, s.label());
+            }
+        });
+    }
+}
+
+fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
+    play_controls(ui, app);
+    let Some(p) = &mut app.play else { return };
+    ui.separator();
+    ui.heading("Level monitor");
+    let s = p.stats();
+    egui::Grid::new("hud").num_columns(2).show(ui, |ui| {
+        let mut row = |k: &str, v: String| {
+            ui.label(k);
+            ui.monospace(v);
+            ui.end_row();
+        };
+        row("sim time", format!("{:.1} s", s.sim_s));
+        row("real-time factor", format!("{:.2}×", s.realtime_factor));
+        row("vehicles", s.alive.to_string());
+        row("spawned / s", format!("{:.2}", s.spawned_per_s));
+        row("mean speed", format!("{:.1} km/h", s.mean_speed_kmh));
+        row(
+            "collisions",
+            format!(
+                "{} guardrail, {} vehicle",
+                s.collisions_guardrail, s.collisions_vehicle
+            ),
+        );
+    });
+    let spawners = p.spawners();
+    if !spawners.is_empty() {
+        ui.separator();
+        ui.heading("Spawners");
+        for (name, mut lo, mut hi, mut share) in spawners {
+            ui.label(&name);
+            let a = ui.add(egui::Slider::new(&mut lo, 0.1..=10.0).text("min interval s"));
+            let b = ui.add(egui::Slider::new(&mut hi, 0.1..=10.0).text("max interval s"));
+            let c = ui.add(egui::Slider::new(&mut share, 0.0..=1.0).text("autonomous share"));
+            if a.changed() || b.changed() || c.changed() {
+                p.set_spawner(&name, lo, hi.max(lo), share);
+            }
+        }
+    }
+    ui.separator();
+    ui.heading("Speeds");
+    let mean: egui_plot::PlotPoints<'_> = p.history.iter().map(|h| [h[0], h[1]]).collect();
+    egui_plot::Plot::new("speeds")
+        .height(160.0)
+        .x_axis_label("time (s)")
+        .y_axis_label("km/h")
+        .allow_scroll(false)
+        .show(ui, |plot| {
+            plot.line(egui_plot::Line::new("mean speed", mean));
+        });
+    if let Selection::Vehicle(i) = app.selection
+        && let Some(p) = &mut app.play
+        && let Some(&entity) = p.next.ids.get(i)
+    {
+        ui.separator();
+        ui.heading("Vehicle");
+        let world = p.runner_mut().sim_mut().world_mut();
+        if let Ok(e) = world.get_entity(entity) {
+            let driver = e
+                .get::<DriverLabel>()
+                .map_or("?".into(), |d| d.0.to_string());
+            let speed = e.get::<Motion>().map_or(0.0, |m| m.forward_mps * 3.6);
+            let (gear, rpm) = e
+                .get::<VehicleState>()
+                .map_or((0, 0.0), |s| (s.gearbox.gear, s.rpm()));
+            let (thr, steer) = e
+                .get::<Controls>()
+                .map_or((0.0, 0.0), |c| (c.throttle, c.steering));
+            egui::Grid::new("vehicle").num_columns(2).show(ui, |ui| {
+                for (k, v) in [
+                    ("driver", driver),
+                    ("speed", format!("{speed:.1} km/h")),
+                    ("gear", gear.to_string()),
+                    ("rpm", format!("{rpm:.0}")),
+                    ("throttle", format!("{thr:+.2}")),
+                    ("steering", format!("{steer:+.2}")),
+                ] {
+                    ui.label(k);
+                    ui.monospace(v);
+                    ui.end_row();
+                }
+            });
+            ui.checkbox(&mut app.follow, "follow (F)");
+        }
+    }
+    ui.separator();
+    if ui.button("Export CSV").clicked() {
+        let path = PathBuf::from(app.file_field.trim()).with_extension("csv");
+        app.export(&path);
+    }
+    ui.weak("Esc ends the run and exports its CSV next to the level.");
+}
+
+fn inspector(ui: &mut egui::Ui, app: &mut AppState) {
+    ui.heading("Inspector");
+    let level = app.editor.level().clone();
+    match app.selection {
+        Selection::None | Selection::Vehicle(_) => {
+            ui.label(format!(
+                "{} road(s), {} spawner(s), {} destroyer(s), {} trigger(s)",
+                level.roads.len(),
+                level.spawners.len(),
+                level.destroyers.len(),
+                level.triggers.len()
+            ));
+            ui.weak("Road tool: click on the ground to start a road, click again to add points.");
+        }
+        Selection::Road(r) | Selection::Point(r, _) => {
+            let Some(road) = level.roads.get(r) else {
+                return;
+            };
+            ui.label(egui::RichText::new(format!("road `{}`", road.name)).strong());
+            let mut name = road.name.clone();
+            let mut lanes = road.lanes;
+            let mut width = road.lane_width_m;
+            let mut limit = road.speed_limit_kmh;
+            let mut changed = false;
+            ui.horizontal(|ui| {
+                ui.label("name");
+                changed |= ui.text_edit_singleline(&mut name).lost_focus();
+            });
+            changed |= ui
+                .add(egui::Slider::new(&mut lanes, 1..=8).text("lanes"))
+                .drag_stopped();
+            changed |= ui
+                .add(egui::Slider::new(&mut width, 2.5..=5.0).text("lane width m"))
+                .drag_stopped();
+            changed |= ui
+                .add(egui::Slider::new(&mut limit, 10.0..=200.0).text("speed limit km/h"))
+                .drag_stopped();
+            if changed
+                && (name != road.name
+                    || lanes != road.lanes
+                    || width != road.lane_width_m
+                    || limit != road.speed_limit_kmh)
+            {
+                app.apply(Command::SetRoad {
+                    road: r,
+                    name,
+                    lanes,
+                    lane_width_m: width,
+                    speed_limit_kmh: limit,
+                });
+            }
+            let mut closed = road.closed;
+            if ui.checkbox(&mut closed, "closed loop").changed() {
+                app.apply(Command::SetClosed { road: r, closed });
+            }
+            let mut next = road.next.clone();
+            egui::ComboBox::from_label("leads onto")
+                .selected_text(next.clone().unwrap_or_else(|| "nothing".to_owned()))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut next, None, "nothing");
+                    for other in level.roads.iter().filter(|o| o.name != road.name) {
+                        ui.selectable_value(&mut next, Some(other.name.clone()), &other.name);
+                    }
+                });
+            if next != road.next {
+                app.apply(Command::Connect { road: r, next });
+            }
+            if let Selection::Point(_, i) = app.selection
+                && let Some(point) = road.points.get(i)
+            {
+                ui.separator();
+                ui.label(egui::RichText::new(format!("point {i}")).strong());
+                let mut p = point.clone();
+                let mut width_m = p
+                    .width_m
+                    .unwrap_or(road.lane_width_m * f64::from(road.lanes));
+                let mut changed = false;
+                changed |= ui
+                    .add(egui::Slider::new(&mut p.pos.z, -20.0..=50.0).text("elevation m"))
+                    .drag_stopped();
+                changed |= ui
+                    .add(egui::Slider::new(&mut width_m, 3.0..=40.0).text("width m"))
+                    .drag_stopped();
+                changed |= ui
+                    .add(egui::Slider::new(&mut p.bank_deg, -15.0..=15.0).text("bank °"))
+                    .drag_stopped();
+                changed |= ui
+                    .checkbox(&mut p.guardrail_left, "guardrail left")
+                    .changed();
+                changed |= ui
+                    .checkbox(&mut p.guardrail_right, "guardrail right")
+                    .changed();
+                if changed {
+                    p.width_m = Some(width_m);
+                    app.apply(Command::SetPoint {
+                        road: r,
+                        index: i,
+                        point: p,
+                    });
+                }
+                ui.horizontal(|ui| {
+                    if ui.button("Insert after").clicked() {
+                        app.insert_after_selected();
+                    }
+                    if ui.button("Delete").on_hover_text("Del").clicked() {
+                        app.delete_selected();
+                    }
+                });
+            } else if ui.button("Delete road").clicked() {
+                app.delete_selected();
+            }
+        }
+        Selection::Marker(kind, i) => {
+            let (label, s_m) = match kind {
+                MarkerKind::Spawner => (
+                    level
+                        .spawners
+                        .get(i)
+                        .map(|s| format!("spawner `{}`", s.name)),
+                    level.spawners.get(i).map(|s| s.s_m),
+                ),
+                MarkerKind::Destroyer => (
+                    level
+                        .destroyers
+                        .get(i)
+                        .map(|d| format!("destroyer `{}`", d.name)),
+                    level.destroyers.get(i).and_then(|d| match &d.place {
+                        DestroyerPlace::OnRoad { s_m, .. } => Some(*s_m),
+                        DestroyerPlace::Volume { .. } => None,
+                    }),
+                ),
+                MarkerKind::Trigger => (
+                    level
+                        .triggers
+                        .get(i)
+                        .map(|t| format!("trigger `{}`", t.name)),
+                    level.triggers.get(i).map(|t| t.from_m),
+                ),
+            };
+            let Some(label) = label else { return };
+            ui.label(egui::RichText::new(label).strong());
+            if let Some(mut s) = s_m
+                && ui
+                    .add(egui::Slider::new(&mut s, 0.0..=2000.0).text("arc position m"))
+                    .drag_stopped()
+            {
+                app.apply(Command::MoveMarker {
+                    kind,
+                    index: i,
+                    s_m: s,
+                });
+            }
+            if let (MarkerKind::Spawner, Some(sp)) = (kind, level.spawners.get(i)) {
+                let mut sp = sp.clone();
+                let mut changed = false;
+                changed |= ui
+                    .add(
+                        egui::Slider::new(&mut sp.interval_s.min, 0.1..=10.0)
+                            .text("min interval s"),
+                    )
+                    .drag_stopped();
+                changed |= ui
+                    .add(
+                        egui::Slider::new(&mut sp.interval_s.max, 0.1..=10.0)
+                            .text("max interval s"),
+                    )
+                    .drag_stopped();
+                changed |= ui.checkbox(&mut sp.active, "active").changed();
+                if changed {
+                    sp.interval_s.max = sp.interval_s.max.max(sp.interval_s.min);
+                    app.apply(Command::SetSpawner(i, sp));
+                }
+            }
+            if let (MarkerKind::Trigger, Some(t)) = (kind, level.triggers.get(i)) {
+                let mut t = t.clone();
+                let mut changed = false;
+                changed |= ui
+                    .add(
+                        egui::Slider::new(&mut t.to_m, t.from_m + 1.0..=t.from_m + 500.0)
+                            .text("ends at m"),
+                    )
+                    .drag_stopped();
+                if let TriggerEffect::SpeedLimit { kmh } = &mut t.effect {
+                    changed |= ui
+                        .add(egui::Slider::new(kmh, 10.0..=200.0).text("new limit km/h"))
+                        .drag_stopped();
+                }
+                if changed {
+                    app.apply(Command::SetTrigger(i, t));
+                }
+            }
+            if ui.button("Delete").clicked() {
+                app.delete_selected();
+            }
+        }
+    }
+}
+
+fn dialogs(ui: &mut egui::Ui, app: &mut AppState) {
+    if app.pending.is_some() {
+        egui::Modal::new(egui::Id::unique("discard")).show(ui.ctx(), |ui| {
+            ui.heading("Unsaved changes");
+            ui.label("The level has changes that are not saved. Discard them?");
+            ui.horizontal(|ui| {
+                if ui.button("Discard").clicked() {
+                    app.confirm(true);
+                }
+                if ui.button("Cancel").clicked() {
+                    app.confirm(false);
+                }
+            });
+        });
+    }
+    if app.recovered.is_some() {
+        egui::Modal::new(egui::Id::unique("recover")).show(ui.ctx(), |ui| {
+            ui.heading("Recover unsaved work?");
+            ui.label("Flockway found an autosave newer than the level: it did not close cleanly.");
+            ui.horizontal(|ui| {
+                if ui.button("Recover").clicked()
+                    && let Some(e) = app.recovered.take()
+                {
+                    app.editor = e;
+                    app.apply_recovered();
+                }
+                if ui.button("Discard").clicked() {
+                    app.recovered = None;
+                }
+            });
+        });
+    }
+}
