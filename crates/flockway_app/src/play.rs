@@ -85,6 +85,9 @@ pub struct PlaySession {
     realtime_factor: f64,
 }
 
+/// Steps between chart points.
+const HALF_SECOND_TICKS: u64 = flockway_core::TICKS_PER_SECOND as u64 / 2;
+
 /// Wall time play may spend stepping per frame, so the window stays responsive.
 pub const FRAME_BUDGET: Duration = Duration::from_millis(12);
 
@@ -142,16 +145,25 @@ impl PlaySession {
 
     /// Runs exactly `ticks` steps.
     pub fn step_ticks(&mut self, ticks: u64) -> Result<(), RunError> {
-        if ticks == 0 {
-            return Ok(());
+        let mut left = ticks;
+        while left > 0 {
+            // Up to the next half second, so the chart gets a point every half second.
+            let to_half = HALF_SECOND_TICKS - self.runner.ticks_done() % HALF_SECOND_TICKS;
+            let chunk = left.min(to_half);
+            if chunk == left {
+                // The last chunk: keep the poses of its last two steps for drawing.
+                if chunk > 1 {
+                    self.runner.step(chunk - 1)?;
+                }
+                self.prev.capture(self.runner.sim_mut().world_mut());
+                self.runner.step(1)?;
+                self.next.capture(self.runner.sim_mut().world_mut());
+            } else {
+                self.runner.step(chunk)?;
+            }
+            left -= chunk;
+            self.record();
         }
-        if ticks > 1 {
-            self.runner.step(ticks - 1)?;
-        }
-        self.prev.capture(self.runner.sim_mut().world_mut());
-        self.runner.step(1)?;
-        self.next.capture(self.runner.sim_mut().world_mut());
-        self.record();
         Ok(())
     }
 

@@ -48,7 +48,9 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
         if ui.button("New").clicked() {
             app.request(Pending::New);
         }
-        ui.add(egui::TextEdit::singleline(&mut app.file_field).desired_width(220.0));
+        let label = ui.label("file");
+        ui.add(egui::TextEdit::singleline(&mut app.file_field).desired_width(220.0))
+            .labelled_by(label.id);
         if ui.button("Open").clicked() {
             let path = PathBuf::from(app.file_field.trim());
             app.request(Pending::Open(path));
@@ -259,8 +261,11 @@ fn inspector(ui: &mut egui::Ui, app: &mut AppState) {
             let mut limit = road.speed_limit_kmh;
             let mut changed = false;
             ui.horizontal(|ui| {
-                ui.label("name");
-                changed |= ui.text_edit_singleline(&mut name).lost_focus();
+                let label = ui.label("name");
+                changed |= ui
+                    .text_edit_singleline(&mut name)
+                    .labelled_by(label.id)
+                    .lost_focus();
             });
             changed |= ui
                 .add(egui::Slider::new(&mut lanes, 1..=8).text("lanes"))

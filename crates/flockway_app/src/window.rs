@@ -171,6 +171,8 @@ impl WindowApp {
                 let _ = app.save();
             }
             Key::Character(c) if c.eq_ignore_ascii_case("f") => app.follow = !app.follow,
+            Key::Character(c) if c.eq_ignore_ascii_case("r") => app.tool = crate::app::Tool::Road,
+            Key::Character(c) if c.eq_ignore_ascii_case("v") => app.tool = crate::app::Tool::Select,
             Key::Character(c) if c.len() == 1 && c.as_bytes()[0].is_ascii_digit() => {
                 app.load_shipped(usize::from(c.as_bytes()[0] - b'0'));
             }
@@ -220,15 +222,28 @@ impl WindowApp {
         let raw = g.egui_state.take_egui_input(&g.window);
         let ctx = g.egui_state.egui_ctx().clone();
         let app = &mut self.app;
-        let output = ctx.run_ui(raw, |ui| crate::ui::ui(ui, app));
+        let mut output = ctx.run_ui(raw, |ui| crate::ui::ui(ui, app));
         g.egui_state
-            .handle_platform_output(&g.window, output.platform_output);
+            .handle_platform_output(&g.window, std::mem::take(&mut output.platform_output));
         g.window.set_title(&self.app.title());
+        // egui's texture changes are applied every frame, drawn or not.
+        for (id, deltas) in &output.textures_delta.set {
+            for delta in deltas {
+                g.egui_renderer
+                    .update_texture(&g.gpu.device, &g.gpu.queue, *id, delta);
+            }
+        }
+        let frees = std::mem::take(&mut output.textures_delta.free);
+        output.textures_delta.clear();
         let frame = match g.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(f)
             | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
             _ => {
                 g.surface.configure(&g.gpu.device, &g.config);
+                for id in &frees {
+                    g.egui_renderer.free_texture(id);
+                }
+                g.window.request_redraw();
                 return;
             }
         };
@@ -245,12 +260,6 @@ impl WindowApp {
             size_in_pixels: [size.0, size.1],
             pixels_per_point: ppp,
         };
-        for (id, deltas) in &output.textures_delta.set {
-            for delta in deltas {
-                g.egui_renderer
-                    .update_texture(&g.gpu.device, &g.gpu.queue, *id, delta);
-            }
-        }
         let mut encoder = g.gpu.device.create_command_encoder(&Default::default());
         let extra = g.egui_renderer.update_buffers(
             &g.gpu.device,
@@ -284,7 +293,7 @@ impl WindowApp {
             .queue
             .submit(extra.into_iter().chain([encoder.finish()]));
         g.gpu.queue.present(frame);
-        for id in &output.textures_delta.free {
+        for id in &frees {
             g.egui_renderer.free_texture(id);
         }
         g.window.request_redraw();
