@@ -55,6 +55,15 @@ pub enum Pending {
     Quit,
 }
 
+/// What the left button is dragging.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Drag {
+    /// A control point.
+    Point(usize, usize),
+    /// A marker along its road.
+    Marker(MarkerKind, usize),
+}
+
 /// Pixels within which a click takes a control point.
 pub const PICK_PX: f32 = 12.0;
 
@@ -88,7 +97,7 @@ pub struct AppState {
     pub quit: bool,
     network: RoadNetwork,
     scene_version: u64,
-    drag: Option<(usize, usize)>,
+    drag: Option<Drag>,
     edited_level: Option<Level>,
 }
 
@@ -235,6 +244,51 @@ impl AppState {
         best.map(|(_, hit)| hit)
     }
 
+    /// Where a marker is drawn (on its road) and the road's name.
+    fn marker_anchor(&self, kind: MarkerKind, index: usize) -> Option<(Vec3, String)> {
+        let level = self.editor.level();
+        let (road, s_m, side) = match kind {
+            MarkerKind::Spawner => {
+                let sp = level.spawners.get(index)?;
+                (sp.road.clone(), sp.s_m, true)
+            }
+            MarkerKind::Destroyer => match &level.destroyers.get(index)?.place {
+                DestroyerPlace::OnRoad { road, s_m } => (road.clone(), *s_m, false),
+                DestroyerPlace::Volume { .. } => return None,
+            },
+            MarkerKind::Trigger => {
+                let t = level.triggers.get(index)?;
+                (t.road.clone(), t.from_m, false)
+            }
+        };
+        let g = self.network.get(self.network.id(&road)?)?;
+        let f = g.frame_at(s_m);
+        let lateral = if side { -0.5 * f.width_m - 1.2 } else { 0.0 };
+        Some((f.offset(lateral).as_vec3(), road))
+    }
+
+    /// The marker nearest a pixel, within twice [`PICK_PX`].
+    pub fn pick_marker(&self, px: Vec2, size: Vec2) -> Option<(MarkerKind, usize)> {
+        let level = self.editor.level();
+        let all = (0..level.spawners.len())
+            .map(|i| (MarkerKind::Spawner, i))
+            .chain((0..level.destroyers.len()).map(|i| (MarkerKind::Destroyer, i)))
+            .chain((0..level.triggers.len()).map(|i| (MarkerKind::Trigger, i)));
+        let mut best = None;
+        for (kind, i) in all {
+            let Some((at, _)) = self.marker_anchor(kind, i) else {
+                continue;
+            };
+            if let Some(s) = self.camera.to_screen(at, size) {
+                let d = s.distance(px);
+                if d <= 2.0 * PICK_PX && best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, (kind, i)));
+                }
+            }
+        }
+        best.map(|(_, hit)| hit)
+    }
+
     /// The road under a pixel and the arc position there.
     pub fn pick_road(&self, px: Vec2, size: Vec2) -> Option<(usize, f64)> {
         let g = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
@@ -264,7 +318,12 @@ impl AppState {
         }
         if let Some((r, i)) = self.pick_point(px, size) {
             self.selection = Selection::Point(r, i);
-            self.drag = Some((r, i));
+            self.drag = Some(Drag::Point(r, i));
+            return;
+        }
+        if let Some((kind, i)) = self.pick_marker(px, size) {
+            self.selection = Selection::Marker(kind, i);
+            self.drag = Some(Drag::Marker(kind, i));
             return;
         }
         let ground = self
@@ -384,18 +443,35 @@ impl AppState {
 
     /// The pointer moved to `px` with the left button down.
     pub fn drag_to(&mut self, px: Vec2, size: Vec2) {
-        let Some((r, i)) = self.drag else { return };
-        let z = self.editor.level().roads[r].points[i].pos.z as f32;
-        if let Some(g) = self.camera.ground_point(px, size, z) {
-            let to = DVec3::new(f64::from(g.x), f64::from(g.y), f64::from(z));
-            self.edit(
-                Command::MovePoint {
-                    road: r,
-                    index: i,
-                    to,
-                },
-                true,
-            );
+        match self.drag {
+            Some(Drag::Point(r, i)) => {
+                let z = self.editor.level().roads[r].points[i].pos.z as f32;
+                if let Some(g) = self.camera.ground_point(px, size, z) {
+                    let to = DVec3::new(f64::from(g.x), f64::from(g.y), f64::from(z));
+                    self.edit(
+                        Command::MovePoint {
+                            road: r,
+                            index: i,
+                            to,
+                        },
+                        true,
+                    );
+                }
+            }
+            Some(Drag::Marker(kind, index)) => {
+                // Along its own road: the arc position nearest the pointer.
+                let Some((_, road)) = self.marker_anchor(kind, index) else {
+                    return;
+                };
+                let Some(g) = self.network.id(&road).and_then(|id| self.network.get(id)) else {
+                    return;
+                };
+                if let Some(at) = self.camera.ground_point(px, size, 0.0) {
+                    let s_m = g.project(at.as_dvec3()).s_m;
+                    self.edit(Command::MoveMarker { kind, index, s_m }, true);
+                }
+            }
+            None => {}
         }
     }
 
@@ -708,5 +784,73 @@ fn add_handles(scene: &mut StaticScene, level: &Level, selection: Selection) {
             scene.min = scene.min.min(p.pos.as_vec3());
             scene.max = scene.max.max(p.pos.as_vec3());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn app_on(level: &str) -> AppState {
+        let editor = Editor::open(Path::new(level)).expect("shipped level");
+        AppState::new(editor, PathBuf::from("../../assets"))
+    }
+
+    #[test]
+    fn a_marker_dragged_along_its_road_moves_in_one_undo_step() {
+        let mut app = app_on("../../levels/speed_limit_change.ron");
+        let size = Vec2::new(1600.0, 900.0);
+        app.fit_view(size.x / size.y);
+        let before = app.editor.level().triggers[0].clone();
+        let (anchor, road) = app
+            .marker_anchor(MarkerKind::Trigger, 0)
+            .expect("on its road");
+        // Close up: zoomed out, the control point beside it would take the click first.
+        app.camera = Camera::Top {
+            centre: anchor,
+            half_height_m: 80.0,
+        };
+        let px = app.camera.to_screen(anchor, size).expect("on screen");
+        app.press(px, size);
+        assert_eq!(app.selection, Selection::Marker(MarkerKind::Trigger, 0));
+        // Drag it 100 m further along the road, in small moves.
+        let g = app
+            .network
+            .get(app.network.id(&road).expect("road"))
+            .expect("geometry")
+            .clone();
+        for k in 1..=10 {
+            let to = g
+                .frame_at(before.from_m + 10.0 * f64::from(k))
+                .pos
+                .as_vec3();
+            let to_px = app.camera.to_screen(to, size).expect("on screen");
+            app.drag_to(to_px, size);
+        }
+        app.release();
+        let after = &app.editor.level().triggers[0];
+        assert!(
+            (after.from_m - (before.from_m + 100.0)).abs() < 2.0,
+            "moved to {} from {}",
+            after.from_m,
+            before.from_m
+        );
+        assert!(((after.to_m - after.from_m) - (before.to_m - before.from_m)).abs() < 1e-9);
+        app.undo();
+        assert_eq!(app.editor.level().triggers[0], before, "one undo step");
+    }
+
+    #[test]
+    fn stop_restores_the_level_as_edited_and_play_never_touches_it() {
+        let mut app = app_on("../../levels/sugiyama_ring.ron");
+        let edited = app.editor.level().clone();
+        app.play();
+        let session = app.play.as_mut().expect("playing");
+        session.step_ticks(240).expect("steps");
+        assert!(session.sim_s() >= 2.0);
+        app.stop();
+        assert!(app.play.is_none());
+        assert_eq!(app.editor.level(), &edited);
+        assert!(!app.editor.is_dirty());
     }
 }

@@ -79,8 +79,9 @@ pub struct PlaySession {
     /// Whether time stands still.
     pub paused: bool,
     csv_path: PathBuf,
-    /// `(sim seconds, mean speed km/h, vehicles)` once per simulated half second, for the chart.
-    pub history: Vec<[f64; 3]>,
+    /// `(sim seconds, mean, slowest and fastest speed km/h, vehicles)` once per simulated half
+    /// second, for the chart.
+    pub history: Vec<[f64; 5]>,
     rtf_window: (f64, Duration),
     realtime_factor: f64,
 }
@@ -216,8 +217,15 @@ impl PlaySession {
             return;
         }
         let stats = self.stats();
+        let world = self.runner.sim_mut().world_mut();
+        let mut q = world.query::<&Motion>();
+        let (lo, hi) = q.iter(world).fold((f64::INFINITY, 0.0f64), |(lo, hi), m| {
+            let v = f64::from(m.forward_mps) * 3.6;
+            (lo.min(v), hi.max(v))
+        });
+        let lo = if lo.is_finite() { lo } else { 0.0 };
         self.history
-            .push([t, stats.mean_speed_kmh, stats.alive as f64]);
+            .push([t, stats.mean_speed_kmh, lo, hi, stats.alive as f64]);
     }
 
     /// The HUD's figures now.

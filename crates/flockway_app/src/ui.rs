@@ -184,14 +184,20 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
     }
     ui.separator();
     ui.heading("Speeds");
-    let mean: egui_plot::PlotPoints<'_> = p.history.iter().map(|h| [h[0], h[1]]).collect();
+    let series = |k: usize| -> egui_plot::PlotPoints<'_> {
+        p.history.iter().map(|h| [h[0], h[k]]).collect()
+    };
+    let (mean, slowest, fastest) = (series(1), series(2), series(3));
     egui_plot::Plot::new("speeds")
         .height(160.0)
         .x_axis_label("time (s)")
         .y_axis_label("km/h")
         .allow_scroll(false)
+        .legend(egui_plot::Legend::default())
         .show(ui, |plot| {
-            plot.line(egui_plot::Line::new("mean speed", mean));
+            plot.line(egui_plot::Line::new("fastest", fastest));
+            plot.line(egui_plot::Line::new("mean", mean));
+            plot.line(egui_plot::Line::new("slowest", slowest));
         });
     if let Selection::Vehicle(i) = app.selection
         && let Some(p) = &mut app.play
