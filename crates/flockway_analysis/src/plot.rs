@@ -2,6 +2,7 @@
 
 use crate::{AnalysisError, Sample, Trace};
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -222,6 +223,50 @@ fn time_range(trace: &Trace) -> std::ops::Range<f64> {
     start..trace.end_s().max(start + 1.0)
 }
 
+/// A chart with the common frame: white background, a titled caption, labelled axes with units.
+fn chart_on<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: String,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    (x_desc, y_desc): (&str, &str),
+    y_label_area: u32,
+) -> Result<ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>, String> {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, caption_style())
+        .margin(24)
+        .x_label_area_size(70)
+        .y_label_area_size(y_label_area)
+        .build_cartesian_2d(x, y)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .axis_desc_style(("sans-serif", 26))
+        .label_style(("sans-serif", 22))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    Ok(chart)
+}
+
+/// The legend box of a chart's labelled series.
+fn legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .legend_area_size(44)
+        .label_font(("sans-serif", 24))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(position)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 fn speed_history<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     trace: &Trace,
@@ -230,22 +275,14 @@ fn speed_history<DB: DrawingBackend>(
     let colours = profile_colours(trace);
     let vehicles = trace.by_vehicle();
     {
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption(info.title("speed history"), caption_style())
-            .margin(24)
-            .x_label_area_size(70)
-            .y_label_area_size(90)
-            .build_cartesian_2d(time_range(trace), 0.0..speed_max(trace))
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("speed (km/h)")
-            .axis_desc_style(("sans-serif", 26))
-            .label_style(("sans-serif", 22))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = chart_on(
+            root,
+            info.title("speed history"),
+            time_range(trace),
+            0.0..speed_max(trace),
+            ("time (s)", "speed (km/h)"),
+            90,
+        )?;
         let mut labelled = vec![false; colours.len()];
         for samples in vehicles.values() {
             let driver = usize::from(samples[0].driver);
@@ -265,15 +302,7 @@ fn speed_history<DB: DrawingBackend>(
                     });
             }
         }
-        chart
-            .configure_series_labels()
-            .legend_area_size(44)
-            .label_font(("sans-serif", 24))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         Ok(())
     }
 }
@@ -337,24 +366,14 @@ fn space_time<DB: DrawingBackend>(
     {
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 150);
-        let mut chart = ChartBuilder::on(&main)
-            .caption(
-                info.title(&format!("space–time diagram, road `{road_name}`")),
-                caption_style(),
-            )
-            .margin(24)
-            .x_label_area_size(70)
-            .y_label_area_size(100)
-            .build_cartesian_2d(time_range(trace), 0.0..length)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("arc position (m)")
-            .axis_desc_style(("sans-serif", 26))
-            .label_style(("sans-serif", 22))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = chart_on(
+            &main,
+            info.title(&format!("space–time diagram, road `{road_name}`")),
+            time_range(trace),
+            0.0..length,
+            ("time (s)", "arc position (m)"),
+            100,
+        )?;
         for samples in vehicles.values() {
             for run in trajectory_runs(samples, road) {
                 // Pieces of one colour bin each, sharing their end points.
@@ -484,22 +503,14 @@ fn mean_speed<DB: DrawingBackend>(
     let series = speed_over_time(trace);
     let colours = profile_colours(trace);
     {
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption(info.title("mean speed and spread"), caption_style())
-            .margin(24)
-            .x_label_area_size(70)
-            .y_label_area_size(90)
-            .build_cartesian_2d(time_range(trace), 0.0..speed_max(trace))
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("speed (km/h)")
-            .axis_desc_style(("sans-serif", 26))
-            .label_style(("sans-serif", 22))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = chart_on(
+            root,
+            info.title("mean speed and spread"),
+            time_range(trace),
+            0.0..speed_max(trace),
+            ("time (s)", "speed (km/h)"),
+            90,
+        )?;
         let band: Vec<(f64, f64)> = series
             .iter()
             .map(|p| (p.time_s, p.mean + p.std))
@@ -543,15 +554,7 @@ fn mean_speed<DB: DrawingBackend>(
                     });
             }
         }
-        chart
-            .configure_series_labels()
-            .legend_area_size(44)
-            .label_font(("sans-serif", 24))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         Ok(())
     }
 }
@@ -623,25 +626,14 @@ fn fundamental_diagram<DB: DrawingBackend>(
         RGBColor(148, 103, 189),
     ];
     {
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                info.title("fundamental diagram (100 m × 30 s cells)"),
-                caption_style(),
-            )
-            .margin(24)
-            .x_label_area_size(70)
-            .y_label_area_size(110)
-            .build_cartesian_2d(0.0..kmax, 0.0..qmax)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("density (veh/km)")
-            .y_desc("flow (veh/h)")
-            .axis_desc_style(("sans-serif", 26))
-            .label_style(("sans-serif", 22))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        let mut chart = chart_on(
+            root,
+            info.title("fundamental diagram (100 m × 30 s cells)"),
+            0.0..kmax,
+            0.0..qmax,
+            ("density (veh/km)", "flow (veh/h)"),
+            110,
+        )?;
         for (r, name) in trace.roads().iter().enumerate() {
             let colour = COLOURS[r % COLOURS.len()];
             let mine: Vec<_> = points.iter().filter(|p| usize::from(p.road) == r).collect();
@@ -660,15 +652,7 @@ fn fundamental_diagram<DB: DrawingBackend>(
                 .label(format!("road `{name}`"))
                 .legend(move |(x, y)| Circle::new((x + 10, y), 6, colour.filled()));
         }
-        chart
-            .configure_series_labels()
-            .legend_area_size(44)
-            .label_font(("sans-serif", 24))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
     }
 }
