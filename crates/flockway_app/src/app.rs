@@ -346,8 +346,13 @@ impl AppState {
                 match road {
                     Some(r) => {
                         if self.edit(Command::AppendPoint { road: r, at }, false) {
-                            let n = self.editor.level().roads[r].points.len();
-                            self.selection = Selection::Point(r, n - 1);
+                            let n = self
+                                .editor
+                                .level()
+                                .roads
+                                .get(r)
+                                .map_or(1, |d| d.points.len());
+                            self.selection = Selection::Point(r, n.saturating_sub(1));
                         }
                     }
                     None => {
@@ -370,8 +375,10 @@ impl AppState {
 
     fn place_marker(&mut self, road: usize, s_m: f64) {
         let level = self.editor.level();
-        let name = level.roads[road].name.clone();
-        let limit = level.roads[road].speed_limit_kmh;
+        let Some(spec) = level.roads.get(road) else {
+            return;
+        };
+        let (name, limit) = (spec.name.clone(), spec.speed_limit_kmh);
         let unique = |prefix: &str, taken: &dyn Fn(&str) -> bool| {
             (1..)
                 .map(|n| format!("{prefix} {n}"))
@@ -445,7 +452,18 @@ impl AppState {
     pub fn drag_to(&mut self, px: Vec2, size: Vec2) {
         match self.drag {
             Some(Drag::Point(r, i)) => {
-                let z = self.editor.level().roads[r].points[i].pos.z as f32;
+                // The point may have gone (deleted mid-drag): then the drag ends.
+                let Some(point) = self
+                    .editor
+                    .level()
+                    .roads
+                    .get(r)
+                    .and_then(|d| d.points.get(i))
+                else {
+                    self.drag = None;
+                    return;
+                };
+                let z = point.pos.z as f32;
                 if let Some(g) = self.camera.ground_point(px, size, z) {
                     let to = DVec3::new(f64::from(g.x), f64::from(g.y), f64::from(z));
                     self.edit(
@@ -499,7 +517,12 @@ impl AppState {
         let Selection::Point(r, i) = self.selection else {
             return;
         };
-        let road = &self.editor.level().roads[r];
+        let Some(road) = self.editor.level().roads.get(r) else {
+            return;
+        };
+        if i >= road.points.len() {
+            return;
+        }
         let Some(next) = road.points.get(i + 1).or(if road.closed {
             road.points.first()
         } else {
