@@ -281,29 +281,6 @@ struct Grid<'a> {
 }
 
 impl Grid<'_> {
-    fn at(&self, row: usize, x_m: f64) -> f64 {
-        let pos = x_m / self.cell_m - 0.5;
-        let i = pos.floor();
-        let f = pos - i;
-        let n = self.cells as i64;
-        let index = |k: i64| -> Option<usize> {
-            if self.closed {
-                Some(k.rem_euclid(n) as usize)
-            } else if (0..n).contains(&k) {
-                Some(k as usize)
-            } else {
-                None
-            }
-        };
-        match (index(i as i64), index(i as i64 + 1)) {
-            (Some(a), Some(b)) => {
-                let row = &self.field[row * self.cells..(row + 1) * self.cells];
-                row[a] * (1.0 - f) + row[b] * f
-            }
-            _ => f64::NAN,
-        }
-    }
-
     /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
     fn correlation(&self, c_kmh: f64) -> f64 {
         let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
@@ -312,14 +289,28 @@ impl Grid<'_> {
             if lag == 0 || lag >= self.rows {
                 continue;
             }
-            let shift = c_kmh / 3.6 * lag as f64 * self.dt;
+            // The pattern moves by the same distance at every cell, so the interpolation
+            // weights are the same along a row: only the indices move.
+            let shift_cells = c_kmh / 3.6 * lag as f64 * self.dt / self.cell_m;
+            let k = shift_cells.floor();
+            let f = shift_cells - k;
+            let (k, n) = (k as i64, self.cells as i64);
             for row in 0..self.rows - lag {
-                for i in 0..self.cells {
-                    let a = self.field[row * self.cells + i];
+                let here = &self.field[row * self.cells..(row + 1) * self.cells];
+                let there = &self.field[(row + lag) * self.cells..(row + lag + 1) * self.cells];
+                for (i, &a) in here.iter().enumerate() {
                     if !a.is_finite() {
                         continue;
                     }
-                    let b = self.at(row + lag, (i as f64 + 0.5) * self.cell_m + shift);
+                    let (j0, j1) = (i as i64 + k, i as i64 + k + 1);
+                    let (j0, j1) = if self.closed {
+                        (j0.rem_euclid(n), j1.rem_euclid(n))
+                    } else if j0 >= 0 && j1 < n {
+                        (j0, j1)
+                    } else {
+                        continue;
+                    };
+                    let b = there[j0 as usize] * (1.0 - f) + there[j1 as usize] * f;
                     if b.is_finite() {
                         ab += a * b;
                         aa += a * a;

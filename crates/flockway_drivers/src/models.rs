@@ -5,7 +5,7 @@ use crate::perception::{LaneIndex, Seen};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
-use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -437,127 +437,137 @@ pub fn drive_flock(
         &mut DriveTarget,
     )>,
 ) {
-    let mut seen = Vec::new();
-    for (me, track, motion, model, limit, mut driver, human, mut target) in &mut vehicles {
-        let Some(geometry) = network.get(track.road) else {
-            continue;
-        };
-        let p = &driver.params;
-        let lanes = geometry.lanes().max(1);
-        let speed_factor = human.as_ref().map_or(1.0, |h| h.speed_factor);
-        let v_target = p
-            .target_speed_kmh
-            .unwrap_or(limit.kmh * speed_factor)
-            .max(0.0)
-            / 3.6;
-        let length = model.0.params.chassis.length_m;
-        let v = motion.forward_mps;
-
-        // A lane change waits for room in the target lane: a time gap ahead and behind.
-        let target_lane = driver.target_lane.min(lanes - 1);
-        if driver.keep_lane && target_lane != driver.lane {
-            let step = if target_lane > driver.lane { 1 } else { -1 };
-            let next = (driver.lane as i64 + step) as u32;
-            let need = |speed: f32| {
-                f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0)
-            };
-            let ahead_ok = index
-                .leader(track.road, next, track.s_m, me, 200.0)
-                .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
-            let behind_ok = index
-                .follower(track.road, next, track.s_m, me, 200.0)
-                .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
-            if ahead_ok && behind_ok {
-                driver.lane = next;
-            }
-        }
-        let lane = driver.lane.min(lanes - 1);
-        let p = &driver.params;
-        let (dir, base, curvature) = lane_following(
-            geometry,
-            track,
-            lane,
-            v,
-            v_target,
-            p.speed_weight,
-            p.road_weight_per_s,
-            p.max_lateral_mps,
-            p.lookahead_s,
-        );
-        let me_lat = track.lateral_m as f32;
-        let me_speed = motion.linvel.dot(track.tangent);
-        let mut avoid = Vec3::ZERO;
-        seen.clear();
-        let own = f64::from(p.detection_range_m);
-        index.within(track.road, lane, track.s_m, own, own, Some(me), &mut seen);
-        let own_count = seen.len();
-        let adj = f64::from(p.adjacent_range_m);
-        if lane > 0 {
-            index.within(
-                track.road,
-                lane - 1,
-                track.s_m,
-                adj,
-                adj,
-                Some(me),
-                &mut seen,
-            );
-        }
-        if lane + 1 < lanes {
-            index.within(
-                track.road,
-                lane + 1,
-                track.s_m,
-                adj,
-                adj,
-                Some(me),
-                &mut seen,
-            );
-        }
-        for (i, s) in seen.iter().enumerate() {
-            let range = if i < own_count {
-                p.detection_range_m
-            } else {
-                p.adjacent_range_m
-            };
-            let share = if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
-            avoid += share
-                * avoid_push(
-                    s,
-                    me_lat,
-                    me_speed,
-                    length,
-                    range,
-                    p.avoid_weight_m2_per_s,
-                    p.anticipation_s,
-                    track.tangent,
-                    track.left,
-                );
-        }
-        if driver.keep_lane {
-            // Brake or speed up, never swerve: only the part along the lane.
-            avoid = dir * avoid.dot(dir);
-        }
-        let desired = base + avoid;
-        let steer_by = if driver.keep_lane { base } else { desired };
-        let decided = to_target(desired, steer_by, dir, curvature);
-        *target = match human {
-            // The reaction delay is on the response to traffic (the speed); lane keeping is a
-            // continuous skill and follows the road as it is now.
-            Some(mut h) => {
-                let wander = h.wander();
-                let chosen = DriveTarget {
-                    speed_mps: (decided.speed_mps + wander).max(0.0),
-                    ..decided
-                };
-                DriveTarget {
-                    speed_mps: h.react(chosen).speed_mps,
-                    ..decided
-                }
-            }
-            None => decided,
-        };
+    let run = |seen: &mut Vec<Seen>, item: FlockItem| flock_decide(&network, &index, seen, item);
+    // Each car reads the shared index and road network and writes only its own components,
+    // so the decisions are the same whichever thread makes them.
+    if vehicles.iter().len() < PARALLEL_MIN_VEHICLES {
+        let mut seen = Vec::new();
+        vehicles.iter_mut().for_each(|item| run(&mut seen, item));
+    } else {
+        vehicles.par_iter_mut().for_each_init(Vec::new, run);
     }
+}
+
+/// What [`drive_flock`] reads and writes on one vehicle.
+type FlockItem<'a> = (
+    Entity,
+    &'a RoadTrack,
+    &'a Motion,
+    &'a VehicleModel,
+    &'a SpeedLimit,
+    Mut<'a, FlockDriver>,
+    Option<Mut<'a, HumanDriver>>,
+    Mut<'a, DriveTarget>,
+);
+
+/// One flocking vehicle's decision; `seen` is scratch space for its neighbours.
+fn flock_decide(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    seen: &mut Vec<Seen>,
+    (me, track, motion, model, limit, mut driver, human, mut target): FlockItem,
+) {
+    let Some(geometry) = network.get(track.road) else {
+        return;
+    };
+    let p = &driver.params;
+    let lanes = geometry.lanes().max(1);
+    let speed_factor = human.as_ref().map_or(1.0, |h| h.speed_factor);
+    let v_target = p
+        .target_speed_kmh
+        .unwrap_or(limit.kmh * speed_factor)
+        .max(0.0)
+        / 3.6;
+    let length = model.0.params.chassis.length_m;
+    let v = motion.forward_mps;
+
+    // A lane change waits for room in the target lane: a time gap ahead and behind.
+    let target_lane = driver.target_lane.min(lanes - 1);
+    if driver.keep_lane && target_lane != driver.lane {
+        let step = if target_lane > driver.lane { 1 } else { -1 };
+        let next = (driver.lane as i64 + step) as u32;
+        let need =
+            |speed: f32| f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0);
+        let ahead_ok = index
+            .leader(track.road, next, track.s_m, me, 200.0)
+            .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
+        let behind_ok = index
+            .follower(track.road, next, track.s_m, me, 200.0)
+            .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
+        if ahead_ok && behind_ok {
+            driver.lane = next;
+        }
+    }
+    let lane = driver.lane.min(lanes - 1);
+    let p = &driver.params;
+    let (dir, base, curvature) = lane_following(
+        geometry,
+        track,
+        lane,
+        v,
+        v_target,
+        p.speed_weight,
+        p.road_weight_per_s,
+        p.max_lateral_mps,
+        p.lookahead_s,
+    );
+    let me_lat = track.lateral_m as f32;
+    let me_speed = motion.linvel.dot(track.tangent);
+    let mut avoid = Vec3::ZERO;
+    seen.clear();
+    let own = f64::from(p.detection_range_m);
+    index.within(track.road, lane, track.s_m, own, own, Some(me), seen);
+    let own_count = seen.len();
+    let adj = f64::from(p.adjacent_range_m);
+    if lane > 0 {
+        index.within(track.road, lane - 1, track.s_m, adj, adj, Some(me), seen);
+    }
+    if lane + 1 < lanes {
+        index.within(track.road, lane + 1, track.s_m, adj, adj, Some(me), seen);
+    }
+    for (i, s) in seen.iter().enumerate() {
+        let range = if i < own_count {
+            p.detection_range_m
+        } else {
+            p.adjacent_range_m
+        };
+        let share = if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
+        avoid += share
+            * avoid_push(
+                s,
+                me_lat,
+                me_speed,
+                length,
+                range,
+                p.avoid_weight_m2_per_s,
+                p.anticipation_s,
+                track.tangent,
+                track.left,
+            );
+    }
+    if driver.keep_lane {
+        // Brake or speed up, never swerve: only the part along the lane.
+        avoid = dir * avoid.dot(dir);
+    }
+    let desired = base + avoid;
+    let steer_by = if driver.keep_lane { base } else { desired };
+    let decided = to_target(desired, steer_by, dir, curvature);
+    *target = match human {
+        // The reaction delay is on the response to traffic (the speed); lane keeping is a
+        // continuous skill and follows the road as it is now.
+        Some(mut h) => {
+            let wander = h.wander();
+            let chosen = DriveTarget {
+                speed_mps: (decided.speed_mps + wander).max(0.0),
+                ..decided
+            };
+            DriveTarget {
+                speed_mps: h.react(chosen).speed_mps,
+                ..decided
+            }
+        }
+        None => decided,
+    };
 }
 
 /// The IDM acceleration, m/s², for speed `v`, desired speed `v0`, and a leader at bumper gap

@@ -425,6 +425,7 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
             InteractionTestMode::And,
         ))
         .active_events(ActiveEvents::COLLISION_EVENTS)
+        .active_hooks(ActiveHooks::FILTER_CONTACT_PAIRS)
         .user_data(vehicle_tag(entity))
         .build();
     let Some(mut physics) = world.get_resource_mut::<Physics>() else {
