@@ -4,8 +4,8 @@
 //! [`LaneIndex`] per road and lane, so a driver finds its leader, follower and neighbours in
 //! O(log n + k). In [`StepSet::Decide`] every driver system writes a [`DriveTarget`] (a speed and
 //! a heading) for the vehicles it drives — [`drive_flock`] (Reynolds flocking, free or keeping
-//! its lane, and human-like with [`HumanDriver`]) and [`drive_idm`] (the Intelligent Driver
-//! Model) — and then [`follow_targets`] turns targets into `Controls` with two PID loops. A driver
+//! its lane, human-like with [`HumanDriver`], and wave-damping with [`WaveDamper`]) and
+//! [`drive_idm`] (the Intelligent Driver Model) — and then [`follow_targets`] turns targets into `Controls` with two PID loops. A driver
 //! may instead write `Controls` itself.
 //!
 //! A new driver is a component and a system added with [`add_driver`]; see
@@ -22,7 +22,8 @@ pub use control::{
 };
 pub use models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
-    drive_flock, drive_idm, idm_accel, lane_following, update_speed_limits,
+    WaveDamper, WaveDamperParams, drive_flock, drive_idm, idm_accel, lane_following,
+    update_speed_limits,
 };
 pub use perception::{LaneEntry, LaneIndex, Seen, rebuild_lane_index};
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};

@@ -4,6 +4,7 @@
 use crate::control::{DriveTarget, TargetController};
 use crate::models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
+    WaveDamper, WaveDamperParams,
 };
 use bevy_ecs::prelude::*;
 use flockway_core::EntityRng;
@@ -24,15 +25,18 @@ pub enum BuiltinModel {
     Human,
     /// The Intelligent Driver Model.
     Idm,
+    /// The wave-damping autonomous car (after Stern et al. 2018).
+    WaveDamper,
 }
 
 impl BuiltinModel {
     /// Every built-in model.
-    pub const ALL: [BuiltinModel; 4] = [
+    pub const ALL: [BuiltinModel; 5] = [
         BuiltinModel::Flock,
         BuiltinModel::FlockLanes,
         BuiltinModel::Human,
         BuiltinModel::Idm,
+        BuiltinModel::WaveDamper,
     ];
 
     /// The model's name in levels and telemetry.
@@ -42,6 +46,7 @@ impl BuiltinModel {
             BuiltinModel::FlockLanes => "FlockLanes",
             BuiltinModel::Human => "Human",
             BuiltinModel::Idm => "Idm",
+            BuiltinModel::WaveDamper => "WaveDamper",
         }
     }
 
@@ -52,6 +57,7 @@ impl BuiltinModel {
             BuiltinModel::FlockLanes => "drivers/flock_lanes.ron",
             BuiltinModel::Human => "drivers/human.ron",
             BuiltinModel::Idm => "drivers/idm.ron",
+            BuiltinModel::WaveDamper => "drivers/wave_damper.ron",
         }
     }
 }
@@ -67,6 +73,8 @@ pub enum DriverSpec {
     Human(HumanParams),
     /// IDM.
     Idm(IdmParams),
+    /// Wave-damping autonomous car.
+    WaveDamper(WaveDamperParams),
 }
 
 /// Why a driver profile could not be built.
@@ -112,6 +120,7 @@ impl DriverSpec {
             BuiltinModel::FlockLanes => DriverSpec::FlockLanes(FlockParams::default()),
             BuiltinModel::Human => DriverSpec::Human(HumanParams::default()),
             BuiltinModel::Idm => DriverSpec::Idm(IdmParams::default()),
+            BuiltinModel::WaveDamper => DriverSpec::WaveDamper(WaveDamperParams::default()),
         }
     }
 
@@ -122,6 +131,7 @@ impl DriverSpec {
             DriverSpec::FlockLanes(_) => BuiltinModel::FlockLanes,
             DriverSpec::Human(_) => BuiltinModel::Human,
             DriverSpec::Idm(_) => BuiltinModel::Idm,
+            DriverSpec::WaveDamper(_) => BuiltinModel::WaveDamper,
         }
     }
 
@@ -138,6 +148,7 @@ impl DriverSpec {
             BuiltinModel::FlockLanes => DriverSpec::FlockLanes(load(model, params, overrides)?),
             BuiltinModel::Human => DriverSpec::Human(load(model, params, overrides)?),
             BuiltinModel::Idm => DriverSpec::Idm(load(model, params, overrides)?),
+            BuiltinModel::WaveDamper => DriverSpec::WaveDamper(load(model, params, overrides)?),
         })
     }
 
@@ -174,6 +185,13 @@ impl DriverSpec {
                         rng.fork(),
                     ),
                     TargetController::new(h.flock.throttle, h.flock.steering),
+                ));
+            }
+            DriverSpec::WaveDamper(p) => {
+                entity.insert((
+                    FlockDriver::new(p.flock.clone(), true, lane),
+                    WaveDamper::new(p.clone()),
+                    TargetController::new(p.flock.throttle, p.flock.steering),
                 ));
             }
             DriverSpec::Idm(p) => {

@@ -103,6 +103,9 @@ pub enum DriverModel {
     Human,
     /// The Intelligent Driver Model (Treiber 2000), as a reference.
     Idm,
+    /// The wave-damping autonomous car: drives at the flow's mean speed with a gap that absorbs
+    /// stop-and-go waves (after Stern et al. 2018).
+    WaveDamper,
     /// A driver a plugin registers under this name.
     Custom(String),
 }

@@ -349,6 +349,7 @@ pub fn load_driver_profiles(
             DriverModel::FlockLanes => BuiltinModel::FlockLanes,
             DriverModel::Human => BuiltinModel::Human,
             DriverModel::Idm => BuiltinModel::Idm,
+            DriverModel::WaveDamper => BuiltinModel::WaveDamper,
             DriverModel::Custom(_) => continue,
         };
         let fail = |message: String| RunError::Driver {
