@@ -37,10 +37,10 @@ pub use physics::{
 pub use steering::{ackermann, slew};
 pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
 pub use vehicle::{
-    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, PARALLEL_MIN_VEHICLES, RoadTrack,
-    SHOULDER_M, SpawnError, VehicleModel, VehicleSpawn, VehicleState, VehicleType, WHEEL_NAMES,
-    WheelState, apply_body_forces, drive_vehicles, rest_pose, spawn_vehicle, sync_vehicles,
-    track_road,
+    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, PARALLEL_MIN_VEHICLES,
+    RAIL_GATE_MARGIN_M, RailGate, RoadTrack, SHOULDER_M, SpawnError, VehicleModel, VehicleSpawn,
+    VehicleState, VehicleType, WHEEL_NAMES, WheelState, apply_body_forces, drive_vehicles,
+    gate_guardrails, rest_pose, spawn_vehicle, sync_vehicles, track_road,
 };
 
 /// The rapier version the vehicles run on, for plugins that add their own bodies.
@@ -95,7 +95,9 @@ impl SimPlugin for VehiclePlugin {
             StepSet::Physics,
             (
                 step_physics.in_set(VehicleSystems::Step),
-                sync_vehicles.in_set(VehicleSystems::Sync),
+                (sync_vehicles, gate_guardrails)
+                    .chain()
+                    .in_set(VehicleSystems::Sync),
             )
                 .chain(),
         );

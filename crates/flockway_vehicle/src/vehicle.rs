@@ -120,6 +120,106 @@ pub struct Chassis {
     pub body: RigidBodyHandle,
 }
 
+/// Whether a vehicle's body can touch guardrails in rapier. A car's bounding box on a curve or
+/// a diagonal road overlaps the guardrail pieces beside it, and rapier then updates that pair
+/// every step (a quarter of the step with 10 000 cars on a ring); so the car's collider ignores
+/// guardrails while its box is clearly away from its road's edges, and takes them in again
+/// before it can reach one. Contacts are the same: the gate opens with room for twice the
+/// distance the box's side can move in one step.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct RailGate {
+    collider: ColliderHandle,
+    half_length_m: f32,
+    half_width_m: f32,
+    /// Whether guardrails are in the collider's filter now.
+    open: bool,
+    /// Whether they should be from the next step.
+    want_open: bool,
+}
+
+/// Margin kept between a car's box and its road's edge (the guardrail's inner face) before the
+/// gate opens, on top of the distance the box can move in two steps, m.
+pub const RAIL_GATE_MARGIN_M: f32 = 0.3;
+
+/// How much further from the edge a car must be before an open gate closes again, m (so a car
+/// driving along the threshold does not toggle its collider every step).
+const RAIL_GATE_HYSTERESIS_M: f32 = 0.3;
+
+/// Within this distance of an open road's ends the gate stays open: the next road's guardrails
+/// are near, and the edge of the road the car tracks no longer bounds where it can go, m.
+const RAIL_GATE_END_M: f64 = 10.0;
+
+impl RailGate {
+    /// A gate for a body's collider with the box's half length and width, open.
+    pub fn new(collider: ColliderHandle, half_length_m: f32, half_width_m: f32) -> RailGate {
+        RailGate {
+            collider,
+            half_length_m,
+            half_width_m,
+            open: true,
+            want_open: true,
+        }
+    }
+
+    /// Whether guardrails are in the collider's filter.
+    pub fn is_open(&self) -> bool {
+        self.open
+    }
+
+    /// Decides from the car's track and motion whether guardrails must be in its filter for the
+    /// next step.
+    fn decide(&mut self, network: &RoadNetwork, track: &RoadTrack, motion: &Motion) {
+        let near_end = network.get(track.road).is_none_or(|g| {
+            !g.is_closed()
+                && (track.s_m < RAIL_GATE_END_M || track.s_m > g.length_m() - RAIL_GATE_END_M)
+        });
+        let upright = (motion.rotation * Vec3::Z).z > 0.8;
+        if near_end || !track.on_road || !upright {
+            self.want_open = true;
+            return;
+        }
+        // The box's reach across the road: its half width and half length turned by the
+        // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
+        let cos = track.heading_cos.abs().min(1.0);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let reach = self.half_length_m * sin + self.half_width_m * cos + 0.1;
+        let edge = 0.5 * track.width_m + flockway_road::GUARDRAIL_OFFSET_M as f32;
+        let clearance = edge - (track.lateral_m.abs() as f32 + reach);
+        // How far the box's side can move in two steps: sliding across, and turning.
+        let across = motion.linvel.dot(track.left).abs();
+        let turning = motion.angvel.z.abs() * self.half_length_m;
+        let moves = 2.0 * DT_S as f32 * (across + turning);
+        let needed = moves + RAIL_GATE_MARGIN_M;
+        self.want_open = if self.open {
+            clearance < needed + RAIL_GATE_HYSTERESIS_M
+        } else {
+            clearance < needed
+        };
+    }
+}
+
+/// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided.
+pub fn gate_guardrails(mut physics: ResMut<Physics>, mut gates: Query<&mut RailGate>) {
+    for mut gate in &mut gates {
+        if gate.want_open == gate.open {
+            continue;
+        }
+        let filter = if gate.want_open {
+            VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
+        } else {
+            VEHICLE_GROUP | GROUND_GROUP
+        };
+        if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
+            collider.set_collision_groups(InteractionGroups::new(
+                VEHICLE_GROUP,
+                filter,
+                InteractionTestMode::And,
+            ));
+        }
+        gate.open = gate.want_open;
+    }
+}
+
 fn remove_chassis(mut world: DeferredWorld, ctx: HookContext) {
     let Some(chassis) = world.get::<Chassis>(ctx.entity).copied() else {
         return;
@@ -431,8 +531,11 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
     let Some(mut physics) = world.get_resource_mut::<Physics>() else {
         return Err(SpawnError::NoPhysics);
     };
-    let (handle, _) = physics.world.insert(body, collider);
-    world.entity_mut(entity).insert(Chassis { body: handle });
+    let (handle, collider) = physics.world.insert(body, collider);
+    world.entity_mut(entity).insert((
+        Chassis { body: handle },
+        RailGate::new(collider, c.length_m / 2.0, c.width_m / 2.0),
+    ));
     Ok(entity)
 }
 
@@ -886,11 +989,17 @@ fn clamp_towards(force: f32, stop: f32) -> f32 {
 pub fn sync_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
-    mut vehicles: Query<(&Chassis, &mut Motion, &mut RoadTrack)>,
+    mut vehicles: Query<(&Chassis, &mut Motion, &mut RoadTrack, Option<&mut RailGate>)>,
 ) {
     let physics: &Physics = &physics;
     let network: &RoadNetwork = &network;
-    let run = |(chassis, mut motion, mut track): (&Chassis, Mut<Motion>, Mut<RoadTrack>)| {
+    type Item<'a> = (
+        &'a Chassis,
+        Mut<'a, Motion>,
+        Mut<'a, RoadTrack>,
+        Option<Mut<'a, RailGate>>,
+    );
+    let run = |(chassis, mut motion, mut track, gate): Item| {
         let Some(body) = physics.world.bodies.get(chassis.body) else {
             return;
         };
@@ -914,6 +1023,9 @@ pub fn sync_vehicles(
             rot * Vec3::X,
         );
         track.speed_along_mps = linvel.dot(track.tangent);
+        if let Some(mut gate) = gate {
+            gate.decide(network, &track, &motion);
+        }
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
         vehicles.iter_mut().for_each(run);

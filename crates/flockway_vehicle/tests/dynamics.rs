@@ -464,11 +464,29 @@ fn contacts_with_guardrails_and_other_cars_become_messages() {
         },
     );
     let mut seen = Vec::new();
-    for _ in 0..ticks(5.0) {
+    let gate = |sim: &Sim, car: Entity| {
+        sim.world()
+            .get::<flockway_vehicle::RailGate>(car)
+            .map(|g| g.is_open())
+    };
+    let mut wild_gate_opened = false;
+    for tick in 0..ticks(5.0) {
         sim.step();
         let messages = sim.world().resource::<Messages<VehicleContact>>();
         seen.extend(messages.iter_current_update_messages().copied());
+        if tick == 2 {
+            // Straight in the middle of the road, well clear of both rails: rapier does not
+            // pair them with the guardrails.
+            assert_eq!(gate(&sim, front), Some(false));
+        }
+        if gate(&sim, wild) == Some(true) && tick > 2 {
+            wild_gate_opened = true;
+        }
     }
+    assert!(
+        wild_gate_opened,
+        "the car heading for the rail took the rails in again"
+    );
     use flockway_vehicle::ContactWith;
     assert!(
         seen.iter().any(|c| c.started
