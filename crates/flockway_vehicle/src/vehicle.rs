@@ -743,7 +743,12 @@ fn vehicle_forces(
         };
         ws.grounded = true;
         let n = s.normal;
-        let heading = rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0);
+        // The rear wheels never steer: no trigonometry for them.
+        let heading = if steer[i] == 0.0 {
+            fwd
+        } else {
+            rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
+        };
         let f_dir = (heading - n * heading.dot(n)).normalize_or_zero();
         let l_dir = n.cross(f_dir);
         let arm = s.point - com;
