@@ -169,10 +169,12 @@ impl Default for WaveDamperParams {
     }
 }
 
-/// The speed law of a wave-damping car and its memory (see [`WaveDamperParams`]).
+/// The speed law of a wave-damping car and its memory (see [`WaveDamperParams`]); the car's
+/// [`FlockDriver`] keeps it in its lane and is its backstop.
 #[derive(Component, Debug, Clone, PartialEq)]
 pub struct WaveDamper {
-    /// Its parameters; edits take effect at the next tick.
+    /// Its parameters; edits take effect at the next tick (the `flock` part is read from the
+    /// vehicle's [`FlockDriver`], which was built from it).
     pub params: WaveDamperParams,
     mean_mps: Option<f32>,
     command_mps: Option<f32>,
@@ -211,8 +213,8 @@ impl WaveDamper {
                 let target = mean + p.catch_up_mps * ((gap - p.gap_lower_m) / ramp).clamp(0.0, 1.0);
                 let safe = (p.closing_time_s * (v - v_lead).max(0.0)).max(p.min_gap_m);
                 // alpha: 1 with room to spare (drive the target), 0 at the safe gap (match the
-                // leader); beta keeps half of the last command while blending, which is what
-                // filters the leader's oscillation out of its own speed.
+                // leader); beta keeps part of the last command (half with room to spare), which
+                // smooths its own speed.
                 let alpha = ((gap - safe) / p.blend_m.max(0.01)).clamp(0.0, 1.0);
                 let beta = 1.0 - 0.5 * alpha;
                 beta * (alpha * target + (1.0 - alpha) * v_lead) + (1.0 - beta) * previous
@@ -530,8 +532,8 @@ fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> 
     }
 }
 
-/// Decides every flocking (and human-like) vehicle's target: speed matching + road following +
-/// collision avoidance (SPEC §4).
+/// Decides every flocking (human-like, wave-damping) vehicle's target: speed matching + road
+/// following + collision avoidance (SPEC §4); a [`WaveDamper`] then caps the speed with its law.
 #[allow(clippy::type_complexity)]
 pub fn drive_flock(
     network: Res<RoadNetwork>,

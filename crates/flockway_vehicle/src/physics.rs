@@ -453,22 +453,11 @@ mod tests {
         let overlapping = at(1.0, 0.5, Quat::IDENTITY);
         assert!(!boxes_apart(&car_pose, car, &overlapping, car, 0.05));
         // Nose to tail, 1 m apart; then corner to corner with one car turned.
+        let origin = at(0.0, 0.0, Quat::IDENTITY);
         let ahead = at(2.3 * 2.0 + 1.0, 0.0, Quat::IDENTITY);
-        assert!(boxes_apart(
-            &at(0.0, 0.0, Quat::IDENTITY),
-            car,
-            &ahead,
-            car,
-            0.05
-        ));
+        assert!(boxes_apart(&origin, car, &ahead, car, 0.05));
         let turned = at(4.0, 3.0, diagonal);
-        assert!(boxes_apart(
-            &at(0.0, 0.0, Quat::IDENTITY),
-            car,
-            &turned,
-            car,
-            0.05
-        ));
+        assert!(boxes_apart(&origin, car, &turned, car, 0.05));
     }
 
     #[test]
