@@ -103,6 +103,10 @@ impl EventHandler for EventCollector {
 pub struct Physics {
     /// Bodies, colliders and rapier's pipeline state.
     pub world: PhysicsWorld,
+    /// Whether vehicle colliders leave guardrails out of their filter while clearly away from
+    /// them (see `RailGate`; on by default). Off, every car pairs with the rails beside it, as
+    /// rapier alone would: the results are the same, only slower.
+    pub rail_gates: bool,
     events: EventCollector,
     statics: Vec<ColliderHandle>,
     ground_z: f32,
@@ -123,6 +127,7 @@ impl Default for Physics {
         world.integration_parameters.max_ccd_substeps = 0;
         Physics {
             world,
+            rail_gates: true,
             events: EventCollector::default(),
             statics: Vec::new(),
             ground_z: 0.0,

@@ -200,11 +200,13 @@ impl RailGate {
 
 /// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided.
 pub fn gate_guardrails(mut physics: ResMut<Physics>, mut gates: Query<&mut RailGate>) {
+    let gating = physics.rail_gates;
     for mut gate in &mut gates {
-        if gate.want_open == gate.open {
+        let want_open = gate.want_open || !gating;
+        if want_open == gate.open {
             continue;
         }
-        let filter = if gate.want_open {
+        let filter = if want_open {
             VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
         } else {
             VEHICLE_GROUP | GROUND_GROUP
@@ -216,7 +218,7 @@ pub fn gate_guardrails(mut physics: ResMut<Physics>, mut gates: Query<&mut RailG
                 InteractionTestMode::And,
             ));
         }
-        gate.open = gate.want_open;
+        gate.open = want_open;
     }
 }
 

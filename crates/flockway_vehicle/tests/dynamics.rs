@@ -357,8 +357,9 @@ fn negative_throttle_brakes_then_reverses() {
     assert_eq!(st.gearbox.gear, -1);
 }
 
-/// A busy scene: several cars on a banked ring accelerating, braking, steering and bumping.
-fn busy_run() -> Vec<(u32, [u32; 13])> {
+/// A busy scene: several cars on a banked ring accelerating, braking, steering and bumping
+/// (into each other and the guardrails), with or without rail gates.
+fn busy_run(rail_gates: bool) -> (Vec<(u32, [u32; 13])>, usize) {
     let mut spec = RoadSpec::ring("ring", 2, 60.0, DVec3::new(30.0, -20.0, 2.0), 80.0, 16);
     for (i, p) in spec.points.iter_mut().enumerate() {
         *p = ControlPoint {
@@ -367,6 +368,8 @@ fn busy_run() -> Vec<(u32, [u32; 13])> {
         };
     }
     let mut sim = world_with(vec![spec]);
+    sim.world_mut().resource_mut::<Physics>().rail_gates = rail_gates;
+    let mut rail_hits = 0;
     let cars: Vec<Entity> = (0..8)
         .map(|i| {
             spawn(
@@ -389,8 +392,14 @@ fn busy_run() -> Vec<(u32, [u32; 13])> {
             set(&mut sim, car, controls);
         }
         sim.step();
+        let messages = sim.world().resource::<Messages<VehicleContact>>();
+        rail_hits += messages
+            .iter_current_update_messages()
+            .filter(|c| c.started && matches!(c.other, flockway_vehicle::ContactWith::Guardrail(_)))
+            .count();
     }
-    cars.iter()
+    let states = cars
+        .iter()
         .map(|&car| {
             let m = motion(&sim, car);
             let bits = [
@@ -411,14 +420,24 @@ fn busy_run() -> Vec<(u32, [u32; 13])> {
             .map(f32::to_bits);
             (car.index_u32(), bits)
         })
-        .collect()
+        .collect();
+    (states, rail_hits)
 }
 
 #[test]
 fn the_same_run_twice_is_bit_identical() {
-    let a = busy_run();
-    let b = busy_run();
+    let a = busy_run(true);
+    let b = busy_run(true);
     assert_eq!(a, b);
+}
+
+#[test]
+fn rail_gates_change_nothing_but_the_work() {
+    // Gates closed while cars are clear of the rails, or every car always paired with them:
+    // the same bits, crashes into the rails included.
+    let (gated, hits) = busy_run(true);
+    assert!(hits > 0, "the scene has cars hitting the rails");
+    assert_eq!((gated, hits), busy_run(false));
 }
 
 #[test]
