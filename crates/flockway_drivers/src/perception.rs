@@ -163,8 +163,10 @@ impl LaneIndex {
         }
         let range = |from: f64, to: f64| {
             let a = entries.partition_point(|e| e.s_m < from);
-            let b = entries.partition_point(|e| e.s_m <= to);
-            a..b.max(a)
+            // A window holds a few vehicles: walking to its end beats a second binary search
+            // (which misses the cache on long lanes).
+            let b = a + entries[a..].iter().take_while(|e| e.s_m <= to).count();
+            a..b
         };
         if r.closed && lo < 0.0 {
             for e in &entries[range(lo + r.length_m, r.length_m)] {
