@@ -58,7 +58,12 @@ pub struct RoadProjection {
 /// where the last one ended (see [`RoadGeometry::project_tracked`]). Only meaningful for the
 /// road that made it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RoadCursor(SplineParam);
+pub struct RoadCursor {
+    param: SplineParam,
+    /// The arc position of `param`, so a tracked projection needs no arc-length evaluation to
+    /// tell how far the answer moved.
+    s_m: f64,
+}
 
 /// Where on the spline an arc position lies: segment index and local parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -342,7 +347,11 @@ impl RoadGeometry {
 
     /// A cursor at arc position `s_m`, for [`project_tracked`](Self::project_tracked).
     pub fn cursor_at(&self, s_m: f64) -> RoadCursor {
-        RoadCursor(self.param_at(s_m))
+        let s_m = self.normalize_s(s_m);
+        RoadCursor {
+            param: self.param_at(s_m),
+            s_m,
+        }
     }
 
     /// The fastest projection, for something that moves a little each step (a wheel, a vehicle):
@@ -359,19 +368,21 @@ impl RoadGeometry {
         pos: DVec3,
         cursor: &mut RoadCursor,
     ) -> (RoadProjection, RoadFrame) {
-        let start = if cursor.0.seg < self.segments.len() {
-            cursor.0
+        let (start, before) = if cursor.param.seg < self.segments.len() {
+            (cursor.param, cursor.s_m)
         } else {
-            self.param_at(0.0)
+            (self.param_at(0.0), 0.0)
         };
-        let before = self.s_of(start);
         let (proj, p, frame) = self.refine(pos, start);
         let (proj, p, frame) = if self.delta_s(before, proj.s_m).abs() > 25.0 {
             self.refine(pos, self.grid.nearest(pos))
         } else {
             (proj, p, frame)
         };
-        cursor.0 = p;
+        *cursor = RoadCursor {
+            param: p,
+            s_m: proj.s_m,
+        };
         (proj, frame)
     }
 
@@ -382,7 +393,7 @@ impl RoadGeometry {
     /// road.
     pub fn frame_near(&self, cursor: &RoadCursor, cursor_s_m: f64, ds_m: f64) -> Option<RoadFrame> {
         let nseg = self.segments.len();
-        let mut p = cursor.0;
+        let mut p = cursor.param;
         if p.seg >= nseg {
             return None;
         }
