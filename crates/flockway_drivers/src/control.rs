@@ -103,7 +103,7 @@ impl TargetController {
     ) -> Controls {
         let h = DT_S as f32;
         let f = motion.forward();
-        let heading = f.y.atan2(f.x);
+        let heading = libm::atan2f(f.y, f.x);
         let speed_error = target.speed_mps.max(0.0) - motion.forward_mps;
         let heading_error = wrap_angle(target.heading_rad - heading);
         let stopping = target.speed_mps < STOP_BELOW_MPS;
@@ -124,7 +124,7 @@ impl TargetController {
             .steering
             .center_angle_rad(1.0, motion.forward_mps.abs() * 3.6)
             .max(1.0e-3);
-        let feed_forward = (vehicle.wheels.wheelbase_m * target.curvature_per_m).atan() / lock;
+        let feed_forward = libm::atanf(vehicle.wheels.wheelbase_m * target.curvature_per_m) / lock;
         let correction = self.steering_pid.update(&self.steering, heading_error, h);
         Controls {
             throttle,

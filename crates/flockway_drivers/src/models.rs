@@ -449,7 +449,7 @@ pub fn lane_following(
             let t2 = f.tangent.as_vec3();
             let turn = dir.x * t2.y - dir.y * t2.x;
             let along = dir.x * t2.x + dir.y * t2.y;
-            turn.atan2(along) / ahead
+            libm::atan2f(turn, along) / ahead
         }
         _ => 0.0,
     };
@@ -527,7 +527,7 @@ fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> 
     };
     DriveTarget {
         speed_mps: speed,
-        heading_rad: h.y.atan2(h.x),
+        heading_rad: libm::atan2f(h.y, h.x),
         curvature_per_m,
     }
 }
@@ -700,7 +700,7 @@ fn flock_decide(
 /// `gap_m` closing at `dv` (own speed minus leader's), if any.
 pub fn idm_accel(p: &IdmParams, v: f32, v0: f32, leader: Option<(f32, f32)>) -> f32 {
     let v = v.max(0.0);
-    let free = 1.0 - (v / v0.max(0.1)).powf(p.delta);
+    let free = 1.0 - libm::powf(v / v0.max(0.1), p.delta);
     let interaction = match leader {
         Some((gap, dv)) => {
             let s_star = p.min_gap_m

@@ -112,7 +112,7 @@ fn straight(length_m: f64) -> RoadSpec {
 /// Steering that keeps a car on the road's centre line along +x (for long runs, where a
 /// millimetre of asymmetry would otherwise add up over kilometres).
 fn hold_line(m: &Motion) -> f32 {
-    let heading = m.forward().y.atan2(m.forward().x);
+    let heading = libm::atan2f(m.forward().y, m.forward().x);
     (-0.05 * m.position.y - 0.8 * heading).clamp(-0.2, 0.2)
 }
 
@@ -234,7 +234,7 @@ fn skidpad(model: &Arc<VehicleType>, settings: &DynoSettings) -> f64 {
         let radial = pos / dist.max(1.0e-3);
         let tangent = Vec3::new(-radial.y, radial.x, 0.0); // counter-clockwise
         let fwd = m.forward();
-        let heading_err = tangent.cross(fwd).z.atan2(tangent.dot(fwd)); // positive: pointing left
+        let heading_err = libm::atan2f(tangent.cross(fwd).z, tangent.dot(fwd)); // positive: pointing left
         let speed = m.linvel.truncate().length();
         int_err = (int_err + err / TICKS_PER_SECOND as f32).clamp(-5.0, 5.0);
         let share = model
@@ -242,7 +242,7 @@ fn skidpad(model: &Arc<VehicleType>, settings: &DynoSettings) -> f64 {
             .steering
             .center_angle_rad(1.0, speed * 3.6)
             .max(1.0e-3);
-        let feedforward = (wheelbase / r).atan();
+        let feedforward = libm::atanf(wheelbase / r);
         let steer_angle = feedforward + 0.08 * err + 0.01 * int_err - 1.2 * heading_err;
         let steering = (steer_angle / share).clamp(-1.0, 1.0);
         let throttle = (0.3 + 0.6 * (target - m.forward_mps)).clamp(-1.0, 1.0);
