@@ -150,6 +150,30 @@ fn closest_point_round_trip_is_within_a_millimetre() {
 }
 
 #[test]
+fn tracked_projection_finds_a_point_far_from_its_cursor() {
+    let g = curved_road(2);
+    let len = g.length_m();
+    for (from, to) in [
+        (5.0, len - 5.0),
+        (len - 5.0, 5.0),
+        (10.0, 60.0),
+        (60.0, 30.0),
+    ] {
+        let mut cursor = g.cursor_at(from);
+        let q = g.frame_at(to).offset(1.0);
+        let tracked = g.project_tracked(q, &mut cursor);
+        assert!(
+            (tracked.s_m - to).abs() < 1e-3,
+            "from {from} to {to}: {}",
+            tracked.s_m
+        );
+        // The cursor moved with the answer: a small step from there is tracked, not searched.
+        let q2 = g.frame_at(to + 0.2).offset(1.0);
+        assert!((g.project_tracked(q2, &mut cursor).s_m - (to + 0.2)).abs() < 1e-3);
+    }
+}
+
+#[test]
 fn projection_matches_brute_force_for_points_anywhere() {
     let g = curved_road(2);
     let dense: Vec<(f64, DVec3)> = g
