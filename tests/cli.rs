@@ -590,3 +590,82 @@ fn a_killed_run_leaves_a_valid_csv_of_what_it_sampled() {
     }
     assert!(rows > 300, "{rows} rows");
 }
+
+/// Runs a level for `seconds` with `env` set and returns its CSV bytes.
+fn csv_of_run(level: &str, seconds: &str, csv: &Path, env: &[(&str, &str)]) -> Vec<u8> {
+    let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(["run", level, "--quiet", "--seconds", seconds, "--csv"])
+        .arg(csv)
+        .envs(env.iter().copied())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the flockway binary runs");
+    // A shortened run may miss its expectations (exit 1); it must not be refused (exit 2).
+    assert!(
+        matches!(out.status.code(), Some(0 | 1)),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::read(csv).expect("csv written")
+}
+
+/// A C library whose every transcendental function (sin, atan2f, powf, exp...) answers one
+/// floating-point step above the true C library: preloaded, it stands for a machine whose maths
+/// round differently (another glibc, or its FMA variants on another CPU).
+const NUDGED_LIBM: &str = r#"
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <math.h>
+#define F1(name, T, up) T name(T x) { static T (*real)(T); \
+    if (!real) real = (T (*)(T))dlsym(RTLD_NEXT, #name); return up(real(x), (T)INFINITY); }
+#define F2(name, T, up) T name(T x, T y) { static T (*real)(T, T); \
+    if (!real) real = (T (*)(T, T))dlsym(RTLD_NEXT, #name); return up(real(x, y), (T)INFINITY); }
+#define BOTH1(n) F1(n, double, nextafter) F1(n##f, float, nextafterf)
+#define BOTH2(n) F2(n, double, nextafter) F2(n##f, float, nextafterf)
+BOTH1(sin) BOTH1(cos) BOTH1(tan) BOTH1(asin) BOTH1(acos) BOTH1(atan) BOTH1(sinh) BOTH1(cosh)
+BOTH1(tanh) BOTH1(asinh) BOTH1(acosh) BOTH1(atanh) BOTH1(exp) BOTH1(exp2) BOTH1(expm1)
+BOTH1(log) BOTH1(log2) BOTH1(log10) BOTH1(log1p) BOTH1(cbrt)
+BOTH2(atan2) BOTH2(pow) BOTH2(hypot)
+void sincos(double x, double *s, double *c) { *s = sin(x); *c = cos(x); }
+void sincosf(float x, float *s, float *c) { *s = sinf(x); *c = cosf(x); }
+"#;
+
+/// The same level must give the same bytes on every machine, whatever its C library's maths
+/// round to: a CI machine once drew the play HUD's chart differently because glibc's atan2f and
+/// powf fed the drivers. The simulation takes its maths from the `libm` crate, so running it
+/// over a C library that answers differently must change nothing.
+#[test]
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn the_simulation_does_not_depend_on_the_c_librarys_maths() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let source = dir.path().join("nudged_libm.c");
+    let library = dir.path().join("nudged_libm.so");
+    std::fs::write(&source, NUDGED_LIBM).expect("write the C source");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".to_owned());
+    let built = Command::new(&cc)
+        .args(["-O2", "-shared", "-fPIC", "-o"])
+        .arg(&library)
+        .arg(&source)
+        .arg("-lm")
+        .output()
+        .unwrap_or_else(|e| panic!("`{cc}` (gcc, which CI installs) runs: {e}"));
+    assert!(
+        built.status.success(),
+        "{}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    let nudged = [("LD_PRELOAD", library.to_str().expect("utf-8 path"))];
+    // The Sugiyama ring is chaotic: a last-bit difference anywhere grows into a visible one.
+    for (level, seconds) in [
+        ("levels/sugiyama_ring.ron", "40"),
+        ("levels/dense_road_mixed.ron", "20"),
+    ] {
+        let here = csv_of_run(level, seconds, &dir.path().join("here.csv"), &[]);
+        let other = csv_of_run(level, seconds, &dir.path().join("other.csv"), &nudged);
+        assert!(here.len() > 1000, "{level}: the run sampled");
+        assert!(
+            here == other,
+            "{level}: the CSV changes with the C library's maths"
+        );
+    }
+}

@@ -188,8 +188,15 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
         p.history.iter().map(|h| [h[0], h[k]]).collect()
     };
     let (mean, slowest, fastest) = (series(1), series(2), series(3));
+    // The speed axis spans 0 to the next 10 km/h above the fastest car (1 km/h of room each
+    // side): a scale that does not twitch as the slowest car's speed moves by a hair.
+    let top = p.history.iter().map(|h| h[3]).fold(0.0, f64::max);
+    let top = (top / 10.0).ceil().max(1.0) * 10.0;
     egui_plot::Plot::new("speeds")
         .height(160.0)
+        .include_y(-1.0)
+        .include_y(top + 1.0)
+        .set_margin_fraction(egui::vec2(0.05, 0.0))
         .x_axis_label("time (s)")
         .y_axis_label("km/h")
         .allow_scroll(false)
