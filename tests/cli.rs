@@ -628,6 +628,14 @@ BOTH1(log) BOTH1(log2) BOTH1(log10) BOTH1(log1p) BOTH1(cbrt)
 BOTH2(atan2) BOTH2(pow) BOTH2(hypot)
 void sincos(double x, double *s, double *c) { *s = sin(x); *c = cos(x); }
 void sincosf(float x, float *s, float *c) { *s = sinf(x); *c = cosf(x); }
+/* Proof that the loader took it: it touches the file NUDGED_LIBM_LOADED names. */
+#include <stdio.h>
+#include <stdlib.h>
+__attribute__((constructor)) static void loaded(void) {
+    const char *mark = getenv("NUDGED_LIBM_LOADED");
+    FILE *f = mark ? fopen(mark, "w") : NULL;
+    if (f) fclose(f);
+}
 "#;
 
 /// The same level must give the same bytes on every machine, whatever its C library's maths
@@ -646,7 +654,7 @@ fn the_simulation_does_not_depend_on_the_c_librarys_maths() {
         .args(["-O2", "-shared", "-fPIC", "-o"])
         .arg(&library)
         .arg(&source)
-        .arg("-lm")
+        .args(["-lm", "-ldl"])
         .output()
         .unwrap_or_else(|e| panic!("`{cc}` (gcc, which CI installs) runs: {e}"));
     assert!(
@@ -654,7 +662,11 @@ fn the_simulation_does_not_depend_on_the_c_librarys_maths() {
         "{}",
         String::from_utf8_lossy(&built.stderr)
     );
-    let nudged = [("LD_PRELOAD", library.to_str().expect("utf-8 path"))];
+    let mark = dir.path().join("loaded");
+    let nudged = [
+        ("LD_PRELOAD", library.to_str().expect("utf-8 path")),
+        ("NUDGED_LIBM_LOADED", mark.to_str().expect("utf-8 path")),
+    ];
     // The Sugiyama ring is chaotic: a last-bit difference anywhere grows into a visible one.
     for (level, seconds) in [
         ("levels/sugiyama_ring.ron", "40"),
@@ -662,6 +674,9 @@ fn the_simulation_does_not_depend_on_the_c_librarys_maths() {
     ] {
         let here = csv_of_run(level, seconds, &dir.path().join("here.csv"), &[]);
         let other = csv_of_run(level, seconds, &dir.path().join("other.csv"), &nudged);
+        // A library the loader refused would prove nothing.
+        assert!(mark.exists(), "the nudged maths library was not loaded");
+        std::fs::remove_file(&mark).expect("remove the mark");
         assert!(here.len() > 1000, "{level}: the run sampled");
         assert!(
             here == other,
