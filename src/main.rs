@@ -3,7 +3,7 @@
 use clap::{Args, Parser, Subcommand};
 use flockway::analysis::{PlotFormat, Trace};
 use flockway::run::{RunError, RunOptions, Runner, level_name};
-use flockway_level::{load_level, write_atomic};
+use flockway_level::{Template, level_to_string, load_level, write_atomic};
 use flockway_vehicle::{DynoReport, DynoSettings, VehicleParams, VehicleType, run_dyno};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -29,6 +29,20 @@ enum Command {
     /// Exit status: 0 if every expectation held, 1 if one failed, 2 if the level or an argument
     /// is invalid.
     Run(RunArgs),
+    /// Write a new level from a template, ready for `flockway run` and `flockway edit`.
+    ///
+    /// Templates: `straight` (default): a 500 m two-lane road with a spawner of half autonomous,
+    /// half human-like cars and a destroyer; `ring`: 20 autonomous cars on a single-lane loop;
+    /// `empty`: the reference vehicle types and driver profiles only. Never overwrites a file.
+    /// Exit status: 0, or 2 if the file exists or cannot be written.
+    New {
+        /// The level file to write (e.g. my_level.ron).
+        #[arg(value_name = "LEVEL.ron")]
+        level: PathBuf,
+        /// What the new level holds.
+        #[arg(long, value_enum, default_value_t = TemplateArg::Straight)]
+        template: TemplateArg,
+    },
     /// Check that level files load and validate, without running them.
     ///
     /// Prints each problem as FILE:LINE:COLUMN: message. Exit status: 0 if all are valid, 2 if not.
@@ -150,6 +164,27 @@ enum Command {
     },
 }
 
+/// Template of `flockway new`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum TemplateArg {
+    /// A two-lane road with a spawner and a destroyer.
+    Straight,
+    /// 20 cars on a single-lane loop.
+    Ring,
+    /// Vehicle types and driver profiles only.
+    Empty,
+}
+
+impl From<TemplateArg> for Template {
+    fn from(t: TemplateArg) -> Template {
+        match t {
+            TemplateArg::Straight => Template::Straight,
+            TemplateArg::Ring => Template::Ring,
+            TemplateArg::Empty => Template::Empty,
+        }
+    }
+}
+
 /// Camera of `flockway render`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum CameraArg {
@@ -219,6 +254,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Run(args) => run(args),
+        Command::New { level, template } => new_level(&level, template.into()),
         Command::Check { levels } => check(&levels),
         Command::Dyno { vehicle, json } => dyno(vehicle.as_deref(), json),
         Command::Test {
@@ -256,6 +292,48 @@ fn main() -> ExitCode {
 fn fail(e: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {e}");
     ExitCode::from(2)
+}
+
+fn new_level(path: &std::path::Path, template: Template) -> ExitCode {
+    if path.exists() {
+        return fail(format!(
+            "{} already exists; `flockway new` never overwrites a file: choose another name",
+            path.display()
+        ));
+    }
+    let name = path
+        .file_stem()
+        .map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned());
+    let level = template.level(&name);
+    let text = match level_to_string(&level) {
+        Ok(t) => t,
+        Err(e) => return fail(e),
+    };
+    let header = format!(
+        "// {name}: made by `flockway new --template {template}`: {}.\n",
+        template.summary()
+    );
+    if let Err(e) = write_atomic(path, format!("{header}{text}").as_bytes()) {
+        return fail(e);
+    }
+    let shown = shell_quote(&path.display().to_string());
+    println!("wrote {} ({})", path.display(), template.summary());
+    println!("run it:   flockway run {shown}");
+    println!("edit it:  flockway edit {shown}");
+    ExitCode::SUCCESS
+}
+
+/// A path as a shell word: quoted when it holds anything a shell would split or expand.
+fn shell_quote(text: &str) -> String {
+    let plain = !text.is_empty()
+        && text
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+:=@%,".contains(c));
+    if plain {
+        text.to_owned()
+    } else {
+        format!("'{}'", text.replace('\'', "'\\''"))
+    }
 }
 
 fn check(levels: &[PathBuf]) -> ExitCode {

@@ -684,3 +684,66 @@ fn the_simulation_does_not_depend_on_the_c_librarys_maths() {
         );
     }
 }
+
+#[test]
+fn new_writes_each_template_as_a_level_that_runs_and_never_overwrites() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let assets = std::fs::canonicalize("assets").expect("assets");
+    for template in ["straight", "ring", "empty"] {
+        let path = dir.path().join(format!("{template}.ron"));
+        let path_text = path.display().to_string();
+        let out = flockway(&["new", &path_text, "--template", template]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            stdout.contains(&format!("flockway run {path_text}")),
+            "`new` prints the command that runs what it wrote: {stdout}"
+        );
+        // A second `new` on the same file refuses and leaves it as it was.
+        let before = std::fs::read(&path).expect("written");
+        let again = flockway(&["new", &path_text]);
+        assert_eq!(again.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&again.stderr).contains("already exists"));
+        assert_eq!(std::fs::read(&path).expect("still there"), before);
+        // `flockway run` runs it as it is, from anywhere (assets found by the variable).
+        let summary = dir.path().join(format!("{template}.json"));
+        let run = Command::new(env!("CARGO_BIN_EXE_flockway"))
+            .args(["run", "--quiet", "--summary"])
+            .arg(&summary)
+            .arg(&path)
+            .env("FLOCKWAY_ASSETS", &assets)
+            .output()
+            .expect("flockway run");
+        assert_eq!(
+            run.status.code(),
+            Some(0),
+            "{template}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&summary).expect("summary"))
+                .expect("json");
+        let spawned = s["vehicles_spawned"].as_f64().unwrap_or(0.0);
+        let destroyed = s["vehicles_destroyed"].as_f64().unwrap_or(0.0);
+        let collisions = s["collisions_guardrail"].as_f64().unwrap_or(0.0)
+            + s["collisions_vehicle"].as_f64().unwrap_or(0.0);
+        match template {
+            "straight" => {
+                assert!(spawned > 10.0 && destroyed > 5.0, "{template}: {s}");
+                assert_eq!(collisions, 0.0, "{template}: {s}");
+            }
+            "ring" => {
+                assert_eq!(spawned, 20.0, "{template}: {s}");
+                assert_eq!(collisions, 0.0, "{template}: {s}");
+            }
+            _ => assert_eq!(spawned, 0.0, "{template}: {s}"),
+        }
+    }
+    let bad = flockway(&["new", "x.ron", "--template", "circle"]);
+    assert_eq!(bad.status.code(), Some(2));
+}

@@ -50,6 +50,40 @@ impl BuiltinModel {
         }
     }
 
+    /// The names a profile's `set` may override for this model (dotted for nested values, such
+    /// as `throttle.kp`), sorted.
+    pub fn parameter_names(self) -> Vec<String> {
+        let mut names = Vec::new();
+        if let Some(v) = self.defaults_json() {
+            leaf_names(&v, "", &mut names);
+        }
+        names.sort();
+        names
+    }
+
+    /// The built-in value of one of its parameters (by the name [`Self::parameter_names`]
+    /// gives), or `None` for a parameter unset by default (such as a target speed) or unknown.
+    pub fn default_value(self, name: &str) -> Option<f64> {
+        self.defaults_json()
+            .and_then(|v| name.split('.').try_fold(v, |node, k| node.get(k).cloned()))
+            .and_then(|v| v.as_f64())
+    }
+
+    fn defaults_json(self) -> Option<Value> {
+        match DriverSpec::default_for(self) {
+            DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => serde_json::to_value(p),
+            DriverSpec::Human(p) => serde_json::to_value(p),
+            DriverSpec::Idm(p) => serde_json::to_value(p),
+            DriverSpec::WaveDamper(p) => serde_json::to_value(p),
+        }
+        .ok()
+    }
+
+    /// The model with this name (as levels write it: `FlockLanes`, `Human`, …).
+    pub fn from_name(name: &str) -> Option<BuiltinModel> {
+        BuiltinModel::ALL.into_iter().find(|m| m.name() == name)
+    }
+
     /// The parameter file shipped for this model, under `assets/`.
     pub fn default_params_path(self) -> &'static str {
         match self {
@@ -312,6 +346,27 @@ mod tests {
             text.contains("detection_rnage_m") && text.contains("detection_range_m"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn every_offered_parameter_name_is_accepted_as_an_override() {
+        for model in BuiltinModel::ALL {
+            let names = model.parameter_names();
+            assert!(
+                names.contains(&"throttle.kp".to_owned())
+                    || names.contains(&"flock.throttle.kp".to_owned()),
+                "{model:?}: {names:?}"
+            );
+            for name in names {
+                let set = BTreeMap::from([(name.clone(), 1.0)]);
+                let built = DriverSpec::build(model, None, &set);
+                assert!(
+                    !matches!(built, Err(DriverParamsError::UnknownParameter { .. })),
+                    "{model:?} {name}: {built:?}"
+                );
+            }
+            assert_eq!(BuiltinModel::from_name(model.name()), Some(model));
+        }
     }
 
     #[test]

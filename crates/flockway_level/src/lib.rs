@@ -9,6 +9,7 @@ mod expect;
 mod io;
 mod locate;
 mod schema;
+mod template;
 mod validate;
 
 pub use expect::{Check, Expectation, METRICS, MetricInfo, Qualifier, metric_info};
@@ -20,6 +21,10 @@ pub use locate::{PathStep, Pos, locate};
 pub use schema::{
     CURRENT_VERSION, Destroyer, DestroyerPlace, DriverModel, DriverProfile, InitialVehicles, Level,
     ProfileShare, Range, Spawner, Telemetry, Trigger, TriggerEffect, VehicleType,
+};
+pub use template::{
+    AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,
+    reference_vehicle_types,
 };
 pub use validate::{
     Issue, MAX_DURATION_S, MAX_INITIAL_VEHICLES, MAX_LIST_LEN, MIN_INITIAL_SPACING_M,

@@ -27,6 +27,78 @@ pub struct Issue {
     pub message: String,
 }
 
+impl Issue {
+    /// What the issue concerns, in the words of someone editing the level: `spawner `in``,
+    /// `road `main` point 3`, `driver profile `human``, `expectation 2`, …
+    pub fn subject(&self, level: &Level) -> String {
+        let index = |k: usize| match self.path.get(k) {
+            Some(Index(i)) => Some(*i),
+            _ => None,
+        };
+        let named = |kind: &str, name: Option<&str>| match name {
+            Some(n) if !n.trim().is_empty() => format!("{kind} `{n}`"),
+            _ => kind.to_owned(),
+        };
+        let Some(Field(top)) = self.path.first() else {
+            return "the level".to_owned();
+        };
+        let i = index(1);
+        match *top {
+            "roads" => {
+                let road = named(
+                    "road",
+                    i.and_then(|i| level.roads.get(i)).map(|r| r.name.as_str()),
+                );
+                match (self.path.get(2), index(3)) {
+                    (Some(Field("points")), Some(k)) => format!("{road} point {k}"),
+                    _ => road,
+                }
+            }
+            "spawners" => named(
+                "spawner",
+                i.and_then(|i| level.spawners.get(i))
+                    .map(|s| s.name.as_str()),
+            ),
+            "destroyers" => named(
+                "destroyer",
+                i.and_then(|i| level.destroyers.get(i))
+                    .map(|d| d.name.as_str()),
+            ),
+            "triggers" => named(
+                "trigger",
+                i.and_then(|i| level.triggers.get(i))
+                    .map(|t| t.name.as_str()),
+            ),
+            "driver_profiles" => named(
+                "driver profile",
+                i.and_then(|i| level.driver_profiles.get(i))
+                    .map(|d| d.name.as_str()),
+            ),
+            "vehicle_types" => named(
+                "vehicle type",
+                i.and_then(|i| level.vehicle_types.get(i))
+                    .map(|v| v.name.as_str()),
+            ),
+            "vehicles" => i.map_or("the initial vehicles".to_owned(), |i| {
+                format!("vehicle group {}", i + 1)
+            }),
+            "expect" => i
+                .and_then(|i| level.expect.get(i))
+                .map_or("an expectation".to_owned(), |e| {
+                    format!("expectation `{e}`")
+                }),
+            "telemetry" => "telemetry".to_owned(),
+            "duration_s" => "the level's duration".to_owned(),
+            _ => "the level".to_owned(),
+        }
+    }
+
+    /// The issue as one sentence for a status line: its subject, then what is wrong.
+    pub fn describe(&self, level: &Level) -> String {
+        format!("{}: {}", self.subject(level), self.message)
+    }
+}
+
 struct Checker<'a> {
     level: &'a Level,
     roads: Vec<Option<RoadGeometry>>,
