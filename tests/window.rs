@@ -1,10 +1,14 @@
 //! The window, for real: play mode gives the same CSV bytes as `flockway run`, and the editor,
-//! driven through real X input events under Xvfb, saves the level it was shown.
+//! driven through real X input events under Xvfb, goes from an empty level to cars driving and
+//! saves the level it was shown.
 #![cfg(feature = "window")]
 
-use flockway::app::{Camera, PlaySession, PlaySpeed};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use flockway::app::{AppState, Camera, EMPTY_VIEW_M, Editor, PlaySession, PlaySpeed};
 use flockway::level::load_level;
-use glam::{Vec2, Vec3};
+use flockway::road::{RoadGeometry, RoadSpec};
+use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -71,27 +75,48 @@ fn play_mode_writes_the_same_csv_bytes_as_a_headless_run() {
     );
 }
 
-/// An X server of our own, closed when dropped.
-struct Xvfb(Child, String);
+/// The window's size under Xvfb, pixels (one pixel per point).
+const SIZE: (u32, u32) = (1400, 860);
+
+/// One X server at a time: two started together can pick the same display number, and two
+/// editors drawing on lavapipe at once only slow each other down.
+static ONE_DISPLAY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// An X server of our own, closed when dropped; holds [`ONE_DISPLAY`] while it lives.
+struct Xvfb(
+    Child,
+    String,
+    #[allow(dead_code)] std::sync::MutexGuard<'static, ()>,
+);
 
 impl Xvfb {
+    /// Starts Xvfb on a display number it picks itself (`-displayfd`), so tests running at
+    /// the same time never share one.
     fn start() -> Xvfb {
-        let display = format!(":{}", 50 + std::process::id() % 200);
-        let child = Command::new("Xvfb")
+        use std::io::BufRead;
+        let guard = ONE_DISPLAY.lock().unwrap_or_else(|e| e.into_inner());
+        let screen = format!("{}x{}x24", SIZE.0, SIZE.1);
+        let mut child = Command::new("Xvfb")
             .args([
-                display.as_str(),
+                "-displayfd",
+                "1",
                 "-screen",
                 "0",
-                "1400x860x24",
+                &screen,
                 "-nolisten",
                 "tcp",
             ])
-            .stdout(Stdio::null())
+            .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
-            .expect("Xvfb runs (CI installs the xvfb package)");
-        std::thread::sleep(Duration::from_millis(800));
-        Xvfb(child, display)
+            .expect("Xvfb runs (scripts/test installs the xvfb package)");
+        let mut line = String::new();
+        if let Some(out) = child.stdout.take() {
+            let _ = std::io::BufReader::new(out).read_line(&mut line);
+        }
+        let number = line.trim().to_owned();
+        assert!(!number.is_empty(), "Xvfb did not say which display it took");
+        Xvfb(child, format!(":{number}"), guard)
     }
 
     fn xdotool(&self, args: &[&str]) {
@@ -99,9 +124,74 @@ impl Xvfb {
             .args(args)
             .env("DISPLAY", &self.1)
             .status()
-            .expect("xdotool runs (CI installs the xdotool package)");
+            .expect("xdotool runs (scripts/test installs the xdotool package)");
         assert!(status.success(), "xdotool {args:?}");
         std::thread::sleep(Duration::from_millis(250));
+    }
+
+    fn click(&self, (x, y): (f32, f32)) {
+        self.xdotool(&[
+            "mousemove",
+            &format!("{}", x.round()),
+            &format!("{}", y.round()),
+            "click",
+            "1",
+        ]);
+    }
+
+    /// Starts `flockway edit` with no file in `dir` and waits for its window, moved to the
+    /// screen's corner (there is no window manager to place it).
+    fn editor(&self, dir: &Path) -> Child {
+        let child = Command::new(env!("CARGO_BIN_EXE_flockway"))
+            .arg("edit")
+            .current_dir(dir)
+            .env("DISPLAY", &self.1)
+            .env(
+                "FLOCKWAY_ASSETS",
+                std::fs::canonicalize("assets").expect("assets"),
+            )
+            // Its autosave and play telemetry stay in the test's directory: no autosave of
+            // another run is offered back, and this run leaves none behind.
+            .env("TMPDIR", dir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("flockway edit starts");
+        let started = Instant::now();
+        let window = loop {
+            let out = Command::new("xdotool")
+                .args(["search", "--name", "Flockway"])
+                .env("DISPLAY", &self.1)
+                .output()
+                .expect("xdotool");
+            if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
+                break id.to_owned();
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "no editor window appeared"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        };
+        self.xdotool(&["windowmove", &window, "0", "0"]);
+        // The editor takes the keyboard focus once its first frame is shown (no window
+        // manager here hands it out): from then on it takes keys and clicks.
+        loop {
+            let out = Command::new("xdotool")
+                .arg("getwindowfocus")
+                .env("DISPLAY", &self.1)
+                .output()
+                .expect("xdotool");
+            if String::from_utf8_lossy(&out.stdout).trim() == window {
+                break;
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(60),
+                "the editor window never took the keyboard focus"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        child
     }
 }
 
@@ -112,45 +202,211 @@ impl Drop for Xvfb {
     }
 }
 
+/// Where the editor's widgets are: the same UI laid out off screen at the window's size
+/// (egui lays out the same way on screen).
+fn widget_centre(state: AppState, label: &str) -> (f32, f32) {
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(SIZE.0 as f32, SIZE.1 as f32))
+        .build_ui_state(|ui, app: &mut AppState| flockway::app::ui(ui, app), state);
+    h.run();
+    let c = h
+        .get_by_role_and_label(egui::Role::Button, label)
+        .rect()
+        .center();
+    (c.x, c.y)
+}
+
+fn new_app() -> AppState {
+    AppState::new(
+        Editor::new(),
+        std::fs::canonicalize("assets").expect("assets"),
+    )
+}
+
+/// The camera an empty level opens with, in a window of [`SIZE`].
+fn empty_level_camera() -> (Camera, Vec2) {
+    let size = Vec2::new(SIZE.0 as f32, SIZE.1 as f32);
+    let camera = Camera::top_fit(
+        Vec3::new(-EMPTY_VIEW_M, -EMPTY_VIEW_M, 0.0),
+        Vec3::new(EMPTY_VIEW_M, EMPTY_VIEW_M, 0.0),
+        size.x / size.y,
+    );
+    (camera, size)
+}
+
 #[test]
-fn the_editor_driven_by_real_input_events_saves_the_level_it_shows() {
+fn from_an_empty_editor_a_drawn_road_with_a_spawner_and_a_destroyer_gets_cars() {
     let dir = tempfile::tempdir().expect("tempdir");
     let x = Xvfb::start();
-    let mut editor = Command::new(env!("CARGO_BIN_EXE_flockway"))
-        .arg("edit")
-        .current_dir(dir.path())
-        .env("DISPLAY", &x.1)
+    let mut editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+    // Find the buttons: the tools in the bar, and Play and `max` in the side panel.
+    let spawner_tool = widget_centre(new_app(), "Spawner");
+    let destroyer_tool = widget_centre(new_app(), "Destroyer");
+    let play_button = widget_centre(new_app(), "Play");
+    let mut playing = AppState::new(
+        Editor::with_level(flockway::level::Template::Ring.level("r"), None),
+        std::fs::canonicalize("assets").expect("assets"),
+    );
+    playing.play();
+    let max_speed = widget_centre(playing, "max");
+
+    // The Road tool by its key, before the mouse has touched the window; then four clicks.
+    x.xdotool(&["key", "r"]);
+    let clicks = [
+        (150.0, 600.0),
+        (400.0, 500.0),
+        (650.0, 400.0),
+        (950.0, 250.0),
+    ];
+    for c in clicks {
+        x.click(c);
+    }
+    // With the Road tool on, a click on the Spawner button chooses that tool: no point added.
+    x.click(spawner_tool);
+    // The road as drawn: its points are where the clicks met the ground.
+    let points: Vec<DVec3> = clicks
+        .iter()
+        .map(|&(px, py)| {
+            let g = camera
+                .ground_point(Vec2::new(px, py), size, 0.0)
+                .expect("on the ground");
+            (g.as_dvec3() * 1000.0).round() / 1000.0
+        })
+        .collect();
+    let road = RoadGeometry::new(&RoadSpec::through("road 1", 2, 50.0, &points)).expect("a road");
+    let on_road = |s: f64| {
+        let p = camera
+            .to_screen(road.frame_at(s).pos.as_vec3(), size)
+            .expect("on screen");
+        (p.x, p.y)
+    };
+    // The spawner 20 m from the start, the destroyer 15 m before the end.
+    x.click(on_road(20.0));
+    x.click(destroyer_tool);
+    x.click(on_road(road.length_m() - 15.0));
+    x.click(play_button);
+    x.click(max_speed);
+    // Play until the run's telemetry has passed 30 simulated seconds.
+    let streamed = dir
+        .path()
+        .join(format!("flockway-play-{}.csv", editor.id()));
+    let started = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(&streamed).unwrap_or_default();
+        let last = text
+            .lines()
+            .last()
+            .and_then(|l| l.split(',').next())
+            .and_then(|t| t.parse::<f64>().ok())
+            .unwrap_or(0.0);
+        if last >= 31.0 {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(180),
+            "play reached only {last} s of simulated time"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    // End the run (its CSV goes beside the level), then save the level.
+    x.xdotool(&["mousemove", "500", "780"]);
+    x.xdotool(&["key", "Escape"]);
+    x.xdotool(&["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let saved = dir.path().join("level.ron");
+    let exported = dir.path().join("untitled_run.csv");
+    let (saved_exists, exported_exists) = (saved.exists(), exported.exists());
+    let _ = editor.kill();
+    let output = editor.wait_with_output().expect("editor output");
+    let _ = std::fs::remove_file(&streamed);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
+    assert!(
+        exported_exists,
+        "Esc did not export the run's CSV: {stderr}"
+    );
+
+    let level = load_level(&saved).expect("the saved level loads");
+    assert_eq!(level.roads.len(), 1, "the toolbar click started no road");
+    assert_eq!(
+        level.roads[0].points.len(),
+        4,
+        "the toolbar click added no point"
+    );
+    for (got, want) in level.roads[0].points.iter().zip(&points) {
+        assert!((got.pos - *want).length() < 0.01, "{} vs {want}", got.pos);
+    }
+    assert_eq!((level.spawners.len(), level.destroyers.len()), (1, 1));
+    assert!((level.spawners[0].s_m - 20.0).abs() < 2.0);
+    assert_eq!(level.spawners[0].profiles.len(), 2, "autonomous and human");
+
+    // The CSV: vehicles were spawned, drove along the road and were destroyed.
+    let csv = std::fs::read_to_string(&exported).expect("exported csv");
+    let mut seen: std::collections::BTreeMap<u32, (f64, f64, f64)> = Default::default();
+    let mut end = 0.0f64;
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (t, id, s): (f64, u32, f64) = (
+            f[0].parse().expect("time"),
+            f[1].parse().expect("id"),
+            f[5].parse().expect("s"),
+        );
+        assert_eq!(f[3], "road 1");
+        end = end.max(t);
+        let e = seen.entry(id).or_insert((t, s, s));
+        e.2 = s;
+        e.0 = e.0.min(t);
+    }
+    assert!(seen.len() >= 5, "only {} vehicles were spawned", seen.len());
+    let reached_end = seen
+        .values()
+        .filter(|(_, first, last)| *first < 25.0 && *last > road.length_m() - 40.0)
+        .count();
+    assert!(
+        reached_end >= 1,
+        "no vehicle drove from the spawner to the destroyer"
+    );
+    let last_sample: Vec<u32> = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.starts_with(&format!("{end:.3},")))
+        .filter_map(|l| l.split(',').nth(1)?.parse().ok())
+        .collect();
+    let destroyed = seen.keys().filter(|id| !last_sample.contains(id)).count();
+    assert!(destroyed >= 1, "no vehicle was destroyed");
+
+    // `flockway run` on the saved file gives the same bytes for the same 30 seconds.
+    let headless = dir.path().join("headless.csv");
+    let run = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(["run", "--quiet", "--seconds", "30", "--csv"])
+        .arg(&headless)
+        .arg(&saved)
         .env(
             "FLOCKWAY_ASSETS",
             std::fs::canonicalize("assets").expect("assets"),
         )
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("flockway edit starts");
-    let started = Instant::now();
-    let window = loop {
-        let out = Command::new("xdotool")
-            .args(["search", "--name", "Flockway"])
-            .env("DISPLAY", &x.1)
-            .output()
-            .expect("xdotool");
-        let id = String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .next()
-            .map(str::to_owned);
-        if let Some(id) = id {
-            break id;
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(30),
-            "no editor window appeared"
-        );
-        std::thread::sleep(Duration::from_millis(200));
-    };
-    std::thread::sleep(Duration::from_millis(1500));
-    x.xdotool(&["windowmove", &window, "0", "0"]);
-    x.xdotool(&["windowfocus", "--sync", &window]);
+        .output()
+        .expect("flockway run");
+    assert!(
+        run.status.code().is_some_and(|c| c <= 1),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let a = std::fs::read(&headless).expect("headless csv");
+    assert!(a.len() > 1000, "the headless run sampled nothing");
+    assert!(
+        csv.as_bytes().starts_with(&a),
+        "the window's CSV differs from `flockway run`'s within its first {} bytes",
+        a.len()
+    );
+}
+
+#[test]
+fn the_editor_driven_by_real_input_events_saves_the_level_it_shows() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let mut editor = x.editor(dir.path());
     // The road tool, four clicks, a drag of the third point, undo, redo, save.
     x.xdotool(&["key", "r"]);
     let clicks = [(200, 600), (400, 300), (650, 500), (900, 250)];
@@ -185,12 +441,7 @@ fn the_editor_driven_by_real_input_events_saves_the_level_it_shows() {
     let points: Vec<_> = level.roads[0].points.iter().map(|p| p.pos).collect();
     assert_eq!(points.len(), 4, "{points:?}");
     // Where each click meets the ground, seen through the editor's camera on an empty level.
-    let size = Vec2::new(1400.0, 860.0);
-    let camera = Camera::top_fit(
-        Vec3::new(-50.0, -50.0, 0.0),
-        Vec3::new(50.0, 50.0, 0.0),
-        size.x / size.y,
-    );
+    let (camera, size) = empty_level_camera();
     let expect = [
         (200.0, 600.0),
         (400.0, 300.0),

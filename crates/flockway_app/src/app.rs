@@ -6,10 +6,13 @@ use crate::editor::{Command, EditError, Editor, MarkerKind};
 use crate::play::{FRAME_BUDGET, PlaySession};
 use crate::scene::{StaticScene, Vertex, box_faces};
 use flockway_level::{
-    Destroyer, DestroyerPlace, Level, ProfileShare, Range, Spawner, Trigger, TriggerEffect,
+    Destroyer, DestroyerPlace, DriverProfile, Level, Range, Spawner, Trigger, TriggerEffect,
+    mixed_shares, reference_profiles, reference_vehicle_types, validate,
 };
-use flockway_road::{RoadGeometry, RoadNetwork, RoadSpec};
+use flockway_road::{RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
+use flockway_runner::{RunError, level_name, load_driver_profiles};
 use glam::{DVec3, Vec2, Vec3};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// What a click in the scene does.
@@ -67,6 +70,71 @@ enum Drag {
 /// Pixels within which a click takes a control point.
 pub const PICK_PX: f32 = 12.0;
 
+/// A place on a road under the pointer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadPick {
+    /// The road's index in the level.
+    pub road: usize,
+    /// Arc position, metres (within the road).
+    pub s_m: f64,
+    /// The lane there (0 is the rightmost).
+    pub lane: u32,
+    /// The road's length, metres.
+    pub length_m: f64,
+}
+
+/// The level as it can run: without roads of fewer than two points (still being drawn) and the
+/// connections onto them. Returns it and how many roads were left out.
+pub fn playable(level: &Level) -> (Level, usize) {
+    let drafts: Vec<String> = level
+        .roads
+        .iter()
+        .filter(|r| r.points.len() < 2)
+        .map(|r| r.name.clone())
+        .collect();
+    let mut out = level.clone();
+    out.roads.retain(|r| r.points.len() >= 2);
+    for r in &mut out.roads {
+        if r.next.as_ref().is_some_and(|n| drafts.contains(n)) {
+            r.next = None;
+        }
+    }
+    (out, drafts.len())
+}
+
+/// Where a spawner's pad is drawn: on its lane's centre line.
+pub fn spawner_spot(road: &RoadGeometry, lane: u32, s_m: f64) -> Vec3 {
+    let f = road.frame_at(s_m);
+    f.offset(lane_offset(f.width_m, road.lanes(), lane))
+        .as_vec3()
+}
+
+/// A clicked position to the millimetre: finer means nothing for a click, and the file stays
+/// readable.
+fn to_mm(p: DVec3) -> DVec3 {
+    (p * 1000.0).round() / 1000.0
+}
+
+/// Distance from `p` to the segment `a`–`b`, pixels.
+fn distance_to_segment(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    let ab = b - a;
+    let t = if ab.length_squared() > 0.0 {
+        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + t * ab)
+}
+
+/// The first letter in upper case, for status lines made from labels.
+fn capitalise(text: &str) -> String {
+    let mut chars = text.chars();
+    match chars.next() {
+        Some(c) => c.to_uppercase().chain(chars).collect(),
+        None => String::new(),
+    }
+}
+
 /// The whole application, without a window.
 pub struct AppState {
     /// The level being edited.
@@ -95,10 +163,24 @@ pub struct AppState {
     pub file_field: String,
     /// Set when the app should close.
     pub quit: bool,
+    /// Which page the side panel shows while editing.
+    pub side_tab: SideTab,
     network: RoadNetwork,
     scene_version: u64,
     drag: Option<Drag>,
     edited_level: Option<Level>,
+    asset_listing: BTreeMap<String, Vec<String>>,
+    profile_checks: BTreeMap<String, Option<String>>,
+}
+
+/// The pages of the side panel while editing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SideTab {
+    /// Whatever is selected.
+    #[default]
+    Inspector,
+    /// The level's settings, vehicle types, driver profiles, start vehicles and expectations.
+    Level,
 }
 
 impl AppState {
@@ -121,10 +203,13 @@ impl AppState {
             follow: false,
             file_field,
             quit: false,
+            side_tab: SideTab::Inspector,
             network: RoadNetwork::default(),
             scene_version: 0,
             drag: None,
             edited_level: None,
+            asset_listing: BTreeMap::new(),
+            profile_checks: BTreeMap::new(),
         };
         app.rebuild_network();
         app.fit_view(16.0 / 9.0);
@@ -186,6 +271,7 @@ impl AppState {
             None => self.editor.level(),
         };
         let mut scene = StaticScene::build(self.network(), level);
+        scene.add_grid();
         if self.play.is_none() {
             add_handles(&mut scene, level, self.selection);
         }
@@ -211,6 +297,12 @@ impl AppState {
     }
 
     fn edit(&mut self, command: Command, drag: bool) -> bool {
+        if let Command::AddDriverProfile(p) | Command::SetDriverProfile(_, p) = &command
+            && let Some(problem) = self.profile_problem(p)
+        {
+            self.status = problem;
+            return false;
+        }
         let result = if drag {
             self.editor.drag(command)
         } else {
@@ -226,6 +318,112 @@ impl AppState {
                 false
             }
         }
+    }
+
+    /// Applies an edit made by dragging or typing a value in a panel: the edits of one drag
+    /// merge into one undo step until [`AppState::end_live_edit`].
+    pub fn edit_live(&mut self, command: Command) -> bool {
+        self.edit(command, true)
+    }
+
+    /// The mouse button is up: a value dragged in a panel is done (a drag in the scene ends on
+    /// its own release).
+    pub fn end_live_edit(&mut self) {
+        if self.drag.is_none() {
+            self.editor.end_drag();
+        }
+    }
+
+    /// Chooses the scene's tool.
+    pub fn set_tool(&mut self, tool: Tool) {
+        if self.tool == tool {
+            return;
+        }
+        self.tool = tool;
+        self.status = match tool {
+            Tool::Select => "Select: click to select, drag points and markers to move them.",
+            Tool::Road => "Road: click on the ground to add points, Enter to finish the road.",
+            Tool::Spawner => "Spawner: click on a lane to place a spawner.",
+            Tool::Destroyer => "Destroyer: click on a road where vehicles should leave.",
+            Tool::Trigger => "Trigger: click on a road to place a speed-limit stretch.",
+        }
+        .to_owned();
+    }
+
+    /// Why a driver profile cannot drive, if it cannot: its parameter file or an override is
+    /// wrong. Profiles of plugin models are left to their plugin.
+    pub fn profile_problem(&mut self, profile: &DriverProfile) -> Option<String> {
+        let key = format!("{profile:?}");
+        if let Some(known) = self.profile_checks.get(&key) {
+            return known.clone();
+        }
+        let mut one = Level::new(1, 1.0);
+        one.driver_profiles = vec![profile.clone()];
+        let problem = load_driver_profiles(&one, "level", &self.assets)
+            .err()
+            .map(|e| match e {
+                RunError::Driver { name, message, .. } => {
+                    format!("driver profile `{name}`: {message}")
+                }
+                other => other.to_string(),
+            });
+        if self.profile_checks.len() > 256 {
+            self.profile_checks.clear();
+        }
+        self.profile_checks.insert(key, problem.clone());
+        problem
+    }
+
+    /// The `.ron` files under `assets/SUB/`, as level paths (`SUB/NAME.ron`), sorted.
+    pub fn asset_files(&mut self, sub: &str) -> Vec<String> {
+        let assets = self.assets.clone();
+        self.asset_listing
+            .entry(sub.to_owned())
+            .or_insert_with(|| {
+                let mut files: Vec<String> = std::fs::read_dir(assets.join(sub))
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|e| e.ok())
+                    .filter_map(|e| {
+                        let name = e.file_name().to_string_lossy().into_owned();
+                        name.ends_with(".ron").then(|| format!("{sub}/{name}"))
+                    })
+                    .collect();
+                files.sort();
+                files
+            })
+            .clone()
+    }
+
+    /// The length of the road with this name as drawn, if it forms a road.
+    pub fn road_length_m(&self, name: &str) -> Option<f64> {
+        self.network
+            .id(name)
+            .and_then(|id| self.network.get(id))
+            .map(|g| g.length_m())
+    }
+
+    /// Why road `r` does not form a road as drawn, if it does not.
+    pub fn road_problem(&self, r: usize) -> Option<String> {
+        let mut spec = self.editor.level().roads.get(r)?.clone();
+        spec.next = None;
+        RoadGeometry::new(&spec).err().map(|e| e.to_string())
+    }
+
+    /// Where a marker stands in the world.
+    pub fn marker_position(&self, kind: MarkerKind, index: usize) -> Option<DVec3> {
+        self.marker_anchor(kind, index).map(|(p, _)| p.as_dvec3())
+    }
+
+    /// Metres on the ground per pixel at the middle of the view.
+    pub fn metres_per_pixel(&self, size: Vec2) -> Option<f32> {
+        let mid = 0.5 * size;
+        let a = self.camera.ground_point(mid, size, 0.0)?;
+        let b = self
+            .camera
+            .ground_point(mid + Vec2::new(100.0, 0.0), size, 0.0)?;
+        let m = a.distance(b) / 100.0;
+        (m.is_finite() && m > 0.0).then_some(m)
     }
 
     /// The control point nearest a pixel, within [`PICK_PX`].
@@ -244,70 +442,114 @@ impl AppState {
         best.map(|(_, hit)| hit)
     }
 
-    /// Where a marker is drawn (on its road) and the road's name.
+    /// Where a marker is drawn (a spawner on its lane, a destroyer and a trigger's start on the
+    /// centre line) and the road's name.
     fn marker_anchor(&self, kind: MarkerKind, index: usize) -> Option<(Vec3, String)> {
         let level = self.editor.level();
-        let (road, s_m, side) = match kind {
+        let (road, s_m, lane) = match kind {
             MarkerKind::Spawner => {
                 let sp = level.spawners.get(index)?;
-                (sp.road.clone(), sp.s_m, true)
+                (sp.road.clone(), sp.s_m, Some(sp.lane))
             }
             MarkerKind::Destroyer => match &level.destroyers.get(index)?.place {
-                DestroyerPlace::OnRoad { road, s_m } => (road.clone(), *s_m, false),
+                DestroyerPlace::OnRoad { road, s_m } => (road.clone(), *s_m, None),
                 DestroyerPlace::Volume { .. } => return None,
             },
             MarkerKind::Trigger => {
                 let t = level.triggers.get(index)?;
-                (t.road.clone(), t.from_m, false)
+                (t.road.clone(), t.from_m, None)
             }
         };
         let g = self.network.get(self.network.id(&road)?)?;
-        let f = g.frame_at(s_m);
-        let lateral = if side { -0.5 * f.width_m - 1.2 } else { 0.0 };
-        Some((f.offset(lateral).as_vec3(), road))
+        let at = match lane {
+            Some(lane) => spawner_spot(g, lane, s_m),
+            None => g.frame_at(s_m).pos.as_vec3(),
+        };
+        Some((at, road))
     }
 
-    /// The marker nearest a pixel, within twice [`PICK_PX`].
+    /// The marker under a pixel: a spawner within twice [`PICK_PX`] of its pad, a destroyer
+    /// within [`PICK_PX`] of its gate across the road, or a trigger whose stretch is under the
+    /// pointer (the nearest of these; a stretch counts only when nothing else is that near).
     pub fn pick_marker(&self, px: Vec2, size: Vec2) -> Option<(MarkerKind, usize)> {
         let level = self.editor.level();
-        let all = (0..level.spawners.len())
-            .map(|i| (MarkerKind::Spawner, i))
-            .chain((0..level.destroyers.len()).map(|i| (MarkerKind::Destroyer, i)))
-            .chain((0..level.triggers.len()).map(|i| (MarkerKind::Trigger, i)));
-        let mut best = None;
-        for (kind, i) in all {
-            let Some((at, _)) = self.marker_anchor(kind, i) else {
+        let road = |name: &str| self.network.id(name).and_then(|id| self.network.get(id));
+        let screen = |p: Vec3| self.camera.to_screen(p, size);
+        let mut best: Option<(f32, (MarkerKind, usize))> = None;
+        let offer = |best: &mut Option<(f32, (MarkerKind, usize))>, d: f32, hit| {
+            if best.is_none_or(|(bd, _)| d < bd) {
+                *best = Some((d, hit));
+            }
+        };
+        for i in 0..level.spawners.len() {
+            if let Some((at, _)) = self.marker_anchor(MarkerKind::Spawner, i)
+                && let Some(s) = screen(at)
+                && s.distance(px) <= 2.0 * PICK_PX
+            {
+                offer(&mut best, s.distance(px), (MarkerKind::Spawner, i));
+            }
+        }
+        for (i, d) in level.destroyers.iter().enumerate() {
+            let DestroyerPlace::OnRoad { road: name, s_m } = &d.place else {
                 continue;
             };
-            if let Some(s) = self.camera.to_screen(at, size) {
-                let d = s.distance(px);
-                if d <= 2.0 * PICK_PX && best.is_none_or(|(bd, _)| d < bd) {
-                    best = Some((d, (kind, i)));
+            let Some(g) = road(name) else { continue };
+            let f = g.frame_at(*s_m);
+            let half = 0.5 * f.width_m + 0.8;
+            if let (Some(a), Some(b)) = (
+                screen(f.offset(-half).as_vec3()),
+                screen(f.offset(half).as_vec3()),
+            ) {
+                let d = distance_to_segment(px, a, b);
+                if d <= PICK_PX {
+                    offer(&mut best, d, (MarkerKind::Destroyer, i));
+                }
+            }
+        }
+        if best.is_none()
+            && let Some(ground) = self.camera.ground_point(px, size, 0.0)
+        {
+            for (i, t) in level.triggers.iter().enumerate() {
+                let Some(g) = road(&t.road) else { continue };
+                let proj = g.project(ground.as_dvec3());
+                let inside = if t.from_m <= t.to_m {
+                    (t.from_m..=t.to_m).contains(&proj.s_m)
+                } else {
+                    proj.s_m >= t.from_m || proj.s_m <= t.to_m
+                };
+                if inside && proj.lateral_m.abs() <= 0.5 * g.frame_at(proj.s_m).width_m {
+                    offer(&mut best, PICK_PX, (MarkerKind::Trigger, i));
                 }
             }
         }
         best.map(|(_, hit)| hit)
     }
 
-    /// The road under a pixel and the arc position there.
-    pub fn pick_road(&self, px: Vec2, size: Vec2) -> Option<(usize, f64)> {
+    /// The road under a pixel: which road (by its index in the level), the arc position and the
+    /// lane there. Roads still being drawn (one point) are not roads yet.
+    pub fn pick_road(&self, px: Vec2, size: Vec2) -> Option<RoadPick> {
         let g = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
         let level = self.editor.level();
-        let mut best: Option<(f64, usize, f64)> = None;
-        for (id, geom) in self.network.iter() {
+        let mut best: Option<(f64, RoadPick)> = None;
+        for (_, geom) in self.network.iter() {
             let proj = geom.project(g);
             let half = 0.5 * geom.frame_at(proj.s_m).width_m + 1.0;
-            if proj.lateral_m.abs() <= half {
-                let index = level.roads.iter().position(|r| r.name == geom.name());
-                if let Some(index) = index
-                    && best.is_none_or(|(d, _, _)| proj.lateral_m.abs() < d)
-                {
-                    best = Some((proj.lateral_m.abs(), index, proj.s_m));
-                }
-                let _ = id;
+            let Some(road) = level.roads.iter().position(|r| r.name == geom.name()) else {
+                continue;
+            };
+            let d = proj.lateral_m.abs();
+            if d <= half && best.as_ref().is_none_or(|(bd, _)| d < *bd) {
+                let pick = RoadPick {
+                    road,
+                    // Centimetres: what a click can mean, and what reads well in the file.
+                    s_m: ((proj.s_m * 100.0).round() / 100.0).clamp(0.0, geom.length_m()),
+                    lane: proj.lane,
+                    length_m: geom.length_m(),
+                };
+                best = Some((d, pick));
             }
         }
-        best.map(|(_, r, s)| (r, s))
+        best.map(|(_, p)| p)
     }
 
     /// The left button went down in the scene at `px`.
@@ -329,11 +571,11 @@ impl AppState {
         let ground = self
             .camera
             .ground_point(px, size, 0.0)
-            .map(|g| DVec3::new(f64::from(g.x), f64::from(g.y), 0.0));
+            .map(|g| to_mm(DVec3::new(f64::from(g.x), f64::from(g.y), 0.0)));
         match self.tool {
             Tool::Select => {
                 self.selection = match self.pick_road(px, size) {
-                    Some((r, _)) => Selection::Road(r),
+                    Some(pick) => Selection::Road(pick.road),
                     None => Selection::None,
                 }
             }
@@ -364,18 +606,36 @@ impl AppState {
                 }
             }
             Tool::Spawner | Tool::Destroyer | Tool::Trigger => {
-                let Some((r, s)) = self.pick_road(px, size) else {
-                    self.status = "click on a road to place it".to_owned();
+                let Some(pick) = self.pick_road(px, size) else {
+                    let what = match self.tool {
+                        Tool::Spawner => "spawner",
+                        Tool::Destroyer => "destroyer",
+                        _ => "trigger",
+                    };
+                    self.status = if self
+                        .editor
+                        .level()
+                        .roads
+                        .iter()
+                        .any(|r| r.points.len() >= 2)
+                    {
+                        format!("No road here: click on a road to place the {what} there.")
+                    } else {
+                        format!(
+                            "There is no road yet: draw one with the Road tool (R), then place \
+                             the {what} on it."
+                        )
+                    };
                     return;
                 };
-                self.place_marker(r, s);
+                self.place_marker(pick);
             }
         }
     }
 
-    fn place_marker(&mut self, road: usize, s_m: f64) {
+    fn place_marker(&mut self, pick: RoadPick) {
         let level = self.editor.level();
-        let Some(spec) = level.roads.get(road) else {
+        let Some(spec) = level.roads.get(pick.road) else {
             return;
         };
         let (name, limit) = (spec.name.clone(), spec.speed_limit_kmh);
@@ -385,32 +645,50 @@ impl AppState {
                 .find(|n| !taken(n))
                 .unwrap_or_default()
         };
+        let s_m = pick.s_m;
+        let mut note = String::new();
         let (command, kind, index) = match self.tool {
             Tool::Spawner => {
-                let profile = level
-                    .driver_profiles
-                    .first()
-                    .map(|p| p.name.clone())
-                    .unwrap_or_else(|| "autonomous".to_owned());
+                // A level without driver profiles gets the standard two, so the spawner has
+                // something to spawn.
+                let mut setup = Vec::new();
+                let mut with_profiles = level.clone();
+                if level.driver_profiles.is_empty() {
+                    for v in reference_vehicle_types() {
+                        if !level.vehicle_types.iter().any(|t| t.name == v.name) {
+                            with_profiles.vehicle_types.push(v.clone());
+                            setup.push(Command::AddVehicleType(v));
+                        }
+                    }
+                    for p in reference_profiles() {
+                        with_profiles.driver_profiles.push(p.clone());
+                        setup.push(Command::AddDriverProfile(p));
+                    }
+                    note = " The level had no driver profiles, so it got the standard \
+                            `autonomous` and `human` ones (Level panel)."
+                        .to_owned();
+                }
                 let n = unique("spawner", &|n| level.spawners.iter().any(|s| s.name == n));
-                (
-                    Command::AddSpawner(Spawner {
-                        name: n,
-                        road: name,
-                        lane: 0,
-                        s_m,
-                        interval_s: Range { min: 1.0, max: 2.0 },
-                        profiles: vec![ProfileShare {
-                            profile,
-                            weight: 1.0,
-                        }],
-                        speed_kmh: None,
-                        active: true,
-                        max_vehicles: None,
-                    }),
-                    MarkerKind::Spawner,
-                    level.spawners.len(),
-                )
+                setup.push(Command::AddSpawner(Spawner {
+                    name: n,
+                    road: name,
+                    lane: pick.lane,
+                    s_m,
+                    interval_s: Range { min: 1.5, max: 3.0 },
+                    profiles: mixed_shares(&with_profiles),
+                    speed_kmh: None,
+                    active: true,
+                    max_vehicles: None,
+                }));
+                let command = if setup.len() == 1 {
+                    setup.remove(0)
+                } else {
+                    Command::Batch {
+                        label: "add spawner",
+                        commands: setup,
+                    }
+                };
+                (command, MarkerKind::Spawner, level.spawners.len())
             }
             Tool::Destroyer => {
                 let n = unique("destroyer", &|n| {
@@ -427,12 +705,19 @@ impl AppState {
             }
             _ => {
                 let n = unique("trigger", &|n| level.triggers.iter().any(|t| t.name == n));
+                // 20 m long, inside the road (a loop's trigger may wrap past the join).
+                let (from_m, to_m) = if spec.closed {
+                    (s_m, (s_m + 20.0) % pick.length_m)
+                } else {
+                    let from = s_m.min((pick.length_m - 20.0).max(0.0));
+                    (from, (from + 20.0).min(pick.length_m))
+                };
                 (
                     Command::AddTrigger(Trigger {
                         name: n,
                         road: name,
-                        from_m: s_m,
-                        to_m: s_m + 20.0,
+                        from_m,
+                        to_m,
                         lanes: None,
                         effect: TriggerEffect::SpeedLimit {
                             kmh: (limit + 20.0).min(300.0),
@@ -443,8 +728,10 @@ impl AppState {
                 )
             }
         };
+        let label = command.label();
         if self.edit(command, false) {
             self.selection = Selection::Marker(kind, index);
+            self.status = format!("{}{note}", capitalise(label));
         }
     }
 
@@ -465,7 +752,7 @@ impl AppState {
                 };
                 let z = point.pos.z as f32;
                 if let Some(g) = self.camera.ground_point(px, size, z) {
-                    let to = DVec3::new(f64::from(g.x), f64::from(g.y), f64::from(z));
+                    let to = to_mm(DVec3::new(f64::from(g.x), f64::from(g.y), f64::from(z)));
                     self.edit(
                         Command::MovePoint {
                             road: r,
@@ -485,7 +772,7 @@ impl AppState {
                     return;
                 };
                 if let Some(at) = self.camera.ground_point(px, size, 0.0) {
-                    let s_m = g.project(at.as_dvec3()).s_m;
+                    let s_m = (g.project(at.as_dvec3()).s_m * 100.0).round() / 100.0;
                     self.edit(Command::MoveMarker { kind, index, s_m }, true);
                 }
             }
@@ -599,7 +886,7 @@ impl AppState {
     /// Asks for `action`; it happens at once if nothing unsaved would be lost, else it waits
     /// for [`AppState::confirm`].
     pub fn request(&mut self, action: Pending) {
-        if self.editor.is_dirty() && !self.editor.level().roads.is_empty() {
+        if self.editor.is_dirty() {
             self.pending = Some(action);
         } else {
             self.do_action(action);
@@ -617,6 +904,10 @@ impl AppState {
 
     fn do_action(&mut self, action: Pending) {
         self.stop();
+        // The work is saved or was discarded on purpose: nothing to offer back next time.
+        if let Some(auto) = crate::editor::autosave_path(self.editor.path()) {
+            let _ = std::fs::remove_file(auto);
+        }
         match action {
             Pending::New => self.load(Editor::new()),
             Pending::Open(path) => match Editor::open(&path) {
@@ -640,24 +931,70 @@ impl AppState {
         self.fit_view(16.0 / 9.0);
     }
 
-    /// Play: starts the level as edited (or resumes).
+    /// Play: starts the level as edited (or resumes). Roads still being drawn (a single point)
+    /// are left out; anything else `flockway run` would reject is refused, saying what and where.
     pub fn play(&mut self) {
         if let Some(p) = &mut self.play {
             p.paused = false;
             return;
         }
-        let level = self.editor.level().clone();
-        let name = level.name.clone();
-        let csv = std::env::temp_dir().join(format!("flockway-play-{}.csv", std::process::id()));
-        match PlaySession::start(level.clone(), &name, &self.assets, &csv) {
-            Ok(session) => {
-                self.edited_level = Some(level);
-                self.play = Some(session);
-                self.selection = Selection::None;
-                self.status = "playing".to_owned();
-            }
-            Err(e) => self.status = e.to_string(),
+        let (level, drafts) = playable(self.editor.level());
+        if let Some(issue) = validate(&level).first() {
+            self.status = format!("Cannot play: {}", issue.describe(&level));
+            return;
         }
+        let name = level_name(&level, self.editor.path().unwrap_or(Path::new("untitled")));
+        let csv = std::env::temp_dir().join(format!("flockway-play-{}.csv", std::process::id()));
+        match PlaySession::start(level, &name, &self.assets, &csv) {
+            Ok(session) => {
+                self.edited_level = Some(self.editor.level().clone());
+                self.play = Some(session);
+                // The scene drops the control-point handles while playing.
+                self.scene_version += 1;
+                self.selection = Selection::None;
+                self.status = match drafts {
+                    0 => "Playing.".to_owned(),
+                    n => format!("Playing, without {n} road(s) of a single point (not roads yet)."),
+                };
+            }
+            Err(e) => self.status = format!("Cannot play: {e}"),
+        }
+    }
+
+    /// Ends the road being drawn (Enter): the next click of the Road tool starts a new road.
+    pub fn finish_road(&mut self) {
+        if let Selection::Road(r) | Selection::Point(r, _) = self.selection
+            && let Some(road) = self.editor.level().roads.get(r)
+        {
+            self.status = if road.points.len() < 2 {
+                format!(
+                    "Road `{}` has one point: it is not a road yet. Select it and click to add \
+                     its next point, or press Delete.",
+                    road.name
+                )
+            } else {
+                format!("Road `{}` finished.", road.name)
+            };
+        }
+        self.selection = Selection::None;
+    }
+
+    /// The hint shown beside a road being drawn with the Road tool: where (its last point) and
+    /// what to do next.
+    pub fn drawing_hint(&self) -> Option<(Vec3, &'static str)> {
+        if self.play.is_some() || self.tool != Tool::Road {
+            return None;
+        }
+        let (Selection::Road(r) | Selection::Point(r, _)) = self.selection else {
+            return None;
+        };
+        let road = self.editor.level().roads.get(r)?;
+        let last = road.points.last()?.pos.as_vec3();
+        Some(if road.points.len() < 2 {
+            (last, "click to add the next point, Enter to finish")
+        } else {
+            (last, "click to extend the road, Enter to finish")
+        })
     }
 
     /// Pause or resume (Space).
@@ -760,19 +1097,24 @@ impl AppState {
         }
     }
 
-    /// The window title: file name and the unsaved-changes marker.
-    pub fn title(&self) -> String {
+    /// The level's file name (or "untitled") and, in play mode, that it is playing.
+    pub fn file_label(&self) -> String {
         let name = self.editor.path().and_then(|p| p.file_name()).map_or_else(
             || "untitled".to_owned(),
             |n| n.to_string_lossy().into_owned(),
         );
-        let dirty = if self.editor.is_dirty() { "● " } else { "" };
         let mode = if self.play.is_some() {
             " — playing"
         } else {
             ""
         };
-        format!("{dirty}{name}{mode} — Flockway")
+        format!("{name}{mode}")
+    }
+
+    /// The window title: file name and `*` when there are unsaved changes.
+    pub fn title(&self) -> String {
+        let dirty = if self.editor.is_dirty() { "* " } else { "" };
+        format!("{dirty}{} — Flockway", self.file_label())
     }
 }
 

@@ -7,7 +7,8 @@
 //! one undo step until [`Editor::end_drag`].
 
 use flockway_level::{
-    Destroyer, DestroyerPlace, Level, LevelError, Spawner, Trigger, level_to_string, parse_level,
+    Destroyer, DestroyerPlace, DriverProfile, Expectation, InitialVehicles, Level, LevelError,
+    Spawner, Telemetry, Template, Trigger, VehicleType, level_to_string, parse_level, validate,
     write_atomic,
 };
 use flockway_road::{ControlPoint, RoadSpec};
@@ -134,6 +135,46 @@ pub enum Command {
         /// Its index.
         index: usize,
     },
+    /// Sets the level's own settings.
+    SetLevelInfo {
+        /// Name shown in reports (empty: the file name).
+        name: String,
+        /// What the level shows.
+        description: String,
+        /// Seed of every random stream.
+        seed: u64,
+        /// Simulated duration of a run, s.
+        duration_s: f64,
+        /// Sampling period and warm-up.
+        telemetry: Telemetry,
+    },
+    /// Adds a vehicle type.
+    AddVehicleType(VehicleType),
+    /// Replaces a vehicle type; a new name is followed by the profiles that drive it.
+    SetVehicleType(usize, VehicleType),
+    /// Deletes a vehicle type no profile drives.
+    DeleteVehicleType(usize),
+    /// Adds a driver profile.
+    AddDriverProfile(DriverProfile),
+    /// Replaces a driver profile; a new name is followed by everything that refers to it.
+    SetDriverProfile(usize, DriverProfile),
+    /// Deletes a driver profile no spawner or vehicle group uses.
+    DeleteDriverProfile(usize),
+    /// Replaces the expectations.
+    SetExpectations(Vec<Expectation>),
+    /// Adds a group of vehicles present at the start.
+    AddVehicles(InitialVehicles),
+    /// Replaces a group of initial vehicles.
+    SetVehicles(usize, InitialVehicles),
+    /// Deletes a group of initial vehicles.
+    DeleteVehicles(usize),
+    /// Several edits as one undo step (all or none).
+    Batch {
+        /// What the undo menu calls it.
+        label: &'static str,
+        /// The edits, in order.
+        commands: Vec<Command>,
+    },
 }
 
 impl Command {
@@ -157,14 +198,59 @@ impl Command {
             }
             Command::MoveMarker { .. } => "move marker",
             Command::DeleteMarker { .. } => "delete marker",
+            Command::SetLevelInfo { .. } => "edit level settings",
+            Command::AddVehicleType(_) => "add vehicle type",
+            Command::SetVehicleType(..) => "edit vehicle type",
+            Command::DeleteVehicleType(_) => "delete vehicle type",
+            Command::AddDriverProfile(_) => "add driver profile",
+            Command::SetDriverProfile(..) => "edit driver profile",
+            Command::DeleteDriverProfile(_) => "delete driver profile",
+            Command::SetExpectations(_) => "edit expectations",
+            Command::AddVehicles(_) => "add vehicle group",
+            Command::SetVehicles(..) => "edit vehicle group",
+            Command::DeleteVehicles(_) => "delete vehicle group",
+            Command::Batch { label, .. } => label,
         }
     }
 
-    /// What a drag moves: consecutive drags of the same thing merge into one undo step.
+    /// Whether the level's validation judges this edit: edits of settings and markers may not
+    /// add a problem `flockway run` would reject (drawing a road passes through states that are
+    /// not roads yet, so geometry edits are not judged).
+    fn is_checked(&self) -> bool {
+        match self {
+            Command::AddRoad { .. }
+            | Command::AppendPoint { .. }
+            | Command::InsertPoint { .. }
+            | Command::MovePoint { .. }
+            | Command::DeletePoint { .. }
+            | Command::DeleteRoad { .. }
+            | Command::SetClosed { .. }
+            | Command::Connect { .. }
+            | Command::SetPoint { .. }
+            | Command::DeleteMarker { .. }
+            | Command::DeleteVehicleType(_)
+            | Command::DeleteDriverProfile(_)
+            | Command::DeleteVehicles(_) => false,
+            Command::Batch { commands, .. } => commands.iter().any(Command::is_checked),
+            _ => true,
+        }
+    }
+
+    /// What a drag (of a point or marker in the scene, or of a value in a panel) changes:
+    /// consecutive edits of the same thing merge into one undo step until the drag ends.
     fn drag_target(&self) -> Option<(u8, usize, usize)> {
         match self {
             Command::MovePoint { road, index, .. } => Some((0, *road, *index)),
             Command::MoveMarker { kind, index, .. } => Some((1 + *kind as u8, *index, 0)),
+            Command::SetPoint { road, index, .. } => Some((4, *road, *index)),
+            Command::SetRoad { road, .. } => Some((5, *road, 0)),
+            Command::SetSpawner(i, _) => Some((6, *i, 0)),
+            Command::SetDestroyer(i, _) => Some((7, *i, 0)),
+            Command::SetTrigger(i, _) => Some((8, *i, 0)),
+            Command::SetLevelInfo { .. } => Some((9, 0, 0)),
+            Command::SetVehicleType(i, _) => Some((10, *i, 0)),
+            Command::SetDriverProfile(i, _) => Some((11, *i, 0)),
+            Command::SetVehicles(i, _) => Some((12, *i, 0)),
             _ => None,
         }
     }
@@ -183,7 +269,7 @@ pub enum EditError {
     #[error("{0}")]
     BadValue(String),
     /// Saving would write a level that `flockway run` rejects: fix these first.
-    #[error("the level is not valid yet, so it was not saved: {0}")]
+    #[error("Not saved, because `flockway run` would refuse the level: {0}")]
     Invalid(String),
     /// Reading or writing a file failed.
     #[error(transparent)]
@@ -218,16 +304,17 @@ pub struct Editor {
 pub const UNDO_DEPTH: usize = 500;
 
 impl Editor {
-    /// A new, empty, unsaved level.
+    /// A new, unsaved level with no roads yet, but the reference vehicle types and the
+    /// `autonomous` and `human` driver profiles, so a spawner placed on the first road drawn
+    /// spawns cars.
     pub fn new() -> Editor {
-        let mut level = Level::new(1, 120.0);
-        level.name = "untitled".to_owned();
-        Editor::with_level(level, None)
+        Editor::with_level(Template::Empty.level("untitled"), None)
     }
 
     /// Edits `level`, which was loaded from (and saves to) `path`.
     pub fn with_level(level: Level, path: Option<PathBuf>) -> Editor {
-        let saved = path.is_some().then_some(0);
+        // As loaded (or as made from a template): nothing to save until it is edited.
+        let saved = Some(0);
         Editor {
             level,
             path,
@@ -288,6 +375,7 @@ impl Editor {
         if merges {
             let mut level = self.level.clone();
             apply(&mut level, &command)?;
+            self.judge(&command, &level)?;
             self.level = level;
             if let Some(step) = self.undo.last_mut() {
                 step.command = command;
@@ -310,9 +398,23 @@ impl Editor {
         self.dragging = false;
     }
 
+    /// Refuses an edit that adds a problem to the level (see [`Command`]'s checked edits), with
+    /// the problem in words.
+    fn judge(&self, command: &Command, after: &Level) -> Result<(), EditError> {
+        if !command.is_checked() {
+            return Ok(());
+        }
+        let before = validate(&self.level);
+        match validate(after).into_iter().find(|i| !before.contains(i)) {
+            Some(issue) => Err(EditError::BadValue(issue.describe(after))),
+            None => Ok(()),
+        }
+    }
+
     fn push(&mut self, command: Command) -> Result<(), EditError> {
         let mut level = self.level.clone();
         apply(&mut level, &command)?;
+        self.judge(&command, &level)?;
         let before = std::mem::replace(&mut self.level, level);
         let before_id = self.state;
         self.state = self.next_state;
@@ -377,6 +479,17 @@ impl Editor {
 
     /// The level's RON text, checked by the same parser and validation `flockway run` uses.
     pub fn checked_text(&self, path: &Path) -> Result<String, EditError> {
+        let issues = validate(&self.level);
+        if let Some(first) = issues.first() {
+            let more = match issues.len() {
+                1 => String::new(),
+                n => format!(" (and {} more problem(s))", n - 1),
+            };
+            return Err(EditError::Invalid(format!(
+                "{}{more}",
+                first.describe(&self.level)
+            )));
+        }
         let text = level_to_string(&self.level)?;
         parse_level(&text, path).map_err(|e| EditError::Invalid(e.to_string()))?;
         Ok(text)
@@ -607,12 +720,124 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             if name != old {
                 rename_road(level, &old, &name);
             }
+            // Fewer lanes: what stood in a lane that is gone moves to the new leftmost one.
+            let top = *lanes - 1;
+            for s in level.spawners.iter_mut().filter(|s| s.road == name) {
+                s.lane = s.lane.min(top);
+            }
+            for v in level.vehicles.iter_mut().filter(|v| v.road == name) {
+                v.lane = v.lane.min(top);
+            }
+            for t in level.triggers.iter_mut().filter(|t| t.road == name) {
+                if let Some(l) = &mut t.lanes {
+                    l.retain(|k| *k <= top);
+                    if l.is_empty() {
+                        t.lanes = None;
+                    }
+                }
+            }
+        }
+        Command::SetLevelInfo {
+            name,
+            description,
+            seed,
+            duration_s,
+            telemetry,
+        } => {
+            level.name = name.trim().to_owned();
+            level.description = description.clone();
+            level.seed = *seed;
+            level.duration_s = *duration_s;
+            level.telemetry = telemetry.clone();
+        }
+        Command::AddVehicleType(v) => level.vehicle_types.push(v.clone()),
+        Command::SetVehicleType(i, v) => {
+            let old = marker(&mut level.vehicle_types, *i)?.name.clone();
+            level.vehicle_types[*i] = v.clone();
+            for p in &mut level.driver_profiles {
+                if p.vehicle == old {
+                    p.vehicle = v.name.clone();
+                }
+            }
+        }
+        Command::DeleteVehicleType(i) => {
+            let name = marker(&mut level.vehicle_types, *i)?.name.clone();
+            let users: Vec<String> = level
+                .driver_profiles
+                .iter()
+                .filter(|p| p.vehicle == name)
+                .map(|p| format!("`{}`", p.name))
+                .collect();
+            if !users.is_empty() {
+                return Err(EditError::BadValue(format!(
+                    "vehicle type `{name}` is driven by driver profile {}: give {} another \
+                     vehicle first",
+                    users.join(", "),
+                    if users.len() == 1 { "it" } else { "them" }
+                )));
+            }
+            level.vehicle_types.remove(*i);
+        }
+        Command::AddDriverProfile(p) => level.driver_profiles.push(p.clone()),
+        Command::SetDriverProfile(i, p) => {
+            let old = marker(&mut level.driver_profiles, *i)?.name.clone();
+            level.driver_profiles[*i] = p.clone();
+            if p.name != old {
+                rename_profile(level, &old, &p.name);
+            }
+        }
+        Command::DeleteDriverProfile(i) => {
+            let name = marker(&mut level.driver_profiles, *i)?.name.clone();
+            let mut users: Vec<String> = level
+                .spawners
+                .iter()
+                .filter(|s| s.profiles.iter().any(|p| p.profile == name))
+                .map(|s| format!("spawner `{}`", s.name))
+                .collect();
+            users.extend(
+                level
+                    .vehicles
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| v.profile == name)
+                    .map(|(k, _)| format!("vehicle group {}", k + 1)),
+            );
+            if !users.is_empty() {
+                return Err(EditError::BadValue(format!(
+                    "driver profile `{name}` is used by {}: remove it there first",
+                    users.join(", ")
+                )));
+            }
+            level.driver_profiles.remove(*i);
+            level.expect.retain(|e| {
+                e.qualifier.as_deref() != Some(name.as_str()) || !profile_metric(&e.metric)
+            });
+        }
+        Command::SetExpectations(list) => level.expect = list.clone(),
+        Command::AddVehicles(v) => level.vehicles.push(v.clone()),
+        Command::SetVehicles(i, v) => *marker(&mut level.vehicles, *i)? = v.clone(),
+        Command::DeleteVehicles(i) => {
+            marker(&mut level.vehicles, *i)?;
+            level.vehicles.remove(*i);
+        }
+        Command::Batch { commands, .. } => {
+            for c in commands {
+                apply(level, c)?;
+            }
         }
         Command::AddSpawner(s) => level.spawners.push(s.clone()),
         Command::AddDestroyer(d) => level.destroyers.push(d.clone()),
         Command::AddTrigger(t) => level.triggers.push(t.clone()),
         Command::SetSpawner(i, s) => *marker(&mut level.spawners, *i)? = s.clone(),
-        Command::SetDestroyer(i, d) => *marker(&mut level.destroyers, *i)? = d.clone(),
+        Command::SetDestroyer(i, d) => {
+            let old = marker(&mut level.destroyers, *i)?.name.clone();
+            level.destroyers[*i] = d.clone();
+            for e in &mut level.expect {
+                if e.metric == "flow_veh_per_h" && e.qualifier.as_deref() == Some(old.as_str()) {
+                    e.qualifier = Some(d.name.clone());
+                }
+            }
+        }
         Command::SetTrigger(i, t) => *marker(&mut level.triggers, *i)? = t.clone(),
         Command::MoveMarker { kind, index, s_m } => {
             if !s_m.is_finite() || *s_m < 0.0 {
@@ -658,6 +883,33 @@ fn marker<T>(list: &mut [T], index: usize) -> Result<&mut T, EditError> {
     list.get_mut(index).ok_or_else(|| {
         EditError::NoSuchThing(format!("there is no marker {index} (there are {n})"))
     })
+}
+
+/// Whether a metric's qualifier names a driver profile.
+fn profile_metric(metric: &str) -> bool {
+    flockway_level::metric_info(metric)
+        .is_some_and(|m| m.qualifier == flockway_level::Qualifier::Profile)
+}
+
+/// Follows a driver profile's new name everywhere the level refers to it.
+fn rename_profile(level: &mut Level, old: &str, new: &str) {
+    for s in &mut level.spawners {
+        for share in &mut s.profiles {
+            if share.profile == old {
+                share.profile = new.to_owned();
+            }
+        }
+    }
+    for v in &mut level.vehicles {
+        if v.profile == old {
+            v.profile = new.to_owned();
+        }
+    }
+    for e in &mut level.expect {
+        if profile_metric(&e.metric) && e.qualifier.as_deref() == Some(old) {
+            e.qualifier = Some(new.to_owned());
+        }
+    }
 }
 
 /// Follows a road's new name everywhere the level refers to it.

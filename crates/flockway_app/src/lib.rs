@@ -5,13 +5,16 @@
 mod app;
 mod camera;
 mod editor;
+mod focus;
 mod play;
 mod render;
 mod scene;
 mod ui;
 mod window;
 
-pub use app::{AppState, PICK_PX, Pending, Selection, Tool};
+pub use app::{
+    AppState, PICK_PX, Pending, RoadPick, Selection, SideTab, Tool, playable, spawner_spot,
+};
 pub use camera::{Camera, ORBIT_FOV_RAD};
 pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
 pub use play::{FRAME_BUDGET, HudStats, PlaySession, PlaySpeed};
@@ -20,8 +23,8 @@ pub use render::{
     Targets, render_image,
 };
 pub use scene::{
-    COM_HEIGHT_SHARE, CarVertex, StaticScene, VehicleFrame, VehicleInstance, Vertex, box_faces,
-    car_mesh, palette,
+    COM_HEIGHT_SHARE, CarVertex, EMPTY_VIEW_M, StaticScene, VehicleFrame, VehicleInstance, Vertex,
+    box_faces, car_mesh, palette,
 };
 pub use ui::{PANEL_WIDTH, ui};
 pub use window::{WindowError, run};

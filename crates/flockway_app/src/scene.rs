@@ -4,7 +4,7 @@
 use bevy_ecs::prelude::*;
 use flockway_drivers::{FlockDriver, HumanDriver};
 use flockway_level::{DestroyerPlace, Level, TriggerEffect};
-use flockway_road::{Mesh, RoadGeometry, RoadNetwork};
+use flockway_road::{Mesh, RoadGeometry, RoadNetwork, lane_offset};
 use flockway_vehicle::{Motion, VehicleModel};
 use glam::{DVec3, Quat, Vec3};
 
@@ -50,8 +50,14 @@ pub mod palette {
     pub const HUMAN: [f32; 4] = [0.75, 0.04, 0.03, 1.0];
     /// Cars of other drivers (IDM, plugins).
     pub const OTHER: [f32; 4] = [0.85, 0.6, 0.02, 1.0];
-    /// Spawner posts.
+    /// Spawner posts and pads.
     pub const SPAWNER: [f32; 4] = [0.1, 0.7, 0.15, 1.0];
+    /// The arrow on a spawner's pad.
+    pub const SPAWNER_ARROW: [f32; 4] = [0.85, 1.0, 0.85, 1.0];
+    /// Ground grid lines every 10 m.
+    pub const GRID: [f32; 4] = [0.2, 0.31, 0.16, 1.0];
+    /// Ground grid lines every 100 m.
+    pub const GRID_MAJOR: [f32; 4] = [0.27, 0.4, 0.22, 1.0];
     /// Destroyer gates.
     pub const DESTROYER: [f32; 4] = [0.8, 0.1, 0.6, 1.0];
     /// Speed-limit trigger stretches (translucent).
@@ -59,6 +65,9 @@ pub mod palette {
     /// Friction trigger stretches (translucent).
     pub const FRICTION_TRIGGER: [f32; 4] = [0.1, 0.5, 1.0, 0.35];
 }
+
+/// Half the side of the square an empty level's view frames, metres.
+pub const EMPTY_VIEW_M: f32 = 150.0;
 
 /// The scene that changes only when the level is edited, as one triangle list.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -92,8 +101,9 @@ impl StaticScene {
             }
         }
         if !scene.min.is_finite() {
-            scene.min = Vec3::new(-50.0, -50.0, 0.0);
-            scene.max = Vec3::new(50.0, 50.0, 0.0);
+            // An empty level shows a few hundred metres: room to draw a road cars can use.
+            scene.min = Vec3::new(-EMPTY_VIEW_M, -EMPTY_VIEW_M, 0.0);
+            scene.max = Vec3::new(EMPTY_VIEW_M, EMPTY_VIEW_M, 0.0);
         }
         // Ground: a quad well beyond the roads, just under them.
         let pad = 0.5 * (scene.max - scene.min).truncate().max_element() + 50.0;
@@ -112,7 +122,34 @@ impl StaticScene {
         let road = |name: &str| network.id(name).and_then(|id| network.get(id));
         for s in &level.spawners {
             if let Some(g) = road(&s.road) {
+                // A pad with an arrow on the lane it spawns in, and a post beside the road.
                 let f = g.frame_at(s.s_m);
+                let lane_w = f.width_m / f64::from(g.lanes().max(1));
+                let centre = f.offset(lane_offset(f.width_m, g.lanes(), s.lane)) + f.up * 0.04;
+                let (t, l, up) = (f.tangent, f.left, f.up);
+                let (half_l, half_w) = (2.5, 0.5 * (lane_w - 0.5).max(0.8));
+                let corner = |a: f64, b: f64| (centre + t * a + l * b).as_vec3();
+                scene.quad(
+                    [
+                        corner(-half_l, -half_w),
+                        corner(half_l, -half_w),
+                        corner(half_l, half_w),
+                        corner(-half_l, half_w),
+                    ],
+                    up.as_vec3(),
+                    palette::SPAWNER,
+                );
+                let tip = centre + up * 0.02;
+                let arrow = |a: f64, b: f64| (tip + t * a + l * b).as_vec3();
+                scene.triangle(
+                    [
+                        arrow(-1.5, -0.7 * half_w),
+                        arrow(2.0, 0.0),
+                        arrow(-1.5, 0.7 * half_w),
+                    ],
+                    up.as_vec3(),
+                    palette::SPAWNER_ARROW,
+                );
                 let side = f.offset(-0.5 * f.width_m - 1.2);
                 scene.cuboid(
                     side.as_vec3(),
@@ -169,6 +206,85 @@ impl StaticScene {
             }
         }
         scene
+    }
+
+    /// Lines on the ground every 10 m (stronger every 100 m), so distances can be judged; the
+    /// editor draws them, `flockway render` does not.
+    pub fn add_grid(&mut self) {
+        if !(self.min.is_finite() && self.max.is_finite()) {
+            return;
+        }
+        let pad = 0.5 * (self.max - self.min).truncate().max_element() + 50.0;
+        let lo = ((self.min.truncate() - pad) / 10.0).floor() * 10.0;
+        let hi = ((self.max.truncate() + pad) / 10.0).ceil() * 10.0;
+        // At most ~400 lines a side: a huge level gets only its 100 m lines.
+        let step = if (hi - lo).max_element() > 4000.0 {
+            100.0
+        } else {
+            10.0
+        };
+        let z = self.min.z - 0.03;
+        let at = self.translucent_from as usize;
+        let mut opaque = StaticScene::default();
+        let count = |a: f32, b: f32| ((b - a) / step).round() as i64;
+        for k in 0..=count(lo.x, hi.x) {
+            let x = lo.x + k as f32 * step;
+            let major = (x / 100.0).round() * 100.0 == x;
+            let w = if major { 0.35 } else { 0.12 };
+            let c = if major {
+                palette::GRID_MAJOR
+            } else {
+                palette::GRID
+            };
+            opaque.quad(
+                [
+                    Vec3::new(x - w, lo.y, z),
+                    Vec3::new(x + w, lo.y, z),
+                    Vec3::new(x + w, hi.y, z),
+                    Vec3::new(x - w, hi.y, z),
+                ],
+                Vec3::Z,
+                c,
+            );
+        }
+        for k in 0..=count(lo.y, hi.y) {
+            let y = lo.y + k as f32 * step;
+            let major = (y / 100.0).round() * 100.0 == y;
+            let w = if major { 0.35 } else { 0.12 };
+            let c = if major {
+                palette::GRID_MAJOR
+            } else {
+                palette::GRID
+            };
+            opaque.quad(
+                [
+                    Vec3::new(lo.x, y - w, z + 0.001),
+                    Vec3::new(hi.x, y - w, z + 0.001),
+                    Vec3::new(hi.x, y + w, z + 0.001),
+                    Vec3::new(lo.x, y + w, z + 0.001),
+                ],
+                Vec3::Z,
+                c,
+            );
+        }
+        // Opaque: spliced in before the translucent trigger stretches.
+        let base = self.vertices.len() as u32;
+        self.vertices.extend(opaque.vertices);
+        let indices: Vec<u32> = opaque.indices.iter().map(|i| base + i).collect();
+        self.translucent_from += indices.len() as u32;
+        self.indices.splice(at..at, indices);
+    }
+
+    fn triangle(&mut self, corners: [Vec3; 3], normal: Vec3, colour: [f32; 4]) {
+        let base = self.vertices.len() as u32;
+        for c in corners {
+            self.vertices.push(Vertex {
+                position: c.to_array(),
+                normal: normal.to_array(),
+                colour,
+            });
+        }
+        self.indices.extend_from_slice(&[base, base + 1, base + 2]);
     }
 
     fn grow(&mut self, p: Vec3) {

@@ -1,16 +1,14 @@
 //! The window: winit events, a wgpu surface showing the scene with egui on top, and the
 //! keyboard and mouse controls of the editor and play mode.
 
-use crate::app::{AppState, Selection};
+use crate::app::AppState;
 use crate::render::{Gpu, RenderError, SceneRenderer, Targets};
 use crate::scene::VehicleInstance;
-use glam::Vec2;
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
-use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// Why the window could not open.
@@ -45,10 +43,9 @@ struct WindowApp {
     error: Option<WindowError>,
     last_frame: Instant,
     last_autosave: Instant,
-    cursor: Vec2,
-    buttons: [bool; 3],
-    modifiers: winit::keyboard::ModifiersState,
     interpolated: Vec<VehicleInstance>,
+    /// Whether the first frame has been shown (the window is mapped and may take focus).
+    shown: bool,
 }
 
 /// Opens the window on `app` and runs until it is closed.
@@ -60,10 +57,8 @@ pub fn run(app: AppState) -> Result<(), WindowError> {
         error: None,
         last_frame: Instant::now(),
         last_autosave: Instant::now(),
-        cursor: Vec2::ZERO,
-        buttons: [false; 3],
-        modifiers: Default::default(),
         interpolated: Vec::new(),
+        shown: false,
     };
     event_loop
         .run_app(&mut w)
@@ -150,47 +145,6 @@ impl Graphics {
 }
 
 impl WindowApp {
-    fn viewport(&self) -> Vec2 {
-        self.graphics
-            .as_ref()
-            .map_or(Vec2::new(1400.0, 860.0), |g| {
-                Vec2::new(g.config.width as f32, g.config.height as f32)
-            })
-    }
-
-    fn key(&mut self, key: &Key) {
-        let ctrl = self.modifiers.control_key();
-        let shift = self.modifiers.shift_key();
-        let aspect = self.viewport().x / self.viewport().y.max(1.0);
-        let app = &mut self.app;
-        match key {
-            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("z") && shift => app.redo(),
-            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("z") => app.undo(),
-            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("y") => app.redo(),
-            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("s") => {
-                let _ = app.save();
-            }
-            Key::Character(c) if c.eq_ignore_ascii_case("f") => app.follow = !app.follow,
-            Key::Character(c) if c.eq_ignore_ascii_case("r") => app.tool = crate::app::Tool::Road,
-            Key::Character(c) if c.eq_ignore_ascii_case("v") => app.tool = crate::app::Tool::Select,
-            Key::Character(c) if c.len() == 1 && c.as_bytes()[0].is_ascii_digit() => {
-                app.load_shipped(usize::from(c.as_bytes()[0] - b'0'));
-            }
-            Key::Named(NamedKey::Space) => {
-                if app.play.is_some() {
-                    app.toggle_pause();
-                } else {
-                    app.play();
-                }
-            }
-            Key::Named(NamedKey::Escape) => app.end_run(),
-            Key::Named(NamedKey::Delete) | Key::Named(NamedKey::Backspace) => app.delete_selected(),
-            Key::Named(NamedKey::Tab) => app.toggle_camera(aspect),
-            Key::Named(NamedKey::Enter) => app.selection = Selection::None,
-            _ => {}
-        }
-    }
-
     fn redraw(&mut self) {
         let now = Instant::now();
         let dt = (now - self.last_frame).as_secs_f64();
@@ -293,6 +247,10 @@ impl WindowApp {
             .queue
             .submit(extra.into_iter().chain([encoder.finish()]));
         g.gpu.queue.present(frame);
+        if !self.shown {
+            self.shown = true;
+            crate::focus::take_if_unmanaged(&g.window);
+        }
         for id in &frees {
             g.egui_renderer.free_texture(id);
         }
@@ -320,15 +278,10 @@ impl ApplicationHandler for WindowApp {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
-        let consumed = match &mut self.graphics {
-            Some(g) => g.egui_state.on_window_event(&g.window, &event).consumed,
-            None => false,
-        };
-        let over_ui = self
-            .graphics
-            .as_ref()
-            .is_some_and(|g| g.egui_state.egui_ctx().egui_wants_pointer_input());
-        let size = self.viewport();
+        // Mouse and keyboard go to egui, which hands the scene what no panel takes (`ui`).
+        if let Some(g) = &mut self.graphics {
+            let _ = g.egui_state.on_window_event(&g.window, &event);
+        }
         match event {
             WindowEvent::CloseRequested => {
                 self.app.request(crate::app::Pending::Quit);
@@ -339,52 +292,10 @@ impl ApplicationHandler for WindowApp {
                 }
             }
             WindowEvent::RedrawRequested => self.redraw(),
-            WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),
-            WindowEvent::KeyboardInput { event, .. }
-                if event.state == ElementState::Pressed && !consumed =>
-            {
-                self.key(&event.logical_key);
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let p = Vec2::new(position.x as f32, position.y as f32);
-                let delta = p - self.cursor;
-                self.cursor = p;
-                if self.buttons[0] {
-                    self.app.drag_to(p, size);
+            WindowEvent::CursorEntered { .. } | WindowEvent::MouseInput { .. } => {
+                if let Some(g) = &self.graphics {
+                    crate::focus::take_if_unmanaged(&g.window);
                 }
-                if self.buttons[1] {
-                    self.app.camera.orbit(delta, size);
-                }
-                if self.buttons[2] {
-                    self.app.camera.pan(delta, size);
-                }
-            }
-            WindowEvent::MouseInput { state, button, .. } => {
-                let index = match button {
-                    MouseButton::Left => 0,
-                    MouseButton::Right => 1,
-                    MouseButton::Middle => 2,
-                    _ => return,
-                };
-                let down = state == ElementState::Pressed;
-                if down && over_ui {
-                    return;
-                }
-                self.buttons[index] = down;
-                if index == 0 {
-                    if down {
-                        self.app.press(self.cursor, size);
-                    } else {
-                        self.app.release();
-                    }
-                }
-            }
-            WindowEvent::MouseWheel { delta, .. } if !over_ui => {
-                let lines = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => y,
-                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
-                };
-                self.app.camera.zoom(0.9f32.powf(lines));
             }
             _ => {}
         }

@@ -1,19 +1,24 @@
-//! The egui panels: file and tool bar, inspector, play controls, HUD with its live chart, and
-//! the status bar. Pure functions of [`AppState`], so they are snapshot-tested without a window.
+//! The egui panels: file and tool bar, inspector, level settings, play controls, HUD with its
+//! live chart, the status bar, and the scene's mouse and keyboard input. Pure functions of
+//! [`AppState`], so they are tested without a window (egui_kittest) and with one (Xvfb).
 
-use crate::app::{AppState, Pending, Selection, Tool};
-use crate::editor::{Command, MarkerKind};
+mod input;
+mod inspector;
+mod level;
+mod widgets;
+
+use crate::app::{AppState, Pending, Selection, SideTab, Tool};
 use crate::play::PlaySpeed;
 use flockway_drivers::DriverLabel;
-use flockway_level::{DestroyerPlace, TriggerEffect};
 use flockway_vehicle::{Controls, Motion, VehicleState};
 use std::path::PathBuf;
 
 /// Width of the side panel, points.
-pub const PANEL_WIDTH: f32 = 300.0;
+pub const PANEL_WIDTH: f32 = 340.0;
 
-/// Draws every panel; the rest of the window is the 3D scene.
+/// Draws every panel and handles the scene's input; the rest of the window is the 3D scene.
 pub fn ui(ui: &mut egui::Ui, app: &mut AppState) {
+    input::shortcuts(ui.ctx(), app);
     egui::Panel::top("bar").show(ui, |ui| top_bar(ui, app));
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.horizontal(|ui| {
@@ -36,11 +41,24 @@ pub fn ui(ui: &mut egui::Ui, app: &mut AppState) {
                 } else {
                     play_controls(ui, app);
                     ui.separator();
-                    inspector(ui, app);
+                    ui.horizontal(|ui| {
+                        ui.selectable_value(&mut app.side_tab, SideTab::Inspector, "Inspector");
+                        ui.selectable_value(&mut app.side_tab, SideTab::Level, "Level");
+                    });
+                    ui.separator();
+                    match app.side_tab {
+                        SideTab::Inspector => inspector::inspector(ui, app),
+                        SideTab::Level => level::level_panel(ui, app),
+                    }
                 }
             });
         });
+    input::scene(ui, app);
     dialogs(ui, app);
+    // A value dragged in a panel is one undo step: it ends when the button is let go.
+    if !ui.input(|i| i.pointer.any_down()) {
+        app.end_live_edit();
+    }
 }
 
 fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
@@ -81,14 +99,40 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
                 app.redo();
             }
             ui.separator();
-            for (tool, label) in [
-                (Tool::Select, "Select"),
-                (Tool::Road, "Road"),
-                (Tool::Spawner, "Spawner"),
-                (Tool::Destroyer, "Destroyer"),
-                (Tool::Trigger, "Trigger"),
+            for (tool, label, hint) in [
+                (
+                    Tool::Select,
+                    "Select",
+                    "V: select and drag points, roads and markers",
+                ),
+                (
+                    Tool::Road,
+                    "Road",
+                    "R: click to add points, Enter to finish the road",
+                ),
+                (
+                    Tool::Spawner,
+                    "Spawner",
+                    "click on a lane to place a spawner",
+                ),
+                (
+                    Tool::Destroyer,
+                    "Destroyer",
+                    "click on a road to place a destroyer",
+                ),
+                (
+                    Tool::Trigger,
+                    "Trigger",
+                    "click on a road to place a speed-limit trigger",
+                ),
             ] {
-                ui.selectable_value(&mut app.tool, tool, label);
+                if ui
+                    .selectable_label(app.tool == tool, label)
+                    .on_hover_text(hint)
+                    .clicked()
+                {
+                    app.set_tool(tool);
+                }
             }
         });
         ui.separator();
@@ -99,7 +143,10 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
             app.fit_view(16.0 / 9.0);
         }
         ui.separator();
-        ui.label(app.title());
+        ui.label(app.file_label());
+        if app.editor.is_dirty() {
+            ui.colored_label(egui::Color32::from_rgb(230, 160, 40), "unsaved");
+        }
     });
 }
 
@@ -109,6 +156,7 @@ fn play_controls(ui: &mut egui::Ui, app: &mut AppState) {
         let playing = app.play.as_ref().is_some_and(|p| !p.paused);
         if ui
             .add_enabled(!playing, egui::Button::new("Play"))
+            .on_hover_text("Space")
             .clicked()
         {
             app.play();
@@ -122,6 +170,7 @@ fn play_controls(ui: &mut egui::Ui, app: &mut AppState) {
         }
         if ui
             .add_enabled(app.play.is_some(), egui::Button::new("Stop"))
+            .on_hover_text("back to the level as edited")
             .clicked()
         {
             app.stop();
@@ -247,207 +296,6 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
         app.export(&path);
     }
     ui.weak("Esc ends the run and exports its CSV next to the level.");
-}
-
-fn inspector(ui: &mut egui::Ui, app: &mut AppState) {
-    ui.heading("Inspector");
-    let level = app.editor.level().clone();
-    match app.selection {
-        Selection::None | Selection::Vehicle(_) => {
-            ui.label(format!(
-                "{} road(s), {} spawner(s), {} destroyer(s), {} trigger(s)",
-                level.roads.len(),
-                level.spawners.len(),
-                level.destroyers.len(),
-                level.triggers.len()
-            ));
-            ui.weak("Road tool: click on the ground to start a road, click again to add points.");
-        }
-        Selection::Road(r) | Selection::Point(r, _) => {
-            let Some(road) = level.roads.get(r) else {
-                return;
-            };
-            ui.label(egui::RichText::new(format!("road `{}`", road.name)).strong());
-            let mut name = road.name.clone();
-            let mut lanes = road.lanes;
-            let mut width = road.lane_width_m;
-            let mut limit = road.speed_limit_kmh;
-            let mut changed = false;
-            ui.horizontal(|ui| {
-                let label = ui.label("name");
-                changed |= ui
-                    .text_edit_singleline(&mut name)
-                    .labelled_by(label.id)
-                    .lost_focus();
-            });
-            changed |= ui
-                .add(egui::Slider::new(&mut lanes, 1..=8).text("lanes"))
-                .drag_stopped();
-            changed |= ui
-                .add(egui::Slider::new(&mut width, 2.5..=5.0).text("lane width m"))
-                .drag_stopped();
-            changed |= ui
-                .add(egui::Slider::new(&mut limit, 10.0..=200.0).text("speed limit km/h"))
-                .drag_stopped();
-            if changed
-                && (name != road.name
-                    || lanes != road.lanes
-                    || width != road.lane_width_m
-                    || limit != road.speed_limit_kmh)
-            {
-                app.apply(Command::SetRoad {
-                    road: r,
-                    name,
-                    lanes,
-                    lane_width_m: width,
-                    speed_limit_kmh: limit,
-                });
-            }
-            let mut closed = road.closed;
-            if ui.checkbox(&mut closed, "closed loop").changed() {
-                app.apply(Command::SetClosed { road: r, closed });
-            }
-            let mut next = road.next.clone();
-            egui::ComboBox::from_label("leads onto")
-                .selected_text(next.clone().unwrap_or_else(|| "nothing".to_owned()))
-                .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut next, None, "nothing");
-                    for other in level.roads.iter().filter(|o| o.name != road.name) {
-                        ui.selectable_value(&mut next, Some(other.name.clone()), &other.name);
-                    }
-                });
-            if next != road.next {
-                app.apply(Command::Connect { road: r, next });
-            }
-            if let Selection::Point(_, i) = app.selection
-                && let Some(point) = road.points.get(i)
-            {
-                ui.separator();
-                ui.label(egui::RichText::new(format!("point {i}")).strong());
-                let mut p = point.clone();
-                let mut width_m = p
-                    .width_m
-                    .unwrap_or(road.lane_width_m * f64::from(road.lanes));
-                let mut changed = false;
-                changed |= ui
-                    .add(egui::Slider::new(&mut p.pos.z, -20.0..=50.0).text("elevation m"))
-                    .drag_stopped();
-                changed |= ui
-                    .add(egui::Slider::new(&mut width_m, 3.0..=40.0).text("width m"))
-                    .drag_stopped();
-                changed |= ui
-                    .add(egui::Slider::new(&mut p.bank_deg, -15.0..=15.0).text("bank °"))
-                    .drag_stopped();
-                changed |= ui
-                    .checkbox(&mut p.guardrail_left, "guardrail left")
-                    .changed();
-                changed |= ui
-                    .checkbox(&mut p.guardrail_right, "guardrail right")
-                    .changed();
-                if changed {
-                    p.width_m = Some(width_m);
-                    app.apply(Command::SetPoint {
-                        road: r,
-                        index: i,
-                        point: p,
-                    });
-                }
-                ui.horizontal(|ui| {
-                    if ui.button("Insert after").clicked() {
-                        app.insert_after_selected();
-                    }
-                    if ui.button("Delete").on_hover_text("Del").clicked() {
-                        app.delete_selected();
-                    }
-                });
-            } else if ui.button("Delete road").clicked() {
-                app.delete_selected();
-            }
-        }
-        Selection::Marker(kind, i) => {
-            let (label, s_m) = match kind {
-                MarkerKind::Spawner => (
-                    level
-                        .spawners
-                        .get(i)
-                        .map(|s| format!("spawner `{}`", s.name)),
-                    level.spawners.get(i).map(|s| s.s_m),
-                ),
-                MarkerKind::Destroyer => (
-                    level
-                        .destroyers
-                        .get(i)
-                        .map(|d| format!("destroyer `{}`", d.name)),
-                    level.destroyers.get(i).and_then(|d| match &d.place {
-                        DestroyerPlace::OnRoad { s_m, .. } => Some(*s_m),
-                        DestroyerPlace::Volume { .. } => None,
-                    }),
-                ),
-                MarkerKind::Trigger => (
-                    level
-                        .triggers
-                        .get(i)
-                        .map(|t| format!("trigger `{}`", t.name)),
-                    level.triggers.get(i).map(|t| t.from_m),
-                ),
-            };
-            let Some(label) = label else { return };
-            ui.label(egui::RichText::new(label).strong());
-            if let Some(mut s) = s_m
-                && ui
-                    .add(egui::Slider::new(&mut s, 0.0..=2000.0).text("arc position m"))
-                    .drag_stopped()
-            {
-                app.apply(Command::MoveMarker {
-                    kind,
-                    index: i,
-                    s_m: s,
-                });
-            }
-            if let (MarkerKind::Spawner, Some(sp)) = (kind, level.spawners.get(i)) {
-                let mut sp = sp.clone();
-                let mut changed = false;
-                changed |= ui
-                    .add(
-                        egui::Slider::new(&mut sp.interval_s.min, 0.1..=10.0)
-                            .text("min interval s"),
-                    )
-                    .drag_stopped();
-                changed |= ui
-                    .add(
-                        egui::Slider::new(&mut sp.interval_s.max, 0.1..=10.0)
-                            .text("max interval s"),
-                    )
-                    .drag_stopped();
-                changed |= ui.checkbox(&mut sp.active, "active").changed();
-                if changed {
-                    sp.interval_s.max = sp.interval_s.max.max(sp.interval_s.min);
-                    app.apply(Command::SetSpawner(i, sp));
-                }
-            }
-            if let (MarkerKind::Trigger, Some(t)) = (kind, level.triggers.get(i)) {
-                let mut t = t.clone();
-                let mut changed = false;
-                changed |= ui
-                    .add(
-                        egui::Slider::new(&mut t.to_m, t.from_m + 1.0..=t.from_m + 500.0)
-                            .text("ends at m"),
-                    )
-                    .drag_stopped();
-                if let TriggerEffect::SpeedLimit { kmh } = &mut t.effect {
-                    changed |= ui
-                        .add(egui::Slider::new(kmh, 10.0..=200.0).text("new limit km/h"))
-                        .drag_stopped();
-                }
-                if changed {
-                    app.apply(Command::SetTrigger(i, t));
-                }
-            }
-            if ui.button("Delete").clicked() {
-                app.delete_selected();
-            }
-        }
-    }
 }
 
 fn dialogs(ui: &mut egui::Ui, app: &mut AppState) {
