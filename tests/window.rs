@@ -82,11 +82,14 @@ const SIZE: (u32, u32) = (1400, 860);
 /// editors drawing on lavapipe at once only slow each other down.
 static ONE_DISPLAY: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// An X server of our own, closed when dropped; holds [`ONE_DISPLAY`] while it lives.
+/// An X server of our own, closed when dropped; holds [`ONE_DISPLAY`] while it lives, and the
+/// read end of the pipe it told its display number on (closed, the server would die of SIGPIPE
+/// when it next writes there).
 struct Xvfb(
     Child,
     String,
     #[allow(dead_code)] std::sync::MutexGuard<'static, ()>,
+    #[allow(dead_code)] Option<std::io::BufReader<std::process::ChildStdout>>,
 );
 
 impl Xvfb {
@@ -111,12 +114,30 @@ impl Xvfb {
             .spawn()
             .expect("Xvfb runs (scripts/test installs the xvfb package)");
         let mut line = String::new();
-        if let Some(out) = child.stdout.take() {
-            let _ = std::io::BufReader::new(out).read_line(&mut line);
+        let mut out = child.stdout.take().map(std::io::BufReader::new);
+        if let Some(out) = &mut out {
+            let _ = out.read_line(&mut line);
         }
         let number = line.trim().to_owned();
         assert!(!number.is_empty(), "Xvfb did not say which display it took");
-        Xvfb(child, format!(":{number}"), guard)
+        let display = format!(":{number}");
+        // It names its display as it starts listening; wait until it answers a client.
+        let started = Instant::now();
+        while !Command::new("xdotool")
+            .arg("getmouselocation")
+            .env("DISPLAY", &display)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+        {
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "Xvfb on {display} never answered"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        Xvfb(child, display, guard, out)
     }
 
     fn xdotool(&self, args: &[&str]) {
@@ -142,7 +163,24 @@ impl Xvfb {
     /// Starts `flockway edit` with no file in `dir` and waits for its window, moved to the
     /// screen's corner (there is no window manager to place it).
     fn editor(&self, dir: &Path) -> Child {
-        let child = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        // Now and then the editor's first connection to a server just started is refused
+        // ("Failed to open connection to X server") although xdotool's succeeds: try again.
+        let mut refusals = Vec::new();
+        for _ in 0..3 {
+            match self.try_editor(dir) {
+                Ok(child) => return child,
+                Err(message) => refusals.push(message),
+            }
+            std::thread::sleep(Duration::from_millis(500));
+        }
+        panic!(
+            "no editor window appeared on display {}: {refusals:#?}",
+            self.1
+        );
+    }
+
+    fn try_editor(&self, dir: &Path) -> Result<Child, String> {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_flockway"))
             .arg("edit")
             .current_dir(dir)
             .env("DISPLAY", &self.1)
@@ -167,10 +205,17 @@ impl Xvfb {
             if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
                 break id.to_owned();
             }
-            assert!(
-                started.elapsed() < Duration::from_secs(30),
-                "no editor window appeared"
-            );
+            if started.elapsed() > Duration::from_secs(30)
+                || child.try_wait().ok().flatten().is_some()
+            {
+                let _ = child.kill();
+                let out = child.wait_with_output().expect("editor output");
+                return Err(format!(
+                    "{}: {}",
+                    out.status,
+                    String::from_utf8_lossy(&out.stderr)
+                ));
+            }
             std::thread::sleep(Duration::from_millis(200));
         };
         self.xdotool(&["windowmove", &window, "0", "0"]);
@@ -191,13 +236,21 @@ impl Xvfb {
             );
             std::thread::sleep(Duration::from_millis(200));
         }
-        child
+        Ok(child)
     }
 }
 
 impl Drop for Xvfb {
+    /// Stops the server politely (SIGTERM), so it removes its socket and lock file and the next
+    /// test's server cannot meet them.
     fn drop(&mut self) {
-        let _ = self.0.kill();
+        let stopped = Command::new("kill")
+            .args(["-TERM", &self.0.id().to_string()])
+            .status()
+            .is_ok_and(|s| s.success());
+        if !stopped {
+            let _ = self.0.kill();
+        }
         let _ = self.0.wait();
     }
 }

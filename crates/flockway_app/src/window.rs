@@ -44,8 +44,8 @@ struct WindowApp {
     last_frame: Instant,
     last_autosave: Instant,
     interpolated: Vec<VehicleInstance>,
-    /// Whether the first frame has been shown (the window is mapped and may take focus).
-    shown: bool,
+    /// Takes the keyboard focus where no window manager gives it.
+    focus: Option<crate::focus::FocusKeeper>,
 }
 
 /// Opens the window on `app` and runs until it is closed.
@@ -58,7 +58,7 @@ pub fn run(app: AppState) -> Result<(), WindowError> {
         last_frame: Instant::now(),
         last_autosave: Instant::now(),
         interpolated: Vec::new(),
-        shown: false,
+        focus: None,
     };
     event_loop
         .run_app(&mut w)
@@ -247,10 +247,10 @@ impl WindowApp {
             .queue
             .submit(extra.into_iter().chain([encoder.finish()]));
         g.gpu.queue.present(frame);
-        if !self.shown {
-            self.shown = true;
-            crate::focus::take_if_unmanaged(&g.window);
-        }
+        let focus = self
+            .focus
+            .get_or_insert_with(|| crate::focus::FocusKeeper::new(&g.window));
+        focus.frame();
         for id in &frees {
             g.egui_renderer.free_texture(id);
         }
@@ -293,8 +293,8 @@ impl ApplicationHandler for WindowApp {
             }
             WindowEvent::RedrawRequested => self.redraw(),
             WindowEvent::CursorEntered { .. } | WindowEvent::MouseInput { .. } => {
-                if let Some(g) = &self.graphics {
-                    crate::focus::take_if_unmanaged(&g.window);
+                if let Some(f) = &mut self.focus {
+                    f.take_if_unmanaged();
                 }
             }
             _ => {}
