@@ -20,7 +20,7 @@ pub use flockway_vehicle as vehicle;
 
 /// The types most programs that drive Flockway need.
 pub mod prelude {
-    pub use crate::run::{ExpectationResult, RunOptions, RunReport, Runner, build_sim};
+    pub use crate::run::{ExpectationResult, RunOptions, Runner, Summary, build_sim};
     pub use flockway_core::prelude::*;
     pub use flockway_level::{Level, load_level};
     pub use flockway_road::prelude::*;

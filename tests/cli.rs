@@ -195,7 +195,7 @@ fn runs_are_byte_identical_and_summaries_keep_their_contract() {
             level.display()
         );
         let header = String::from_utf8(csv_a.clone()).expect("utf-8");
-        assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm\n"));
+        assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm,model\n"));
         // It parses as CSV, has rows, and every sample time is a whole multiple of the period.
         let mut reader = csv::Reader::from_reader(csv_a.as_slice());
         let mut rows = 0;
@@ -209,9 +209,9 @@ fn runs_are_byte_identical_and_summaries_keep_their_contract() {
             rows += 1;
         }
         assert!(rows > 0, "{}: no telemetry rows", level.display());
-        for key in flockway::run::SUMMARY_KEYS {
+        for key in flockway::run::Summary::keys() {
             assert!(
-                a.get(key).is_some(),
+                a.get(&key).is_some(),
                 "{}: summary lacks `{key}`",
                 level.display()
             );
@@ -585,7 +585,7 @@ fn a_killed_run_leaves_a_valid_csv_of_what_it_sampled() {
     let mut rows = 0;
     for record in reader.records() {
         let record = record.expect("every row is complete");
-        assert_eq!(record.len(), 15);
+        assert_eq!(record.len(), flockway::telemetry::CSV_COLUMNS.len());
         rows += 1;
     }
     assert!(rows > 300, "{rows} rows");

@@ -2,11 +2,14 @@
 //! a runner pushes), measures stop-and-go waves, draws speed-history, space–time, mean-speed and
 //! fundamental-diagram plots, and writes a self-contained HTML report.
 //!
-//! The crate knows the telemetry format only, never the simulation: any CSV with the
-//! [`REQUIRED_COLUMNS`] can be analysed.
+//! The crate owns two file contracts and knows nothing of the simulation: the telemetry CSV
+//! ([`Column`], [`TelemetryRow`], written with [`TelemetryWriter`], read by [`Trace`]; any CSV
+//! with the [`REQUIRED_COLUMNS`] can be analysed) and the run summary JSON ([`Summary`]).
 
 mod plot;
 mod report;
+mod summary;
+mod telemetry;
 mod trace;
 mod wave;
 
@@ -15,7 +18,9 @@ pub use plot::{
     write_plots, write_plots_sized,
 };
 pub use report::write_report;
-pub use trace::{REQUIRED_COLUMNS, Sample, Trace};
+pub use summary::{ExpectationResult, Summary, plot_info, wave_of};
+pub use telemetry::{CSV_COLUMNS, Column, TelemetryRow, TelemetryWriter};
+pub use trace::{REQUIRED, REQUIRED_COLUMNS, Sample, Trace};
 pub use wave::{Wave, WaveSettings, measure_wave};
 
 use std::path::PathBuf;

@@ -180,26 +180,41 @@ fn tracing_free_warn(name: &str) {
     eprintln!("warning: the bundled font for `{name}` did not load; plot text may be missing");
 }
 
-/// Colours by driver profile: human-like red (as in the thesis), autonomous blue, others apart.
+/// Colours by driver profile, chosen by each profile's driver model (the CSV's `model` column):
+/// human-like red (as in the thesis), autonomous models blue, others (the IDM, plugins, a CSV
+/// without models) green, orange, purple and cyan. A second profile of a family gets a shade of
+/// its colour.
 fn profile_colours(trace: &Trace) -> Vec<RGBColor> {
-    const OTHERS: [RGBColor; 5] = [
+    const HUMAN: [RGBColor; 3] = [
+        RGBColor(214, 39, 40),
+        RGBColor(160, 20, 60),
+        RGBColor(240, 110, 90),
+    ];
+    const AUTONOMOUS: [RGBColor; 3] = [
         RGBColor(31, 119, 180),
+        RGBColor(20, 70, 140),
+        RGBColor(100, 170, 230),
+    ];
+    const OTHERS: [RGBColor; 4] = [
         RGBColor(44, 160, 44),
         RGBColor(255, 127, 14),
         RGBColor(148, 103, 189),
         RGBColor(23, 190, 207),
     ];
-    let mut next = 0;
-    trace
-        .drivers()
-        .iter()
+    let mut counts = [0usize; 3];
+    (0..trace.drivers().len())
         .map(|d| {
-            if d.to_ascii_lowercase().contains("human") {
-                RGBColor(214, 39, 40)
-            } else {
-                let c = OTHERS[next % OTHERS.len()];
-                next += 1;
-                c
+            let family = match trace.model_of(d as u16) {
+                Some("Human") => 0,
+                Some("Flock" | "FlockLanes" | "WaveDamper") => 1,
+                _ => 2,
+            };
+            let k = counts[family];
+            counts[family] += 1;
+            match family {
+                0 => HUMAN[k % HUMAN.len()],
+                1 => AUTONOMOUS[k % AUTONOMOUS.len()],
+                _ => OTHERS[k % OTHERS.len()],
             }
         })
         .collect()

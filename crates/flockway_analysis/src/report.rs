@@ -1,6 +1,8 @@
 //! The run report: one self-contained HTML file with the summary, expectations and plots.
 
-use crate::{AnalysisError, PLOT_NAMES, PLOT_SIZE, PlotFormat, PlotInfo, Trace, Wave, render_plot};
+use crate::{
+    AnalysisError, PLOT_NAMES, PLOT_SIZE, PlotFormat, PlotInfo, Summary, Trace, Wave, render_plot,
+};
 use base64::Engine;
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -14,10 +16,13 @@ use std::path::Path;
 pub fn write_report(
     trace: &Trace,
     info: &PlotInfo,
-    summary: Option<&Value>,
+    summary: Option<&Summary>,
     wave: Option<&Wave>,
     out: &Path,
 ) -> Result<(), AnalysisError> {
+    // The tables list the summary's keys as the file has them.
+    let summary = summary.and_then(|s| serde_json::to_value(s).ok());
+    let summary = summary.as_ref();
     let dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

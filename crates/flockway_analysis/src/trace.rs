@@ -1,6 +1,7 @@
 //! A run's telemetry in memory: the columns analysis needs, read from a CSV or pushed by a runner.
 
 use crate::AnalysisError;
+use crate::telemetry::{Column, TelemetryRow};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -21,25 +22,42 @@ pub struct Sample {
     pub s_m: f64,
     /// Speed along the direction of travel, km/h.
     pub speed_kmh: f64,
+    /// Index into [`Trace::models`] (its entry is empty when the CSV has no `model` column).
+    pub model: u16,
 }
 
-/// The columns [`Trace::read_csv`] needs; any others are ignored.
-pub const REQUIRED_COLUMNS: [&str; 7] = [
-    "time_s",
-    "vehicle_id",
-    "driver",
-    "road",
-    "lane",
-    "s_m",
-    "speed_kmh",
+/// The columns [`Trace::read_csv`] needs; any others are ignored (and `model` is used when
+/// there).
+pub const REQUIRED: [Column; 7] = [
+    Column::TimeS,
+    Column::VehicleId,
+    Column::Driver,
+    Column::Road,
+    Column::Lane,
+    Column::SM,
+    Column::SpeedKmh,
 ];
 
-/// Telemetry samples of one run, in time order, with driver and road names interned.
+/// The names of [`REQUIRED`], in order.
+pub const REQUIRED_COLUMNS: [&str; 7] = {
+    let mut out = [""; 7];
+    let mut i = 0;
+    while i < 7 {
+        out[i] = REQUIRED[i].name();
+        i += 1;
+    }
+    out
+};
+
+/// Telemetry samples of one run, in time order, with driver, road and model names interned.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trace {
     samples: Vec<Sample>,
     drivers: Vec<String>,
     roads: Vec<String>,
+    models: Vec<String>,
+    /// The model of each driver profile, by [`Sample::driver`]: the one its first sample names.
+    driver_models: Vec<u16>,
 }
 
 impl Trace {
@@ -63,8 +81,44 @@ impl Trace {
         s_m: f64,
         speed_kmh: f64,
     ) {
+        self.push_with_model(time_s, vehicle_id, driver, road, lane, s_m, speed_kmh, "");
+    }
+
+    /// Appends a row of the telemetry CSV contract, as its CSV holds it.
+    pub fn push_row(&mut self, row: &TelemetryRow) {
+        self.push_with_model(
+            row.time_s,
+            row.vehicle_id,
+            &row.driver,
+            &row.road,
+            row.lane,
+            row.s_m,
+            row.speed_kmh,
+            &row.model,
+        );
+    }
+
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one sample's columns, each named at the call"
+    )]
+    fn push_with_model(
+        &mut self,
+        time_s: f64,
+        vehicle_id: u32,
+        driver: &str,
+        road: &str,
+        lane: u32,
+        s_m: f64,
+        speed_kmh: f64,
+        model: &str,
+    ) {
         let driver = intern(&mut self.drivers, driver);
         let road = intern(&mut self.roads, road);
+        let model = intern(&mut self.models, model);
+        if usize::from(driver) == self.driver_models.len() {
+            self.driver_models.push(model);
+        }
         self.samples.push(Sample {
             time_s,
             vehicle_id,
@@ -73,7 +127,22 @@ impl Trace {
             lane,
             s_m,
             speed_kmh,
+            model,
         });
+    }
+
+    /// Driver model names, indexed by [`Sample::model`] (empty for a CSV without the column).
+    pub fn models(&self) -> &[String] {
+        &self.models
+    }
+
+    /// The driver model of a profile's vehicles, if the trace knows it.
+    pub fn model_of(&self, driver: u16) -> Option<&str> {
+        self.driver_models
+            .get(usize::from(driver))
+            .and_then(|&m| self.models.get(usize::from(m)))
+            .map(String::as_str)
+            .filter(|m| !m.is_empty())
     }
 
     /// Every sample, in time order.
@@ -153,6 +222,9 @@ impl Trace {
             .has_headers(true)
             .from_reader(reader);
         let headers = csv.headers().map_err(|e| csv_error(path, e))?.clone();
+        let model_at = headers
+            .iter()
+            .position(|h| h.trim() == Column::Model.name());
         let mut index = [0usize; REQUIRED_COLUMNS.len()];
         for (slot, name) in index.iter_mut().zip(REQUIRED_COLUMNS) {
             *slot = headers
@@ -216,7 +288,17 @@ impl Trace {
             let lane = integer(4)?;
             let s_m = number(5)?;
             let speed_kmh = number(6)?;
-            trace.push(time_s, vehicle_id, field(2), field(3), lane, s_m, speed_kmh);
+            let model = model_at.and_then(|i| record.get(i)).unwrap_or("").trim();
+            trace.push_with_model(
+                time_s,
+                vehicle_id,
+                field(2),
+                field(3),
+                lane,
+                s_m,
+                speed_kmh,
+                model,
+            );
         }
         if trace.is_empty() {
             return Err(AnalysisError::Empty {
@@ -272,6 +354,15 @@ mod tests {
         assert_eq!(t.samples()[1].speed_kmh, 40.0);
         assert_eq!(t.by_vehicle()[&1].len(), 2);
         assert!(t.vehicles_leave(), "vehicle 2 is gone at 1.0 s");
+        // Without a `model` column the models are unknown.
+        assert_eq!(t.model_of(0), None);
+        let with_model = read(
+            "time_s,vehicle_id,driver,road,lane,s_m,speed_kmh,model\n\
+             0.5,1,auto,main,0,10,50,FlockLanes\n0.5,2,slow,main,0,20,40,Human\n",
+        )
+        .expect("reads");
+        assert_eq!(with_model.model_of(1), Some("Human"));
+        assert_eq!(with_model.model_of(0), Some("FlockLanes"));
     }
 
     #[test]

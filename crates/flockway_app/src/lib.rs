@@ -9,6 +9,7 @@ mod focus;
 mod play;
 mod render;
 mod scene;
+mod snapshot;
 mod ui;
 mod window;
 
@@ -26,5 +27,6 @@ pub use scene::{
     COM_HEIGHT_SHARE, CarVertex, EMPTY_VIEW_M, StaticScene, VehicleFrame, VehicleInstance, Vertex,
     box_faces, car_mesh, palette,
 };
+pub use snapshot::{Rendered, Snapshot, SnapshotError, View, render_level};
 pub use ui::{PANEL_WIDTH, ui};
 pub use window::{WindowError, run};

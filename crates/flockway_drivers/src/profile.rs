@@ -198,7 +198,7 @@ impl DriverSpec {
         entity.insert((
             target,
             SpeedLimit::default(),
-            DriverLabel(self.model().name().into()),
+            DriverLabel::new(self.model().name(), self.model().name()),
         ));
         match self {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
@@ -241,9 +241,30 @@ impl DriverSpec {
     }
 }
 
-/// The name of the driver a vehicle has (its model, or the profile's name), for telemetry.
+/// Who drives a vehicle, for telemetry and statistics: its driver profile's name and its
+/// driver model's.
 #[derive(Component, Debug, Clone, PartialEq, Eq)]
-pub struct DriverLabel(pub Arc<str>);
+pub struct DriverLabel {
+    /// The profile's name in the level (the model's name for a vehicle placed without one).
+    pub profile: Arc<str>,
+    /// The model: a built-in one's name (`FlockLanes`, `Human`, …) or `Custom(NAME)`.
+    pub model: Arc<str>,
+}
+
+impl DriverLabel {
+    /// A label for a vehicle of `profile` driven by `model`.
+    pub fn new(profile: impl Into<Arc<str>>, model: impl Into<Arc<str>>) -> DriverLabel {
+        DriverLabel {
+            profile: profile.into(),
+            model: model.into(),
+        }
+    }
+
+    /// The label of a vehicle a plugin drives with its model `name` (`Custom(name)`).
+    pub fn custom(profile: impl Into<Arc<str>>, name: &str) -> DriverLabel {
+        DriverLabel::new(profile, format!("Custom({name})"))
+    }
+}
 
 fn load<P: Serialize + DeserializeOwned + Default>(
     model: BuiltinModel,

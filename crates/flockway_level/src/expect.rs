@@ -33,124 +33,227 @@ pub struct MetricInfo {
     pub description: &'static str,
 }
 
-/// Every metric the level format knows. A run that does not measure a metric (no vehicles, no
-/// destroyers) fails an expectation on it with "not measured".
-pub const METRICS: &[MetricInfo] = &[
-    MetricInfo {
-        name: "ticks",
-        qualifier: Qualifier::None,
-        unit: "steps",
-        description: "fixed steps simulated",
-    },
-    MetricInfo {
-        name: "sim_seconds",
-        qualifier: Qualifier::None,
-        unit: "s",
-        description: "simulated time",
-    },
-    MetricInfo {
-        name: "vehicle_steps",
-        qualifier: Qualifier::None,
-        unit: "vehicle-steps",
-        description: "sum over steps of vehicles alive",
-    },
-    MetricInfo {
-        name: "road_length_m",
-        qualifier: Qualifier::Road,
-        unit: "m",
-        description: "centre-line length of a road",
-    },
-    MetricInfo {
-        name: "vehicles_spawned",
-        qualifier: Qualifier::None,
-        unit: "vehicles",
-        description: "vehicles created (initial and spawned)",
-    },
-    MetricInfo {
-        name: "vehicles_destroyed",
-        qualifier: Qualifier::None,
-        unit: "vehicles",
-        description: "vehicles removed by destroyers",
-    },
-    MetricInfo {
-        name: "vehicles_alive_mean",
-        qualifier: Qualifier::None,
-        unit: "vehicles",
-        description: "mean vehicles alive per step",
-    },
-    MetricInfo {
-        name: "collisions",
-        qualifier: Qualifier::None,
-        unit: "events",
-        description: "guardrail plus vehicle-vehicle collisions",
-    },
-    MetricInfo {
-        name: "collisions_guardrail",
-        qualifier: Qualifier::None,
-        unit: "events",
-        description: "vehicles removed after hitting a guardrail",
-    },
-    MetricInfo {
-        name: "collisions_vehicle",
-        qualifier: Qualifier::None,
-        unit: "events",
-        description: "vehicle-vehicle contact episodes",
-    },
-    MetricInfo {
-        name: "mean_speed_kmh",
-        qualifier: Qualifier::Profile,
-        unit: "km/h",
-        description: "mean sampled speed after the warm-up",
-    },
-    MetricInfo {
-        name: "speed_std_kmh",
-        qualifier: Qualifier::Profile,
-        unit: "km/h",
-        description: "standard deviation of sampled speeds after the warm-up",
-    },
-    MetricInfo {
-        name: "flow_veh_per_h",
-        qualifier: Qualifier::Destroyer,
-        unit: "veh/h",
-        description: "vehicles reaching a destroyer per hour",
-    },
-    MetricInfo {
-        name: "final_speed_kmh",
-        qualifier: Qualifier::Profile,
-        unit: "km/h",
-        description: "mean speed of vehicles as destroyers remove them (after the warm-up)",
-    },
-    MetricInfo {
-        name: "final_limit_share",
-        qualifier: Qualifier::Profile,
-        unit: "share 0-1",
-        description: "share of vehicles leaving at 95 % of their speed limit or faster (after the warm-up)",
-    },
-    MetricInfo {
-        name: "mean_travel_time_s",
-        qualifier: Qualifier::None,
-        unit: "s",
-        description: "mean time from creation to a destroyer",
-    },
-    MetricInfo {
-        name: "wave_detected",
-        qualifier: Qualifier::None,
-        unit: "bool",
-        description: "whether a stop-and-go wave was found",
-    },
-    MetricInfo {
-        name: "wave_speed_kmh",
-        qualifier: Qualifier::None,
-        unit: "km/h",
-        description: "propagation speed of the wave (negative: against traffic)",
-    },
-    MetricInfo {
-        name: "wave_period_s",
-        qualifier: Qualifier::None,
-        unit: "s",
-        description: "period of the wave at a fixed point",
-    },
-];
+/// Every metric a run measures and a level's expectations may test: the one table the
+/// expectation parser, the runner and the documentation all use. A run that does not measure a
+/// metric (no vehicles, no destroyers) fails an expectation on it with "not measured".
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Metric {
+    /// Fixed steps simulated (steps).
+    Ticks,
+    /// Simulated time (s).
+    SimSeconds,
+    /// Sum over steps of vehicles alive (vehicle-steps).
+    VehicleSteps,
+    /// Centre-line length of a road (m).
+    RoadLengthM,
+    /// Vehicles created (initial and spawned) (vehicles).
+    VehiclesSpawned,
+    /// Vehicles removed by destroyers (vehicles).
+    VehiclesDestroyed,
+    /// Mean vehicles alive per step (vehicles).
+    VehiclesAliveMean,
+    /// Guardrail plus vehicle-vehicle collisions (events).
+    Collisions,
+    /// Vehicles removed after hitting a guardrail (events).
+    CollisionsGuardrail,
+    /// Vehicle-vehicle contact episodes (events).
+    CollisionsVehicle,
+    /// Mean sampled speed after the warm-up (km/h).
+    MeanSpeedKmh,
+    /// Standard deviation of sampled speeds after the warm-up (km/h).
+    SpeedStdKmh,
+    /// Vehicles reaching a destroyer per hour (veh/h).
+    FlowVehPerH,
+    /// Mean speed of vehicles as destroyers remove them (after the warm-up) (km/h).
+    FinalSpeedKmh,
+    /// Share of vehicles leaving at 95 % of their speed limit or faster (after the warm-up) (share 0-1).
+    FinalLimitShare,
+    /// Mean time from creation to a destroyer (s).
+    MeanTravelTimeS,
+    /// Whether a stop-and-go wave was found (bool).
+    WaveDetected,
+    /// Propagation speed of the wave (negative: against traffic) (km/h).
+    WaveSpeedKmh,
+    /// Period of the wave at a fixed point (s).
+    WavePeriodS,
+}
+
+impl Metric {
+    /// Every metric, in the order the documentation lists them.
+    pub const ALL: [Metric; 19] = [
+        Metric::Ticks,
+        Metric::SimSeconds,
+        Metric::VehicleSteps,
+        Metric::RoadLengthM,
+        Metric::VehiclesSpawned,
+        Metric::VehiclesDestroyed,
+        Metric::VehiclesAliveMean,
+        Metric::Collisions,
+        Metric::CollisionsGuardrail,
+        Metric::CollisionsVehicle,
+        Metric::MeanSpeedKmh,
+        Metric::SpeedStdKmh,
+        Metric::FlowVehPerH,
+        Metric::FinalSpeedKmh,
+        Metric::FinalLimitShare,
+        Metric::MeanTravelTimeS,
+        Metric::WaveDetected,
+        Metric::WaveSpeedKmh,
+        Metric::WavePeriodS,
+    ];
+
+    /// Its name, unit, qualifier and meaning.
+    pub const fn info(self) -> MetricInfo {
+        match self {
+            Metric::Ticks => MetricInfo {
+                name: "ticks",
+                qualifier: Qualifier::None,
+                unit: "steps",
+                description: "fixed steps simulated",
+            },
+            Metric::SimSeconds => MetricInfo {
+                name: "sim_seconds",
+                qualifier: Qualifier::None,
+                unit: "s",
+                description: "simulated time",
+            },
+            Metric::VehicleSteps => MetricInfo {
+                name: "vehicle_steps",
+                qualifier: Qualifier::None,
+                unit: "vehicle-steps",
+                description: "sum over steps of vehicles alive",
+            },
+            Metric::RoadLengthM => MetricInfo {
+                name: "road_length_m",
+                qualifier: Qualifier::Road,
+                unit: "m",
+                description: "centre-line length of a road",
+            },
+            Metric::VehiclesSpawned => MetricInfo {
+                name: "vehicles_spawned",
+                qualifier: Qualifier::None,
+                unit: "vehicles",
+                description: "vehicles created (initial and spawned)",
+            },
+            Metric::VehiclesDestroyed => MetricInfo {
+                name: "vehicles_destroyed",
+                qualifier: Qualifier::None,
+                unit: "vehicles",
+                description: "vehicles removed by destroyers",
+            },
+            Metric::VehiclesAliveMean => MetricInfo {
+                name: "vehicles_alive_mean",
+                qualifier: Qualifier::None,
+                unit: "vehicles",
+                description: "mean vehicles alive per step",
+            },
+            Metric::Collisions => MetricInfo {
+                name: "collisions",
+                qualifier: Qualifier::None,
+                unit: "events",
+                description: "guardrail plus vehicle-vehicle collisions",
+            },
+            Metric::CollisionsGuardrail => MetricInfo {
+                name: "collisions_guardrail",
+                qualifier: Qualifier::None,
+                unit: "events",
+                description: "vehicles removed after hitting a guardrail",
+            },
+            Metric::CollisionsVehicle => MetricInfo {
+                name: "collisions_vehicle",
+                qualifier: Qualifier::None,
+                unit: "events",
+                description: "vehicle-vehicle contact episodes",
+            },
+            Metric::MeanSpeedKmh => MetricInfo {
+                name: "mean_speed_kmh",
+                qualifier: Qualifier::Profile,
+                unit: "km/h",
+                description: "mean sampled speed after the warm-up",
+            },
+            Metric::SpeedStdKmh => MetricInfo {
+                name: "speed_std_kmh",
+                qualifier: Qualifier::Profile,
+                unit: "km/h",
+                description: "standard deviation of sampled speeds after the warm-up",
+            },
+            Metric::FlowVehPerH => MetricInfo {
+                name: "flow_veh_per_h",
+                qualifier: Qualifier::Destroyer,
+                unit: "veh/h",
+                description: "vehicles reaching a destroyer per hour",
+            },
+            Metric::FinalSpeedKmh => MetricInfo {
+                name: "final_speed_kmh",
+                qualifier: Qualifier::Profile,
+                unit: "km/h",
+                description: "mean speed of vehicles as destroyers remove them (after the warm-up)",
+            },
+            Metric::FinalLimitShare => MetricInfo {
+                name: "final_limit_share",
+                qualifier: Qualifier::Profile,
+                unit: "share 0-1",
+                description: "share of vehicles leaving at 95 % of their speed limit or faster (after the warm-up)",
+            },
+            Metric::MeanTravelTimeS => MetricInfo {
+                name: "mean_travel_time_s",
+                qualifier: Qualifier::None,
+                unit: "s",
+                description: "mean time from creation to a destroyer",
+            },
+            Metric::WaveDetected => MetricInfo {
+                name: "wave_detected",
+                qualifier: Qualifier::None,
+                unit: "bool",
+                description: "whether a stop-and-go wave was found",
+            },
+            Metric::WaveSpeedKmh => MetricInfo {
+                name: "wave_speed_kmh",
+                qualifier: Qualifier::None,
+                unit: "km/h",
+                description: "propagation speed of the wave (negative: against traffic)",
+            },
+            Metric::WavePeriodS => MetricInfo {
+                name: "wave_period_s",
+                qualifier: Qualifier::None,
+                unit: "s",
+                description: "period of the wave at a fixed point",
+            },
+        }
+    }
+
+    /// Its name, as expectations and the summary write it.
+    pub const fn name(self) -> &'static str {
+        self.info().name
+    }
+
+    /// The summary key of an unqualified measurement (`vehicles_spawned`).
+    pub fn key(self) -> String {
+        self.name().to_owned()
+    }
+
+    /// The summary key of a measurement of one road, destroyer or profile
+    /// (`flow_veh_per_h.exit`).
+    pub fn key_for(self, name: &str) -> String {
+        format!("{}.{name}", self.name())
+    }
+
+    /// The metric with this name.
+    pub fn from_name(name: &str) -> Option<Metric> {
+        Metric::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Every metric's [`MetricInfo`], in [`Metric::ALL`] order.
+pub const METRICS: [MetricInfo; 19] = {
+    let mut out = [Metric::Ticks.info(); 19];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = Metric::ALL[i].info();
+        i += 1;
+    }
+    out
+};
 
 /// Looks a metric up by name.
 pub fn metric_info(name: &str) -> Option<&'static MetricInfo> {

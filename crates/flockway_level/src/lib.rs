@@ -12,7 +12,7 @@ mod schema;
 mod template;
 mod validate;
 
-pub use expect::{Check, Expectation, METRICS, MetricInfo, Qualifier, metric_info};
+pub use expect::{Check, Expectation, METRICS, Metric, MetricInfo, Qualifier, metric_info};
 pub use io::{
     Diagnostic, LevelError, MAX_FILE_BYTES, level_to_string, load_level, parse_level, save_level,
     write_atomic,

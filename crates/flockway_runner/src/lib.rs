@@ -1,9 +1,27 @@
 //! Flockway's runner: [`Runner`] turns a [`flockway_level::Level`] into a world, steps it at the
-//! fixed step, streams telemetry to CSV, measures the summary and checks the level's
+//! fixed step, streams telemetry to CSV, measures the [`Summary`] and checks the level's
 //! expectations. `flockway run` uses it headless; the window uses the same runner, so a level
-//! and seed give the same CSV bytes in both.
+//! and seed give the same CSV bytes in both. [`batch`] runs many levels and seeds at once, as
+//! `flockway test` does.
+//!
+//! Modules: `assets` (where a level's vehicle and driver files are, loaded), `world` (a level
+//! turned into a world), `runner` (stepping and streamed telemetry), `summary` (the metrics and
+//! the expectations at the end), [`batch`].
 
-mod run;
+mod assets;
+pub mod batch;
+mod runner;
+mod summary;
 pub mod telemetry;
+#[cfg(test)]
+mod tests;
+mod world;
 
-pub use run::*;
+pub use assets::{
+    ASSETS_ENV, DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles,
+    load_vehicle_types,
+};
+pub use flockway_analysis::{ExpectationResult, Summary};
+pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+pub use summary::{evaluate, level_name, measure, metrics};
+pub use world::{build_sim, populate};

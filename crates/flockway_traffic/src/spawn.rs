@@ -216,7 +216,7 @@ pub fn spawn_driven(
     driver.insert(&mut e, lane, &mut rng);
     e.insert((
         id,
-        DriverLabel(profile),
+        DriverLabel::new(profile, driver.model().name()),
         Travel {
             spawned_tick: tick,
             road,

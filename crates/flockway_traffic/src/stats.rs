@@ -35,6 +35,8 @@ pub struct TelemetrySample {
     pub vehicle_id: u32,
     /// Driver profile.
     pub driver: Arc<str>,
+    /// Driver model.
+    pub model: Arc<str>,
     /// Road.
     pub road: RoadId,
     /// Lane.
@@ -207,7 +209,8 @@ pub fn sample_telemetry(
         .map(
             |(id, track, motion, controls, state, label)| TelemetrySample {
                 vehicle_id: id.0,
-                driver: label.map_or_else(|| Arc::from("none"), |l| l.0.clone()),
+                driver: label.map_or_else(|| Arc::from("none"), |l| l.profile.clone()),
+                model: label.map_or_else(|| Arc::from("none"), |l| l.model.clone()),
                 road: track.road,
                 lane: track.lane,
                 s_m: track.s_m,

@@ -209,12 +209,12 @@ pub fn run_destroyers(
                 if let Some(l) = label {
                     stats
                         .final_speed_by_profile
-                        .entry(l.0.to_string())
+                        .entry(l.profile.to_string())
                         .or_default()
                         .add(kmh);
                     stats
                         .final_at_limit_by_profile
-                        .entry(l.0.to_string())
+                        .entry(l.profile.to_string())
                         .or_default()
                         .add(kmh, limit_kmh);
                 }

@@ -265,7 +265,7 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
         if let Ok(e) = world.get_entity(entity) {
             let driver = e
                 .get::<DriverLabel>()
-                .map_or("?".into(), |d| d.0.to_string());
+                .map_or("?".into(), |d| format!("{} ({})", d.profile, d.model));
             let speed = e.get::<Motion>().map_or(0.0, |m| m.forward_mps * 3.6);
             let (gear, rpm) = e
                 .get::<VehicleState>()

@@ -1,0 +1,105 @@
+//! `flockway render`: a level simulated headless to a moment, its scene drawn off screen with
+//! the window's renderer, and saved as a PNG.
+
+use crate::camera::Camera;
+use crate::render::{Gpu, OFFSCREEN_FORMAT, RenderError, SceneRenderer, render_image};
+use crate::scene::{StaticScene, VehicleFrame};
+use flockway_level::Level;
+use flockway_road::RoadNetwork;
+use flockway_runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+use std::path::{Path, PathBuf};
+
+/// The view of a rendered picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum View {
+    /// Straight down, the whole level in view.
+    #[default]
+    Top,
+    /// Perspective from the south-west, the whole level in view.
+    Orbit,
+}
+
+/// What to render: when, how large, from where, with which seed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// Simulated seconds before the picture (0: as the level starts, after its first step).
+    pub at_s: f64,
+    /// Image size, pixels.
+    pub size: (u32, u32),
+    /// The camera.
+    pub view: View,
+    /// Seed instead of the level's.
+    pub seed: Option<u64>,
+    /// The `assets/` directory of the level's vehicle and driver files.
+    pub assets: PathBuf,
+}
+
+/// Why a picture could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SnapshotError {
+    /// `at_s` is not a time a run can reach.
+    #[error("--at {0}: expected simulated seconds from 0 to a week")]
+    Time(f64),
+    /// The level could not be run.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The picture could not be drawn or saved.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+}
+
+/// What was rendered, for the command's message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    /// Vehicles in the picture.
+    pub vehicles: usize,
+    /// The simulated time shown, s.
+    pub sim_s: f64,
+    /// The graphics adapter that drew it.
+    pub adapter: String,
+}
+
+/// Runs `level` (named `name`) to `snapshot.at_s` and writes its scene to `out` as a PNG.
+pub fn render_level(
+    level: Level,
+    name: &str,
+    snapshot: &Snapshot,
+    out: &Path,
+) -> Result<Rendered, SnapshotError> {
+    let at = snapshot.at_s;
+    if !(at.is_finite() && (0.0..=MAX_RUN_SECONDS).contains(&at)) {
+        return Err(SnapshotError::Time(at));
+    }
+    let options = RunOptions {
+        // At least one step, so the level's initial vehicles are on the road.
+        seconds: Some(at.max(1.0 / 120.0)),
+        seed: snapshot.seed,
+        assets: Some(snapshot.assets.clone()),
+        ..RunOptions::default()
+    };
+    let mut runner = Runner::new(level, name, &options)?;
+    while runner.ticks_done() < runner.total_ticks() {
+        runner.step(120)?;
+    }
+    let gpu = Gpu::headless()?;
+    let scene = StaticScene::build(
+        runner.sim().world().resource::<RoadNetwork>(),
+        runner.level(),
+    );
+    let mut vehicles = VehicleFrame::default();
+    vehicles.capture(runner.sim_mut().world_mut());
+    let mut renderer = SceneRenderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    renderer.set_static(&gpu.device, &scene);
+    renderer.set_vehicles(&gpu.device, &gpu.queue, &vehicles.instances);
+    let (w, h) = snapshot.size;
+    let camera = match snapshot.view {
+        View::Top => Camera::top_fit(scene.min, scene.max, w as f32 / h as f32),
+        View::Orbit => Camera::orbit_fit(scene.min, scene.max),
+    };
+    render_image(&gpu, &renderer, &camera, snapshot.size)?.save_png(out)?;
+    Ok(Rendered {
+        vehicles: vehicles.instances.len(),
+        sim_s: runner.ticks_done() as f64 / 120.0,
+        adapter: gpu.describe(),
+    })
+}

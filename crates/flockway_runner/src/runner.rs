@@ -1,0 +1,355 @@
+//! A run in progress: a level's world stepped at the fixed step, its telemetry streamed to CSV,
+//! and at the end its summary measured and its expectations checked.
+
+use crate::assets::{
+    DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles, load_vehicle_types,
+};
+use crate::summary::measure;
+use crate::world::{build_sim, populate};
+use flockway_analysis::{PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
+use flockway_core::{Sim, TICKS_PER_SECOND};
+use flockway_level::{Level, LevelError};
+use flockway_road::{RoadId, RoadNetwork, RoadNetworkError};
+use flockway_traffic::TelemetrySamples;
+use flockway_vehicle::VehicleParamsError;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Why a run could not be set up or completed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The level file is unreadable or invalid.
+    #[error(transparent)]
+    Level(#[from] LevelError),
+    /// The level's roads do not form a network.
+    #[error("{level}: {message}")]
+    Roads {
+        /// Level name.
+        level: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The systems of the step conflict (a bug in a plugin, not in the level).
+    #[error("the simulation step cannot be built: {0}")]
+    Schedule(String),
+    /// A vehicle definition the level names is missing or invalid.
+    #[error("{level}: vehicle type `{name}`: {source}")]
+    Vehicle {
+        /// Level name.
+        level: String,
+        /// The vehicle type's name in the level.
+        name: String,
+        /// What is wrong with its file.
+        source: VehicleParamsError,
+    },
+    /// A driver profile the level defines has a bad parameter file or override.
+    #[error("{level}: driver profile `{name}`: {message}")]
+    Driver {
+        /// Level name.
+        level: String,
+        /// The profile's name in the level.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An output file could not be written.
+    #[error("{}: {source}", path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A command-line value is out of range.
+    #[error("{0}")]
+    Argument(String),
+    /// The run's plots could not be made.
+    #[error(transparent)]
+    Analysis(#[from] flockway_analysis::AnalysisError),
+}
+
+/// Longest run the command line accepts, in simulated seconds (one week).
+pub const MAX_RUN_SECONDS: f64 = flockway_level::MAX_DURATION_S;
+
+/// How to run a level.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Simulated seconds to run instead of the level's `duration_s`.
+    pub seconds: Option<f64>,
+    /// Seed to use instead of the level's.
+    pub seed: Option<u64>,
+    /// Where to stream the telemetry CSV.
+    pub csv: Option<PathBuf>,
+    /// A directory for one telemetry CSV per vehicle.
+    pub per_vehicle: Option<PathBuf>,
+    /// The `assets/` directory that level asset paths are relative to; `None` finds it with
+    /// [`find_assets_dir`].
+    pub assets: Option<PathBuf>,
+    /// A directory to write the run's plots into at the end, and their format.
+    pub plots: Option<(PathBuf, PlotFormat)>,
+}
+
+/// A run in progress: step it in chunks (for progress reporting), then finish it for the report.
+pub struct Runner {
+    sim: Sim,
+    level: Level,
+    name: String,
+    total_ticks: u64,
+    csv: Option<TelemetryWriter>,
+    per_vehicle: Option<PerVehicleFiles>,
+    plots: Option<(PathBuf, PlotFormat)>,
+    trace: Trace,
+    stepping: Duration,
+}
+
+/// One CSV per vehicle in a directory (`vehicle_<id>.csv`, the same columns), each closed when
+/// its vehicle is gone.
+struct PerVehicleFiles {
+    dir: PathBuf,
+    open: BTreeMap<u32, TelemetryWriter>,
+}
+
+impl PerVehicleFiles {
+    fn write_sample(&mut self, rows: &[TelemetryRow]) -> Result<(), RunError> {
+        let present: std::collections::BTreeSet<u32> = rows.iter().map(|r| r.vehicle_id).collect();
+        let gone: Vec<u32> = self
+            .open
+            .keys()
+            .filter(|id| !present.contains(id))
+            .copied()
+            .collect();
+        for id in gone {
+            if let Some(w) = self.open.remove(&id) {
+                let path = w.path().to_owned();
+                w.finish()
+                    .map_err(|source| RunError::Output { path, source })?;
+            }
+        }
+        for r in rows {
+            if !self.open.contains_key(&r.vehicle_id) {
+                let path = self.dir.join(format!("vehicle_{:06}.csv", r.vehicle_id));
+                let w = TelemetryWriter::create(&path)
+                    .map_err(|source| RunError::Output { path, source })?;
+                self.open.insert(r.vehicle_id, w);
+            }
+            if let Some(w) = self.open.get_mut(&r.vehicle_id) {
+                w.write_sample(std::slice::from_ref(r))
+                    .map_err(|source| RunError::Output {
+                        path: w.path().to_owned(),
+                        source,
+                    })?;
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(), RunError> {
+        for (_, w) in self.open {
+            let path = w.path().to_owned();
+            w.finish()
+                .map_err(|source| RunError::Output { path, source })?;
+        }
+        Ok(())
+    }
+}
+
+impl Runner {
+    /// Sets up a run of `level` (named `name` in reports).
+    pub fn new(level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
+        let seconds = options.seconds.unwrap_or(level.duration_s);
+        if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_RUN_SECONDS) {
+            return Err(RunError::Argument(format!(
+                "--seconds {seconds}: expected a number of seconds above 0 and at most {MAX_RUN_SECONDS}"
+            )));
+        }
+        let total_ticks = (seconds * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64;
+        let seed = options.seed.unwrap_or(level.seed);
+        let assets = options
+            .assets
+            .clone()
+            .unwrap_or_else(|| find_assets_dir(None));
+        let mut sim = build_sim(&level, seed)?;
+        let types = load_vehicle_types(&level, name, &assets)?;
+        let profiles = load_driver_profiles(&level, name, &assets)?;
+        populate(&mut sim, &level, name, &types, &profiles)?;
+        sim.world_mut().insert_resource(VehicleTypes(types));
+        sim.world_mut().insert_resource(DriverProfiles(profiles));
+        let csv = match &options.csv {
+            Some(path) => {
+                Some(
+                    TelemetryWriter::create(path).map_err(|source| RunError::Output {
+                        path: path.clone(),
+                        source,
+                    })?,
+                )
+            }
+            None => None,
+        };
+        let per_vehicle = match &options.per_vehicle {
+            Some(dir) => {
+                std::fs::create_dir_all(dir).map_err(|source| RunError::Output {
+                    path: dir.clone(),
+                    source,
+                })?;
+                Some(PerVehicleFiles {
+                    dir: dir.clone(),
+                    open: BTreeMap::new(),
+                })
+            }
+            None => None,
+        };
+        Ok(Runner {
+            sim,
+            level,
+            name: name.to_owned(),
+            total_ticks,
+            csv,
+            per_vehicle,
+            plots: options.plots.clone(),
+            trace: Trace::new(),
+            stepping: Duration::ZERO,
+        })
+    }
+
+    /// Ticks the whole run takes.
+    pub fn total_ticks(&self) -> u64 {
+        self.total_ticks
+    }
+
+    /// Ticks done so far.
+    pub fn ticks_done(&self) -> u64 {
+        self.sim.tick().0
+    }
+
+    /// The world being run.
+    pub fn sim(&self) -> &Sim {
+        &self.sim
+    }
+
+    /// The world being run, for tools that query it (the renderer).
+    pub fn sim_mut(&mut self) -> &mut Sim {
+        &mut self.sim
+    }
+
+    /// The level being run.
+    pub fn level(&self) -> &Level {
+        &self.level
+    }
+
+    /// Runs up to `max_ticks` more steps (fewer at the end of the run); returns how many ran.
+    pub fn step(&mut self, max_ticks: u64) -> Result<u64, RunError> {
+        let n = max_ticks.min(self.total_ticks - self.ticks_done());
+        for _ in 0..n {
+            // Wall-clock time is measured for the report only; it never reaches the simulation.
+            let started = Instant::now();
+            self.sim.step();
+            self.stepping += started.elapsed();
+            if self.sim.tick().0 == 1 {
+                self.check_roads()?;
+            }
+            self.write_samples()?;
+        }
+        Ok(n)
+    }
+
+    /// Streams the samples taken this tick to the CSV files (flushed per sample time, so a run
+    /// stopped at any moment leaves everything sampled so far).
+    fn write_samples(&mut self) -> Result<(), RunError> {
+        let pending = std::mem::take(
+            &mut self
+                .sim
+                .world_mut()
+                .resource_mut::<TelemetrySamples>()
+                .pending,
+        );
+        if pending.is_empty() {
+            return Ok(());
+        }
+        let names: BTreeMap<RoadId, String> = self
+            .sim
+            .world()
+            .resource::<RoadNetwork>()
+            .iter()
+            .map(|(id, g)| (id, g.name().to_owned()))
+            .collect();
+        for (tick, samples) in pending {
+            let time_s = tick as f64 / f64::from(TICKS_PER_SECOND);
+            let rows: Vec<TelemetryRow> = samples
+                .iter()
+                .map(|r| TelemetryRow {
+                    time_s,
+                    vehicle_id: r.vehicle_id,
+                    driver: r.driver.to_string(),
+                    road: names.get(&r.road).cloned().unwrap_or_default(),
+                    lane: r.lane,
+                    s_m: r.s_m,
+                    pos_m: r.position.as_dvec3().to_array(),
+                    speed_kmh: f64::from(r.speed_kmh),
+                    accel_mps2: f64::from(r.accel_mps2),
+                    throttle: f64::from(r.throttle),
+                    steering: f64::from(r.steering),
+                    gear: i32::from(r.gear),
+                    rpm: f64::from(r.rpm),
+                    model: r.model.to_string(),
+                })
+                .collect();
+            // Kept as the CSV writes them, so analysing the run or its CSV agrees.
+            for r in &rows {
+                self.trace.push_row(&r.as_written());
+            }
+            if let Some(csv) = &mut self.csv {
+                csv.write_sample(&rows).map_err(|source| RunError::Output {
+                    path: csv.path().to_owned(),
+                    source,
+                })?;
+            }
+            if let Some(dir) = &mut self.per_vehicle {
+                dir.write_sample(&rows)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The telemetry sampled so far, as analysis reads it.
+    pub fn trace(&self) -> &Trace {
+        &self.trace
+    }
+
+    /// Road edits are validated at load time; a network that still fails to build is reported.
+    fn check_roads(&self) -> Result<(), RunError> {
+        match &self.sim.world().resource::<RoadNetworkError>().0 {
+            Some(e) => Err(RunError::Roads {
+                level: self.name.clone(),
+                message: e.to_string(),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Runs to the end, then measures and checks the expectations.
+    pub fn finish(mut self) -> Result<Summary, RunError> {
+        while self.ticks_done() < self.total_ticks {
+            self.step(u64::MAX)?;
+        }
+        if let Some(csv) = self.csv.take() {
+            let path = csv.path().to_owned();
+            csv.finish()
+                .map_err(|source| RunError::Output { path, source })?;
+        }
+        if let Some(files) = self.per_vehicle.take() {
+            files.finish()?;
+        }
+        let summary = measure(
+            &self.sim,
+            &self.level,
+            &self.name,
+            &self.trace,
+            self.stepping,
+        );
+        if let Some((dir, format)) = &self.plots {
+            flockway_analysis::write_plots(&self.trace, &summary.plot_info(), dir, *format)?;
+        }
+        Ok(summary)
+    }
+}

@@ -1,0 +1,177 @@
+//! The end of a run: every metric measured from the world and the telemetry, the level's
+//! expectations checked against them, the [`Summary`].
+
+use flockway_analysis::{ExpectationResult, Summary, Trace, WaveSettings, measure_wave};
+use flockway_core::{RunStats, Sim, TICKS_PER_SECOND};
+use flockway_level::{Expectation, Level, Metric};
+use flockway_road::RoadNetwork;
+use flockway_traffic::{TelemetrySettings, TrafficStats};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Duration;
+
+/// Every metric of a finished run, keyed as expectations and the summary name them
+/// ([`Metric::key`], [`Metric::key_for`]).
+pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64> {
+    let world = sim.world();
+    let ticks = sim.tick().0;
+    let stats = *world.resource::<RunStats>();
+    let mut out = BTreeMap::new();
+    let mut put = |key: String, v: f64| {
+        out.insert(key, v);
+    };
+    put(Metric::Ticks.key(), ticks as f64);
+    put(Metric::SimSeconds.key(), sim.tick().seconds());
+    put(Metric::VehicleSteps.key(), stats.vehicle_steps as f64);
+    put(
+        Metric::VehiclesAliveMean.key(),
+        stats.vehicle_steps as f64 / ticks.max(1) as f64,
+    );
+    let network = world.resource::<RoadNetwork>();
+    for (_, road) in network.iter() {
+        put(Metric::RoadLengthM.key_for(road.name()), road.length_m());
+    }
+    let traffic = world.resource::<TrafficStats>();
+    let settings = *world.resource::<TelemetrySettings>();
+    put(Metric::VehiclesSpawned.key(), traffic.spawned as f64);
+    put(Metric::VehiclesDestroyed.key(), traffic.destroyed as f64);
+    put(
+        Metric::CollisionsGuardrail.key(),
+        traffic.collisions_guardrail as f64,
+    );
+    put(
+        Metric::CollisionsVehicle.key(),
+        traffic.collisions_vehicle as f64,
+    );
+    put(
+        Metric::Collisions.key(),
+        (traffic.collisions_guardrail + traffic.collisions_vehicle) as f64,
+    );
+    if let Some(v) = traffic.mean_speed_kmh() {
+        put(Metric::MeanSpeedKmh.key(), v);
+    }
+    if let Some(v) = traffic.speed_std_kmh() {
+        put(Metric::SpeedStdKmh.key(), v);
+    }
+    for (profile, st) in &traffic.speed_by_profile {
+        if let (Some(m), Some(sd)) = (st.mean(), st.std()) {
+            put(Metric::MeanSpeedKmh.key_for(profile), m);
+            put(Metric::SpeedStdKmh.key_for(profile), sd);
+        }
+    }
+    if let Some(v) = traffic.final_speed.mean() {
+        put(Metric::FinalSpeedKmh.key(), v);
+    }
+    for (profile, st) in &traffic.final_speed_by_profile {
+        if let Some(m) = st.mean() {
+            put(Metric::FinalSpeedKmh.key_for(profile), m);
+        }
+    }
+    if let Some(v) = traffic.final_at_limit.share() {
+        put(Metric::FinalLimitShare.key(), v);
+    }
+    for (profile, st) in &traffic.final_at_limit_by_profile {
+        if let Some(v) = st.share() {
+            put(Metric::FinalLimitShare.key_for(profile), v);
+        }
+    }
+    if let Some(v) = traffic.mean_travel_time_s() {
+        put(Metric::MeanTravelTimeS.key(), v);
+    }
+    // Flow through each destroyer over the measured part of the run.
+    let measured_s =
+        (ticks.saturating_sub(settings.stats_from_tick)) as f64 / f64::from(TICKS_PER_SECOND);
+    for d in &level.destroyers {
+        let n = traffic.destroyed_by.get(&d.name).copied().unwrap_or(0);
+        let flow = if measured_s > 0.0 {
+            n as f64 * 3600.0 / measured_s
+        } else {
+            0.0
+        };
+        put(Metric::FlowVehPerH.key_for(&d.name), flow);
+    }
+    let road_lengths: BTreeMap<String, f64> = network
+        .iter()
+        .map(|(_, r)| (r.name().to_owned(), r.length_m()))
+        .collect();
+    let wave_settings = WaveSettings {
+        from_s: settings.stats_from_tick as f64 / f64::from(TICKS_PER_SECOND),
+        ..WaveSettings::default()
+    };
+    if let Some(w) = measure_wave(trace, &road_lengths, &wave_settings) {
+        put(Metric::WaveDetected.key(), f64::from(u8::from(w.detected)));
+        if let Some(c) = w.speed_kmh() {
+            put(Metric::WaveSpeedKmh.key(), c);
+        }
+        if let Some(p) = w.period_s() {
+            put(Metric::WavePeriodS.key(), p);
+        }
+    }
+    out
+}
+
+/// The summary of a finished run: its metrics, the level's expectations checked against them,
+/// and the contract keys taken from the metrics.
+pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Duration) -> Summary {
+    let metrics = metrics(sim, level, trace);
+    let expectations: Vec<ExpectationResult> =
+        level.expect.iter().map(|e| evaluate(e, &metrics)).collect();
+    let settings = *sim.world().resource::<TelemetrySettings>();
+    let wall_seconds = stepping.as_secs_f64();
+    let sim_seconds = sim.tick().seconds();
+    let get = |m: Metric| metrics.get(&m.key()).copied();
+    let flow_prefix = format!("{}.", Metric::FlowVehPerH.name());
+    Summary {
+        collisions_guardrail: get(Metric::CollisionsGuardrail),
+        collisions_vehicle: get(Metric::CollisionsVehicle),
+        passed: expectations.iter().all(|e| e.passed),
+        expectations,
+        flow_veh_per_h: metrics
+            .iter()
+            .filter_map(|(k, v)| Some((k.strip_prefix(&flow_prefix)?.to_owned(), *v)))
+            .collect(),
+        level: name.to_owned(),
+        mean_speed_kmh: get(Metric::MeanSpeedKmh),
+        mean_travel_time_s: get(Metric::MeanTravelTimeS),
+        realtime_factor: if wall_seconds > 0.0 {
+            sim_seconds / wall_seconds
+        } else {
+            f64::INFINITY
+        },
+        seed: sim.seed(),
+        sim_seconds,
+        speed_std_kmh: get(Metric::SpeedStdKmh),
+        stats_from_s: settings.stats_from_tick as f64 / f64::from(TICKS_PER_SECOND),
+        ticks: sim.tick().0,
+        vehicle_steps: sim.world().resource::<RunStats>().vehicle_steps,
+        vehicles_alive_mean: get(Metric::VehiclesAliveMean),
+        vehicles_destroyed: get(Metric::VehiclesDestroyed),
+        vehicles_spawned: get(Metric::VehiclesSpawned),
+        wall_seconds,
+        wave_detected: get(Metric::WaveDetected).map(|v| v != 0.0),
+        wave_period_s: get(Metric::WavePeriodS),
+        wave_speed_kmh: get(Metric::WaveSpeedKmh),
+        metrics,
+    }
+}
+
+/// One expectation checked against the measured metrics; a metric the run did not measure
+/// fails rather than passing silently.
+pub fn evaluate(e: &Expectation, metrics: &BTreeMap<String, f64>) -> ExpectationResult {
+    let value = metrics.get(&e.key()).copied();
+    ExpectationResult {
+        name: e.to_string(),
+        passed: value.is_some_and(|v| e.holds(v)),
+        value,
+    }
+}
+
+/// The name a level is reported under: its `name`, or the file stem.
+pub fn level_name(level: &Level, path: &Path) -> String {
+    if level.name.trim().is_empty() {
+        path.file_stem()
+            .map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned())
+    } else {
+        level.name.clone()
+    }
+}

@@ -1,0 +1,175 @@
+//! A level turned into a world: the plugins, the roads, and the traffic the level places.
+
+use crate::runner::RunError;
+use flockway_core::{IdKind, RngStreams, Sim, StableId, TICKS_PER_SECOND};
+use flockway_drivers::{DriverSpec, DriversPlugin};
+use flockway_level::Level;
+use flockway_road::{Road, RoadId, RoadNetwork, RoadPlugin};
+use flockway_traffic::{
+    Destroyer, DestroyerPlace, SpawnChoice, Spawner, TelemetrySettings, TrafficPlugin, Trigger,
+    TriggerEffect, spawn_driven,
+};
+use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// Builds the world of a level: every plugin, and the level's entities, ready to step.
+pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
+    let mut sim = Sim::new(seed);
+    sim.add_plugin(RoadPlugin);
+    sim.add_plugin(VehiclePlugin);
+    sim.add_plugin(DriversPlugin);
+    sim.add_plugin(TrafficPlugin);
+    for (i, spec) in level.roads.iter().enumerate() {
+        sim.world_mut().spawn((
+            RoadId(i as u32),
+            StableId::new(IdKind::Road, i as u32),
+            Road(spec.clone()),
+        ));
+    }
+    sim.prepare().map_err(RunError::Schedule)?;
+    Ok(sim)
+}
+
+/// Puts a level's traffic into a world built by [`build_sim`]: telemetry settings, spawners,
+/// destroyers, triggers and the initial vehicles (spawned now, on the level's roads).
+pub fn populate(
+    sim: &mut Sim,
+    level: &Level,
+    level_name: &str,
+    types: &BTreeMap<String, Arc<VehicleType>>,
+    profiles: &BTreeMap<String, DriverSpec>,
+) -> Result<(), RunError> {
+    let fail = |message: String| RunError::Roads {
+        level: level_name.to_owned(),
+        message,
+    };
+    let network = RoadNetwork::build(&level.roads).map_err(|e| fail(e.to_string()))?;
+    let road = |name: &str| {
+        network
+            .id(name)
+            .ok_or_else(|| fail(format!("unknown road `{name}`")))
+    };
+    let ticks_of = |s: f64| (s * f64::from(TICKS_PER_SECOND)).round().max(0.0) as u64;
+    let choice = |profile: &str, weight: f64| -> Result<SpawnChoice, RunError> {
+        let driver = profiles.get(profile).cloned().ok_or_else(|| {
+            fail(format!(
+                "driver profile `{profile}` has a model no plugin of this program provides"
+            ))
+        })?;
+        let p = level
+            .driver_profiles
+            .iter()
+            .find(|p| p.name == profile)
+            .ok_or_else(|| fail(format!("unknown driver profile `{profile}`")))?;
+        let vehicle = types
+            .get(&p.vehicle)
+            .cloned()
+            .ok_or_else(|| fail(format!("unknown vehicle type `{}`", p.vehicle)))?;
+        Ok(SpawnChoice {
+            profile: Arc::from(profile),
+            weight,
+            vehicle,
+            driver,
+        })
+    };
+    let world = sim.world_mut();
+    world.insert_resource(TelemetrySettings {
+        period_ticks: ticks_of(level.telemetry.period_s).max(1),
+        stats_from_tick: ticks_of(level.telemetry.stats_from_s),
+    });
+    let streams = *world.resource::<RngStreams>();
+    for (i, sp) in level.spawners.iter().enumerate() {
+        let choices = sp
+            .profiles
+            .iter()
+            .map(|c| choice(&c.profile, c.weight))
+            .collect::<Result<Vec<_>, _>>()?;
+        let spawner = Spawner::new(
+            sp.name.clone(),
+            road(&sp.road)?,
+            sp.lane,
+            sp.s_m,
+            (sp.interval_s.min, sp.interval_s.max),
+            choices,
+            sp.speed_kmh.map(|k| (k / 3.6) as f32),
+            sp.active,
+            sp.max_vehicles,
+            streams.stream(StableId::new(IdKind::Spawner, i as u32)),
+        );
+        world.spawn((spawner, StableId::new(IdKind::Spawner, i as u32)));
+    }
+    for (i, d) in level.destroyers.iter().enumerate() {
+        let place = match &d.place {
+            flockway_level::DestroyerPlace::OnRoad { road: r, s_m } => DestroyerPlace::OnRoad {
+                road: road(r)?,
+                s_m: *s_m,
+            },
+            flockway_level::DestroyerPlace::Volume { min, max } => DestroyerPlace::Volume {
+                min: min.as_vec3(),
+                max: max.as_vec3(),
+            },
+        };
+        world.spawn((
+            Destroyer {
+                name: d.name.clone(),
+                place,
+            },
+            StableId::new(IdKind::Destroyer, i as u32),
+        ));
+    }
+    for (i, t) in level.triggers.iter().enumerate() {
+        let effect = match t.effect {
+            flockway_level::TriggerEffect::SpeedLimit { kmh } => {
+                TriggerEffect::SpeedLimit(kmh as f32)
+            }
+            flockway_level::TriggerEffect::Friction { scale } => {
+                TriggerEffect::Friction(scale as f32)
+            }
+        };
+        world.spawn((
+            Trigger {
+                name: t.name.clone(),
+                road: road(&t.road)?,
+                from_m: t.from_m,
+                to_m: t.to_m,
+                lanes: t.lanes.clone(),
+                effect,
+            },
+            StableId::new(IdKind::Trigger, i as u32),
+        ));
+    }
+    // Initial vehicles need the network now, before the first step builds it (to the same
+    // result) from the road components.
+    world.insert_resource(network.clone());
+    for (gi, group) in level.vehicles.iter().enumerate() {
+        let id = road(&group.road)?;
+        let Some(g) = network.get(id) else { continue };
+        let c = choice(&group.profile, 1.0)?;
+        let mut rng = streams.stream(StableId::new(IdKind::InitialVehicles, gi as u32));
+        let from = group.from_m;
+        let span = match group.to_m {
+            Some(to) => to - from,
+            None if g.is_closed() => g.length_m(),
+            None => g.length_m() - from,
+        };
+        let count = f64::from(group.count.max(1));
+        let width = g.frame_at(from).width_m;
+        let lateral = flockway_road::lane_offset(width, g.lanes(), group.lane);
+        let speed = group.speed_kmh.unwrap_or(0.0) as f32 / 3.6;
+        for k in 0..group.count {
+            let jitter = if group.jitter_m > 0.0 {
+                rng.uniform(-group.jitter_m, group.jitter_m)
+            } else {
+                0.0
+            };
+            let s = g.normalize_s(from + span * f64::from(k) / count + jitter);
+            let spawn = VehicleSpawn::new(c.vehicle.clone(), id, s)
+                .lateral(lateral)
+                .speed(speed);
+            spawn_driven(world, spawn, &c.driver, group.lane, c.profile.clone())
+                .map_err(|e| fail(e.to_string()))?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,261 @@
+//! The command line: every command, option and help text (clap). `main.rs` dispatches them to
+//! `commands`.
+
+use clap::{Args, Parser, Subcommand};
+use flockway::analysis::PlotFormat;
+use flockway::level::Template;
+use std::path::PathBuf;
+
+/// Flockway: a deterministic traffic sandbox with rigid-body cars and flocking drivers.
+///
+/// Levels are RON files (see levels/ for examples). Every run with the same level and seed gives
+/// the same results, byte for byte.
+#[derive(Parser)]
+#[command(name = "flockway", version, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Run a level headless and check its expectations.
+    ///
+    /// Exit status: 0 if every expectation held, 1 if one failed, 2 if the level or an argument
+    /// is invalid.
+    Run(RunArgs),
+    /// Write a new level from a template, ready for `flockway run` and `flockway edit`.
+    ///
+    /// Templates: `straight` (default): a 500 m two-lane road with a spawner of half autonomous,
+    /// half human-like cars and a destroyer; `ring`: 20 autonomous cars on a single-lane loop;
+    /// `empty`: the reference vehicle types and driver profiles only. Never overwrites a file.
+    /// Exit status: 0, or 2 if the file exists or cannot be written.
+    New {
+        /// The level file to write (e.g. my_level.ron).
+        #[arg(value_name = "LEVEL.ron")]
+        level: PathBuf,
+        /// What the new level holds.
+        #[arg(long, value_enum, default_value_t = TemplateArg::Straight)]
+        template: TemplateArg,
+    },
+    /// Check that level files load and validate, without running them.
+    ///
+    /// Prints each problem as FILE:LINE:COLUMN: message. Exit status: 0 if all are valid, 2 if not.
+    Check {
+        /// Level files to check.
+        #[arg(required = true, value_name = "LEVEL")]
+        levels: Vec<PathBuf>,
+    },
+    /// Run many levels (files or directories of .ron files), in parallel, and check their
+    /// expectations: each for the level's seed, or for several seeds.
+    ///
+    /// Prints one line per run and ends with `N passed, N failed`. Exit status: 0 if every run
+    /// passed, 1 if one failed, 2 if a level or argument is invalid.
+    Test {
+        /// Level files or directories.
+        #[arg(required = true, value_name = "LEVEL|DIR")]
+        paths: Vec<PathBuf>,
+        /// Run each level for N seeds: its own seed and the N − 1 after it.
+        #[arg(long, value_name = "N", conflicts_with = "seed_list")]
+        seeds: Option<u64>,
+        /// Run each level for these seeds (comma-separated).
+        #[arg(long, value_name = "A,B,C", value_delimiter = ',')]
+        seed_list: Option<Vec<u64>>,
+        /// Simulated seconds per run instead of each level's duration.
+        #[arg(long, value_name = "S")]
+        seconds: Option<f64>,
+        /// Parallel runs (default: the machine's cores).
+        #[arg(long, short, value_name = "N")]
+        jobs: Option<usize>,
+    },
+    /// Measure a vehicle on the test tracks: 0–100 km/h, top speed, 100–0 km/h braking, skid-pad
+    /// grip and standstill drift.
+    ///
+    /// Prints a table, or with --json one object with the keys zero_to_100_kmh_s, top_speed_kmh,
+    /// braking_100_0_m, max_lateral_g and standstill_drift_m. Exit status: 0, or 2 if the vehicle
+    /// file is invalid.
+    Dyno {
+        /// Vehicle definition to measure (default: assets/vehicles/sedan.ron's reference sedan).
+        #[arg(value_name = "VEHICLE")]
+        vehicle: Option<PathBuf>,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Draw a run's plots from its telemetry CSV: speed_history, space_time, mean_speed and, for
+    /// runs with destroyers, fundamental_diagram.
+    ///
+    /// Exit status: 0, or 2 if the CSV (or summary) is missing, foreign or malformed.
+    Plot {
+        /// The telemetry CSV of `flockway run --csv`.
+        #[arg(value_name = "RUN.csv")]
+        csv: PathBuf,
+        /// Directory to write the plots into (created if needed).
+        #[arg(long, short, value_name = "DIR", default_value = ".")]
+        output: PathBuf,
+        /// Image format.
+        #[arg(long, value_enum, default_value_t = Format::Png)]
+        format: Format,
+        /// The run's `--summary` JSON: titles get its level and seed, plots its road lengths.
+        #[arg(long, value_name = "FILE")]
+        summary: Option<PathBuf>,
+        /// Image size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
+        size: (u32, u32),
+    },
+    /// Open the editor on a level (a new empty level without one).
+    ///
+    /// Needs a display; without one, use `flockway run` or `flockway render`.
+    Edit {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: Option<PathBuf>,
+    },
+    /// Open a level in the window and start playing it.
+    Play {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: PathBuf,
+    },
+    /// Simulate a level headless to a moment and render the scene (no HUD) to a PNG, with the
+    /// window's renderer, on any machine with a Vulkan or GL driver (Mesa's software ones do).
+    ///
+    /// Exit status: 0, or 2 if the level or an argument is invalid or there is no graphics
+    /// adapter.
+    Render {
+        /// The level file.
+        #[arg(value_name = "LEVEL")]
+        level: PathBuf,
+        /// The PNG to write.
+        #[arg(long, short, value_name = "FILE.png", required = true)]
+        output: PathBuf,
+        /// Simulated seconds before the picture (0: as the level starts, after its first step).
+        #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+        at: f64,
+        /// Image size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Camera.
+        #[arg(long, value_enum, default_value_t = CameraArg::Top)]
+        camera: CameraArg,
+        /// Seed instead of the level's.
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+    },
+    /// Write one self-contained HTML report of a run: summary, expectations and their results,
+    /// the stop-and-go wave, and every plot embedded.
+    ///
+    /// Exit status: 0, or 2 if the CSV (or summary) is missing, foreign or malformed.
+    Report {
+        /// The telemetry CSV of `flockway run --csv`.
+        #[arg(value_name = "RUN.csv")]
+        csv: PathBuf,
+        /// The HTML file to write.
+        #[arg(long, short, value_name = "FILE", required = true)]
+        output: PathBuf,
+        /// The run's `--summary` JSON, for the summary table and the expectations.
+        #[arg(long, value_name = "FILE")]
+        summary: Option<PathBuf>,
+    },
+}
+
+/// Template of `flockway new`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum TemplateArg {
+    /// A two-lane road with a spawner and a destroyer.
+    Straight,
+    /// 20 cars on a single-lane loop.
+    Ring,
+    /// Vehicle types and driver profiles only.
+    Empty,
+}
+
+impl From<TemplateArg> for Template {
+    fn from(t: TemplateArg) -> Template {
+        match t {
+            TemplateArg::Straight => Template::Straight,
+            TemplateArg::Ring => Template::Ring,
+            TemplateArg::Empty => Template::Empty,
+        }
+    }
+}
+
+/// Camera of `flockway render`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum CameraArg {
+    /// Straight down, the whole level in view.
+    Top,
+    /// Perspective from the south-west, the whole level in view.
+    Orbit,
+}
+
+#[cfg(feature = "window")]
+impl From<CameraArg> for flockway::app::View {
+    fn from(c: CameraArg) -> flockway::app::View {
+        match c {
+            CameraArg::Top => flockway::app::View::Top,
+            CameraArg::Orbit => flockway::app::View::Orbit,
+        }
+    }
+}
+
+/// Plot image format on the command line.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Format {
+    /// PNG raster images.
+    Png,
+    /// SVG vector images.
+    Svg,
+}
+
+impl From<Format> for PlotFormat {
+    fn from(f: Format) -> PlotFormat {
+        match f {
+            Format::Png => PlotFormat::Png,
+            Format::Svg => PlotFormat::Svg,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// The level file to run (e.g. levels/dense_road.ron).
+    #[arg(value_name = "LEVEL")]
+    pub level: PathBuf,
+    /// Simulated seconds to run, instead of the level's duration_s.
+    #[arg(long, value_name = "S")]
+    pub seconds: Option<f64>,
+    /// Seed for every random stream, instead of the level's seed.
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+    /// Stream per-vehicle telemetry to this CSV file as the run goes.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Also write one telemetry CSV per vehicle into this directory (vehicle_NNNNNN.csv).
+    #[arg(long, value_name = "DIR")]
+    pub per_vehicle: Option<PathBuf>,
+    /// Write the run summary as JSON to this file (keys documented in the README).
+    #[arg(long, value_name = "FILE")]
+    pub summary: Option<PathBuf>,
+    /// Write the run's plots into this directory at the end (see `flockway plot`).
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
+    /// Image format of --plots.
+    #[arg(long, value_enum, default_value_t = Format::Png, requires = "plots")]
+    pub plot_format: Format,
+    /// Print nothing but errors; the exit status tells the outcome.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Parses `WIDTHxHEIGHT` (each 200–8000 pixels).
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected WIDTHxHEIGHT in pixels, e.g. 1600x900, found `{text}`");
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(200..=8000).contains(&w) || !(200..=8000).contains(&h) {
+        return Err(format!("{w}x{h}: each side must be 200 to 8000 pixels"));
+    }
+    Ok((w, h))
+}
