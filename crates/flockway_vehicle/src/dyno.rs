@@ -1,7 +1,7 @@
 //! The dyno: standard performance tests of a vehicle type on test tracks, in the full simulation.
 
 use crate::VehiclePlugin;
-use crate::vehicle::{Controls, Motion, VehicleSpawn, VehicleType, spawn_vehicle};
+use crate::{Controls, Motion, VehicleSpawn, VehicleType, spawn_vehicle};
 use bevy_ecs::prelude::*;
 use flockway_core::{Sim, TICKS_PER_SECOND};
 use flockway_road::{ControlPoint, Road, RoadId, RoadSpec};

@@ -10,17 +10,28 @@
 //! [`VehicleContact`] messages and [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back.
 //! Drivers write only [`Controls`].
 //!
+//! Modules: `components` (what a vehicle is made of), `spawn` (putting one into the world),
+//! `forces` (one tick's forces in named stages), `systems` (the per-tick systems), and the
+//! models they use: `tyre`, `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
+//!
 //! Conventions: world x east, y north, z up; body x forward, y left, z up; wheels in the order
 //! front left, front right, rear left, rear right.
 
+mod components;
 mod drivetrain;
 mod dyno;
+mod forces;
 mod params;
 mod physics;
+mod spawn;
 mod steering;
+mod systems;
 mod tyre;
-mod vehicle;
 
+pub use components::{
+    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, RAIL_GATE_MARGIN_M, RailGate,
+    RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType, WHEEL_NAMES, WheelState,
+};
 pub use drivetrain::{
     Driveline, Gearbox, Pedals, RPM_TO_RAD_S, STANDSTILL_MPS, SpinInput, SpinOutput, apply_brake,
 };
@@ -34,14 +45,13 @@ pub use physics::{
     ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics,
     VEHICLE_GROUP, VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
 };
+pub use spawn::{SpawnError, VehicleSpawn, rest_pose, spawn_vehicle};
 pub use steering::{ackermann, slew};
-pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
-pub use vehicle::{
-    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, PARALLEL_MIN_VEHICLES,
-    RAIL_GATE_MARGIN_M, RailGate, RoadTrack, SHOULDER_M, SpawnError, VehicleModel, VehicleSpawn,
-    VehicleState, VehicleType, WHEEL_NAMES, WheelState, apply_body_forces, drive_vehicles,
-    gate_guardrails, rest_pose, spawn_vehicle, sync_vehicles, track_road,
+pub use systems::{
+    PARALLEL_MIN_VEHICLES, apply_body_forces, drive_vehicles, gate_guardrails, sync_vehicles,
+    track_road,
 };
+pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
 
 /// The rapier version the vehicles run on, for plugins that add their own bodies.
 pub use rapier3d;

@@ -1,0 +1,861 @@
+//! One vehicle's forces for one tick, in named stages: the gearbox and clutch decide, the
+//! steering moves, each wheel finds its contact and spring load, the tyres' forces are taken at
+//! the current slips, the brakes (with ABS) act, the driveline and wheels spin up together, the
+//! braked wheels of a car at a standstill hold it, and the contact forces and drag add up to one
+//! force and torque on the body.
+//!
+//! Every stage is a function of what the stages before it found, so each is tested on its own.
+
+use crate::components::{
+    Chassis, Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState,
+    VehicleType,
+};
+use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput, apply_brake};
+use crate::params::VehicleParams;
+use crate::physics::{GRAVITY, Physics};
+use crate::steering::{ackermann, slew};
+use flockway_core::DT_S;
+use flockway_road::{RoadFrame, RoadNetwork};
+use glam::{Quat, Vec3};
+
+/// Stiffness of the bump stop relative to the spring.
+const BUMP_STOP_FACTOR: f32 = 10.0;
+
+/// The body's pose and velocity this tick, as rapier has them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Kinematics {
+    /// Centre of mass, m.
+    pub com: Vec3,
+    /// Orientation.
+    pub rot: Quat,
+    /// Velocity, m/s.
+    pub v: Vec3,
+    /// Angular velocity, rad/s.
+    pub w: Vec3,
+}
+
+impl Kinematics {
+    fn forward(&self) -> Vec3 {
+        self.rot * Vec3::X
+    }
+
+    fn down(&self) -> Vec3 {
+        -(self.rot * Vec3::Z)
+    }
+}
+
+/// The road surface under one wheel: a point on it and its normal, with its friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Surface {
+    /// Where the suspension's line meets the surface, m.
+    pub point: Vec3,
+    /// Its unit normal.
+    pub normal: Vec3,
+    /// Its friction relative to dry asphalt.
+    pub friction: f32,
+}
+
+/// What the gearbox and clutch decided for this tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Transmission {
+    /// The throttle axis read as accelerator and brake.
+    pub pedals: Pedals,
+    /// Signed overall ratio in the gear now engaged (0 while shifting into neutral).
+    pub ratio: f32,
+    /// Clutch engagement, 0..1.
+    pub clutch: f32,
+    /// The wheels' spin speed as the driveline sees it (weighted by torque share), rad/s.
+    pub driven_omega: f32,
+}
+
+/// Where each wheel touches: its surface (if any), spring compression and load.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct WheelContact {
+    /// The surface under the wheel; `None` for a wheel in the air.
+    pub surface: Option<Surface>,
+    /// Spring compression, m.
+    pub compression_m: f32,
+    /// Load on the tyre (spring, damper, bump stop, anti-roll), N.
+    pub load_n: f32,
+}
+
+/// One grounded tyre's state after the tyre stage: its force directions and what the later
+/// stages need of it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct TyrePatch {
+    /// Surface normal, forward and lateral directions of the contact, and its arm from the
+    /// centre of mass.
+    pub dirs: (Vec3, Vec3, Vec3, Vec3),
+    /// Longitudinal force at the current slip, N.
+    pub long_n: f32,
+    /// How fast that force grows with wheel speed, N·s/rad (for the implicit spin update).
+    pub slope: f32,
+    /// Contact point's speed along the tyre's forward direction, m/s.
+    pub vx: f32,
+    /// The most force the tyre can pass to the road, N.
+    pub peak_n: f32,
+    /// Longitudinal force that would hold the contact still this step, N.
+    pub hold_n: f32,
+}
+
+/// Stage 1, gearbox and clutch: shifts follow the wheels' speed through the gear, not the
+/// (possibly slipping) engine; pulling away, the clutch slips in proportion to the accelerator.
+pub(crate) fn gearbox_and_clutch(
+    t: &VehicleType,
+    controls: &Controls,
+    state: &mut VehicleState,
+    forward_mps: f32,
+    h: f32,
+) -> Transmission {
+    let p = &t.params;
+    let shares = t.driveline.shares;
+    let wbar: f32 = (0..4).map(|i| shares[i] * state.wheels[i].omega).sum();
+    let ratio_now = state.gearbox.ratio(&p.gearbox);
+    let input_rpm = (wbar * ratio_now).abs() / RPM_TO_RAD_S;
+    let pedals = state
+        .gearbox
+        .update(&p.gearbox, controls.throttle, forward_mps, input_rpm, h);
+    let ratio = state.gearbox.ratio(&p.gearbox);
+    let input_rpm = (wbar * ratio).abs() / RPM_TO_RAD_S;
+    let clutch = if state.gearbox.shifting() || ratio == 0.0 {
+        0.0
+    } else if input_rpm >= p.engine.idle_rpm {
+        1.0
+    } else {
+        // Pulling away: the automatic clutch slips in proportion to the accelerator, and is
+        // open with no accelerator, so a car at rest does not creep.
+        pedals.accelerator
+    };
+    Transmission {
+        pedals,
+        ratio,
+        clutch,
+        driven_omega: wbar,
+    }
+}
+
+/// Stage 2, steering: the wheel moves towards the input at the steering rate, and the road
+/// wheels take their Ackermann angles (the rear wheels never steer).
+pub(crate) fn steer_wheels(
+    p: &VehicleParams,
+    controls: &Controls,
+    state: &mut VehicleState,
+    forward_mps: f32,
+    h: f32,
+) -> [f32; 4] {
+    state.steer = slew(state.steer, controls.steering, p.steering.rate_per_s, h);
+    let centre = p
+        .steering
+        .center_angle_rad(state.steer, forward_mps.abs() * 3.6);
+    let (steer_l, steer_r) = ackermann(centre, p.wheels.wheelbase_m, p.wheels.track_m);
+    [steer_l, steer_r, 0.0, 0.0]
+}
+
+/// The exact road cross-section under an axle `offset_m` ahead of the centre of mass: stepped
+/// from the vehicle's road cursor, or through a connection onto the next road near an end.
+fn axle_frame(network: &RoadNetwork, track: &RoadTrack, offset_m: f32) -> Option<RoadFrame> {
+    let ds = f64::from(offset_m * track.heading_cos);
+    let geometry = network.get(track.road)?;
+    if let Some(frame) = geometry.frame_near(&track.cursor, track.s_m, ds) {
+        return Some(frame);
+    }
+    let (road, s) = network.advance(track.road, track.s_m, ds)?;
+    Some(network.get(road)?.frame_at(s))
+}
+
+/// Stage 3, wheel contact: the road cross-section under each axle (one exact spline evaluation
+/// each), each wheel's suspension line meeting that banked, sloped surface, rapier's ground
+/// where no road is under a wheel, and the spring, damper and bump stop along the surface normal,
+/// with anti-roll bars moving load from the less to the more compressed side of an axle.
+pub(crate) fn wheel_contact(
+    physics: &Physics,
+    network: &RoadNetwork,
+    t: &VehicleType,
+    track: &RoadTrack,
+    body: &Kinematics,
+) -> [WheelContact; 4] {
+    let p = &t.params;
+    let Kinematics { com, rot, v, w } = *body;
+    let down = body.down();
+    let axle_x = [t.mounts_cs[0].x, t.mounts_cs[2].x];
+    let frames = [
+        axle_frame(network, track, axle_x[0]),
+        axle_frame(network, track, axle_x[1]),
+    ];
+    let travel = p.suspension.travel_m;
+    let k = p.suspension.stiffness_n_per_m;
+    let c = p.suspension.damping_n_s_per_m;
+    let r = p.wheels.radius_m;
+    let mut surfaces: [Option<Surface>; 4] = [None; 4];
+    let mut compression = [0.0f32; 4];
+    let mut spring = [0.0f32; 4];
+    for i in 0..4 {
+        let mount = com + rot * t.mounts_cs[i];
+        let surface = match &frames[i / 2] {
+            Some(frame) => {
+                let origin = frame.pos.as_vec3();
+                let n = frame.up.as_vec3();
+                let dn = down.dot(n);
+                let lateral = f64::from((mount - origin).dot(frame.left.as_vec3()));
+                let dist = (origin - mount).dot(n) / dn;
+                // A wheel far above or below this surface (a bridge overhead, a fall) is not
+                // on it.
+                if dn < -0.2
+                    && lateral.abs() <= frame.width_m / 2.0 + SHOULDER_M
+                    && (0.0..=travel + r + 0.5).contains(&dist)
+                {
+                    Some((
+                        dist,
+                        Surface {
+                            point: mount + down * dist,
+                            normal: n,
+                            friction: 1.0,
+                        },
+                    ))
+                } else {
+                    None
+                }
+            }
+            None => None,
+        };
+        // No road under this wheel: ask rapier for the ground (off-road, after a crash).
+        let surface = surface.or_else(|| {
+            physics
+                .cast_ground(mount, down, travel + r + 0.5)
+                .map(|(dist, n)| {
+                    (
+                        dist,
+                        Surface {
+                            point: mount + down * dist,
+                            normal: n,
+                            friction: OFF_ROAD_FRICTION,
+                        },
+                    )
+                })
+        });
+        if let Some((dist, s)) = surface {
+            let x = travel - (dist - r);
+            if x > 0.0 {
+                let vm = v + w.cross(mount - com);
+                let x_dot = vm.dot(s.normal) / down.dot(s.normal);
+                let mut f = k * x + c * x_dot;
+                if x > travel {
+                    f += BUMP_STOP_FACTOR * k * (x - travel);
+                }
+                spring[i] = f.max(0.0);
+                compression[i] = x;
+                surfaces[i] = Some(s);
+            }
+        }
+    }
+    for axle in 0..2 {
+        let (l, rr) = (2 * axle, 2 * axle + 1);
+        let arb = p.suspension.anti_roll_n_per_m * (compression[l] - compression[rr]);
+        if surfaces[l].is_some() {
+            spring[l] = (spring[l] + arb).max(0.0);
+        }
+        if surfaces[rr].is_some() {
+            spring[rr] = (spring[rr] - arb).max(0.0);
+        }
+    }
+    std::array::from_fn(|i| WheelContact {
+        surface: surfaces[i],
+        compression_m: compression[i],
+        load_n: spring[i],
+    })
+}
+
+/// Stage 4, tyre forces: each grounded tyre's slips and forces, the lateral one limited so it
+/// stops a sideways slide within the step without reversing it (and near a standstill holding
+/// like static friction against the slope), the longitudinal one linearised in wheel speed for
+/// the implicit spin update. Returns each tyre's patch and gravity's pull along the road summed
+/// over the grounded wheels' shares; writes each wheel's steer, load, slips and lateral force.
+pub(crate) fn tyre_forces(
+    t: &VehicleType,
+    body: &Kinematics,
+    contacts: &[WheelContact; 4],
+    steer: &[f32; 4],
+    state: &mut VehicleState,
+    h: f32,
+) -> ([TyrePatch; 4], f32) {
+    let p = &t.params;
+    let Kinematics { com, rot, v, w } = *body;
+    let fwd = body.forward();
+    let r = p.wheels.radius_m;
+    // A quarter of the car's mass moves with each contact patch.
+    let m_eff = p.chassis.mass_kg / 4.0;
+    let mut patches = [TyrePatch::default(); 4];
+    let mut slope_pull = 0.0f32;
+    for i in 0..4 {
+        let ws = &mut state.wheels[i];
+        ws.steer_rad = steer[i];
+        ws.compression_m = contacts[i].compression_m;
+        ws.load_n = contacts[i].load_n;
+        let Some(s) = contacts[i].surface else {
+            ws.grounded = false;
+            ws.slip_ratio = 0.0;
+            ws.slip_angle_rad = 0.0;
+            ws.force_long_n = 0.0;
+            ws.force_lat_n = 0.0;
+            continue;
+        };
+        ws.grounded = true;
+        let n = s.normal;
+        // The rear wheels never steer: no trigonometry for them.
+        let heading = if steer[i] == 0.0 {
+            fwd
+        } else {
+            rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
+        };
+        let f_dir = (heading - n * heading.dot(n)).normalize_or_zero();
+        let l_dir = n.cross(f_dir);
+        let arm = s.point - com;
+        let vc = v + w.cross(arm);
+        let vx = vc.dot(f_dir);
+        let vy = vc.dot(l_dir);
+        let v_ref = vx.abs().max(p.tyres.low_speed_mps);
+        let slip_ratio = (ws.omega * r - vx) / v_ref;
+        // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
+        // within 2 % below 14°, and it needs no arctangent.
+        let slip_angle = vy / v_ref;
+        let (cx, cy, dcx) = t.tyre.forces(slip_ratio, slip_angle);
+        let grip = ws.friction_scale * s.friction * ws.load_n;
+        // The lateral force may stop the sideways slide within this step but not reverse it:
+        // at low speed the tyre's slope is far too stiff for an explicit step. Near a
+        // standstill the tyre holds like static friction: it stops the slide and carries the
+        // wheel's share of gravity along the slope, so a parked car on a bank does not creep.
+        let gravity_share = m_eff * GRAVITY;
+        let fy = if vx.abs() < p.tyres.low_speed_mps {
+            let peak = grip * t.tyre.friction;
+            (-m_eff * vy / h - gravity_share.dot(l_dir)).clamp(-peak, peak)
+        } else {
+            clamp_towards(cy * grip, -vy * m_eff / h)
+        };
+        let hold_n = -m_eff * vx / h;
+        slope_pull += gravity_share.dot(f_dir);
+        ws.slip_ratio = slip_ratio;
+        ws.slip_angle_rad = slip_angle;
+        ws.force_lat_n = fy;
+        // Linearise with the steeper of the tangent and the secant to the zero-slip point:
+        // past the peak the tangent is flat, and an update using it would carry the wheel
+        // straight through rolling speed into the opposite slip.
+        let tangent = grip * dcx * r / v_ref;
+        let rolling_omega = vx / r;
+        let secant = if (ws.omega - rolling_omega).abs() > 1.0e-6 {
+            (cx * grip / (ws.omega - rolling_omega)).max(0.0)
+        } else {
+            0.0
+        };
+        patches[i] = TyrePatch {
+            dirs: (n, f_dir, l_dir, arm),
+            long_n: cx * grip,
+            slope: tangent.max(secant),
+            vx,
+            peak_n: grip * t.tyre.friction,
+            hold_n,
+        };
+    }
+    (patches, slope_pull)
+}
+
+/// Stage 5, brakes and ABS: the torque holding each wheel (brake, handbrake on the rear,
+/// rolling resistance) and the wheel speeds after it, which brakes bring towards zero but never
+/// past it. ABS holds the slip near the tyre's peak.
+pub(crate) fn brakes_and_abs(
+    t: &VehicleType,
+    controls: &Controls,
+    pedals: &Pedals,
+    forward_mps: f32,
+    state: &VehicleState,
+    patches: &[TyrePatch; 4],
+    h: f32,
+) -> ([f32; 4], [f32; 4]) {
+    let p = &t.params;
+    let r = p.wheels.radius_m;
+    let iw = t.driveline.wheel_inertia;
+    let mut brake_nm = [0.0f32; 4];
+    let mut omega_braked = state.wheels.map(|w| w.omega);
+    for i in 0..4 {
+        let ws = &state.wheels[i];
+        let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
+        if p.brakes.abs && forward_mps.abs() > 1.0 {
+            // Full torque up to 70 % of the peak slip, released linearly to none at 130 %, and
+            // never more than the tyre can pass to the road.
+            let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
+            let release = 1.0 - excess.clamp(0.0, 1.0);
+            brake = (brake * release).min(patches[i].peak_n * r);
+        }
+        if controls.handbrake && i >= 2 {
+            brake += p.brakes.max_handbrake_torque_nm;
+        }
+        brake += p.chassis.rolling_resistance * ws.load_n * r;
+        brake_nm[i] = brake;
+        omega_braked[i] = apply_brake(ws.omega, brake, iw, h);
+    }
+    (brake_nm, omega_braked)
+}
+
+/// Stage 6, driveline: wheel spin, engine and clutch solved implicitly together with the
+/// tyres; while shifting, the gearbox synchronises the engine to the gear it shifts into, so
+/// the clutch closes without a jolt.
+pub(crate) fn driveline(
+    t: &VehicleType,
+    transmission: &Transmission,
+    state: &mut VehicleState,
+    omega_braked: [f32; 4],
+    patches: &[TyrePatch; 4],
+    h: f32,
+) -> SpinOutput {
+    let p = &t.params;
+    let omega_now = state.wheels.map(|w| w.omega);
+    let spin = t.driveline.spin(
+        &p.engine,
+        &SpinInput {
+            omega: omega_braked,
+            omega_tyre: omega_now,
+            tyre_force_n: patches.map(|t| t.long_n),
+            tyre_slope: patches.map(|t| t.slope),
+            engine_omega: state.engine_omega,
+            accelerator: if state.gearbox.shifting() {
+                0.0
+            } else {
+                transmission.pedals.accelerator
+            },
+            ratio: transmission.ratio,
+            clutch: transmission.clutch,
+        },
+        h,
+    );
+    state.engine_omega = spin.engine_omega;
+    if state.gearbox.shifting() {
+        let target_ratio = Gearbox::ratio_of(&p.gearbox, state.gearbox.target);
+        let target = (transmission.driven_omega * target_ratio)
+            .abs()
+            .clamp(t.driveline.idle_omega, t.driveline.max_omega);
+        let left = state.gearbox.shift_left_s.max(h);
+        state.engine_omega += (target - state.engine_omega) * (h / left).min(1.0);
+    }
+    state.clutch = transmission.clutch;
+    state.pedals = transmission.pedals;
+    spin
+}
+
+/// Stage 7, standstill hold: which braked wheels of a car at a standstill hold it by static
+/// friction, sharing between them the pull of gravity along the slope (the free-rolling wheels
+/// carry none of it). A wheel whose brake cannot carry its share drops out and the others share
+/// more; four rounds settle any combination of four wheels. Returns the holding wheels and how
+/// many share the pull (at least one).
+pub(crate) fn standstill_hold(
+    p: &VehicleParams,
+    state: &VehicleState,
+    patches: &[TyrePatch; 4],
+    spin: &SpinOutput,
+    brake_nm: &[f32; 4],
+    slope_pull: f32,
+) -> ([bool; 4], f32) {
+    let r = p.wheels.radius_m;
+    let mut holding: [bool; 4] = std::array::from_fn(|i| {
+        state.wheels[i].grounded
+            && patches[i].vx.abs() < p.tyres.low_speed_mps
+            && spin.omega[i].abs() * r < p.tyres.low_speed_mps
+            && brake_nm[i] > spin.drive_torque_nm[i].abs()
+    });
+    let mut holders = 1.0f32;
+    for _ in 0..4 {
+        holders = holding.iter().filter(|&&b| b).count().max(1) as f32;
+        let before = holding;
+        for i in 0..4 {
+            let need = (patches[i].hold_n - slope_pull / holders).abs() * r;
+            holding[i] &= need <= brake_nm[i] - spin.drive_torque_nm[i].abs();
+        }
+        if holding == before {
+            break;
+        }
+    }
+    (holding, holders)
+}
+
+/// What the hold stage decided, for the contact forces.
+pub(crate) struct Hold {
+    /// Which wheels hold the car.
+    pub holding: [bool; 4],
+    /// How many share gravity's pull along the road.
+    pub holders: f32,
+    /// That pull, N.
+    pub slope_pull: f32,
+}
+
+/// Stage 8, contact forces: each grounded tyre's longitudinal force kept inside the friction
+/// ellipse its lateral force leaves and never pushing the car past the wheel's own rolling speed
+/// in one step (what the wheel did not pass to the road stays in its spin), or holding the
+/// wheel still; the load, longitudinal and lateral forces summed into a force and a torque
+/// about the centre of mass. Writes each wheel's final spin, drive torque and force.
+pub(crate) fn contact_forces(
+    t: &VehicleType,
+    state: &mut VehicleState,
+    patches: &[TyrePatch; 4],
+    spin: &SpinOutput,
+    brake_nm: &[f32; 4],
+    hold: &Hold,
+    h: f32,
+) -> (Vec3, Vec3) {
+    let p = &t.params;
+    let r = p.wheels.radius_m;
+    let iw = t.driveline.wheel_inertia;
+    let m_eff = p.chassis.mass_kg / 4.0;
+    let mut force = Vec3::ZERO;
+    let mut torque = Vec3::ZERO;
+    for i in 0..4 {
+        let ws = &mut state.wheels[i];
+        ws.drive_torque_nm = spin.drive_torque_nm[i];
+        ws.omega = spin.omega[i];
+        if !ws.grounded {
+            continue;
+        }
+        let tp = &patches[i];
+        let hold_n = tp.hold_n - hold.slope_pull / hold.holders;
+        let (n, f_dir, l_dir, arm) = tp.dirs;
+        let peak = tp.peak_n;
+        let room = (peak * peak - ws.force_lat_n * ws.force_lat_n)
+            .max(0.0)
+            .sqrt();
+        let linear = spin.tyre_force_n[i];
+        let fx = if hold.holding[i]
+            && hold_n.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
+            && hold_n.abs() <= room
+        {
+            ws.omega = 0.0;
+            hold_n
+        } else {
+            let fx = clamp_towards(
+                linear.clamp(-room, room),
+                (ws.omega * r - tp.vx) * m_eff / h,
+            );
+            ws.omega += h * r * (linear - fx) / iw;
+            fx
+        };
+        ws.force_long_n = fx;
+        let f = n * ws.load_n + f_dir * fx + l_dir * ws.force_lat_n;
+        force += f;
+        torque += arm.cross(f);
+    }
+    (force, torque)
+}
+
+/// Stage 9, drag: ½ ρ Cd A v² against the velocity, at the centre of mass.
+pub(crate) fn drag(p: &VehicleParams, v: Vec3) -> Vec3 {
+    let ch = &p.chassis;
+    let speed = v.length();
+    -(v * (0.5 * ch.air_density_kg_m3 * ch.drag_coefficient * ch.frontal_area_m2 * speed))
+}
+
+/// The force and torque on one vehicle's body this tick (suspension, tyres, drag), advancing
+/// its wheels, engine, gearbox and steering: the stages above, in order. Reads the physics world
+/// only, so vehicles can be computed in parallel; `None` if its body is gone.
+pub(crate) fn vehicle_forces(
+    physics: &Physics,
+    network: &RoadNetwork,
+    controls: &Controls,
+    model: &VehicleModel,
+    chassis: &Chassis,
+    track: &RoadTrack,
+    state: &mut VehicleState,
+) -> Option<(Vec3, Vec3)> {
+    let h = DT_S as f32;
+    let body = physics.world.bodies.get(chassis.body)?;
+    let t: &VehicleType = &model.0;
+    let pose = *body.position();
+    let kin = Kinematics {
+        com: pose.translation,
+        rot: pose.rotation,
+        v: body.linvel(),
+        w: body.angvel(),
+    };
+    let forward_mps = kin.v.dot(kin.forward());
+    let transmission = gearbox_and_clutch(t, controls, state, forward_mps, h);
+    let steer = steer_wheels(&t.params, controls, state, forward_mps, h);
+    let contacts = wheel_contact(physics, network, t, track, &kin);
+    let (patches, slope_pull) = tyre_forces(t, &kin, &contacts, &steer, state, h);
+    let (brake_nm, omega_braked) = brakes_and_abs(
+        t,
+        controls,
+        &transmission.pedals,
+        forward_mps,
+        state,
+        &patches,
+        h,
+    );
+    let spin = driveline(t, &transmission, state, omega_braked, &patches, h);
+    let (holding, holders) =
+        standstill_hold(&t.params, state, &patches, &spin, &brake_nm, slope_pull);
+    let hold = Hold {
+        holding,
+        holders,
+        slope_pull,
+    };
+    let (mut force, torque) = contact_forces(t, state, &patches, &spin, &brake_nm, &hold, h);
+    force += drag(&t.params, kin.v);
+    Some((force, torque))
+}
+
+/// Clamps a tyre force to lie between zero and the force that would stop the slip.
+pub(crate) fn clamp_towards(force: f32, stop: f32) -> f32 {
+    if stop >= 0.0 {
+        force.clamp(0.0, stop)
+    } else {
+        force.clamp(stop, 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::components::WheelState;
+    use crate::spawn::rest_pose;
+    use flockway_road::{RoadId, RoadSpec};
+    use glam::DVec3;
+
+    /// A straight flat road along x, the reference sedan resting on it at 50 m, and a state at
+    /// rest.
+    fn parked() -> (
+        Physics,
+        RoadNetwork,
+        VehicleType,
+        RoadTrack,
+        Kinematics,
+        VehicleState,
+    ) {
+        let spec = RoadSpec::through("flat", 2, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let network = RoadNetwork::build(&[spec]).expect("a road");
+        let g = network.get(RoadId(0)).expect("road 0").clone();
+        let t = VehicleType::default();
+        let (com, rot) = rest_pose(&t, &g.frame_at(50.0), 0.0);
+        let track = RoadTrack::new(RoadId(0), &g, 50.0, 0.0);
+        let kin = Kinematics {
+            com,
+            rot,
+            v: Vec3::ZERO,
+            w: Vec3::ZERO,
+        };
+        let mut wheels = [WheelState::default(); 4];
+        for (i, w) in wheels.iter_mut().enumerate() {
+            w.compression_m = t.rest_compression_m[i];
+        }
+        let state = VehicleState {
+            wheels,
+            gearbox: Gearbox::for_speed(&t.params.gearbox, 0.0, t.params.wheels.radius_m),
+            engine_omega: t.driveline.idle_omega,
+            clutch: 0.0,
+            steer: 0.0,
+            pedals: Pedals::default(),
+        };
+        (Physics::default(), network, t, track, kin, state)
+    }
+
+    #[test]
+    fn wheel_contact_at_rest_carries_the_static_axle_loads() {
+        let (physics, network, t, track, kin, _) = parked();
+        let c = wheel_contact(&physics, &network, &t, &track, &kin);
+        let g = -GRAVITY.z;
+        let total: f32 = c.iter().map(|w| w.load_n).sum();
+        assert!(
+            (total - t.params.chassis.mass_kg * g).abs() < 1.0,
+            "the springs carry the car: {total} N"
+        );
+        assert!(
+            c.iter()
+                .all(|w| w.surface.is_some_and(|s| s.friction == 1.0))
+        );
+        assert!(
+            (c[0].load_n - c[1].load_n).abs() < 1e-3,
+            "left and right alike"
+        );
+        for (i, w) in c.iter().enumerate() {
+            assert!((w.compression_m - t.rest_compression_m[i]).abs() < 1e-4);
+        }
+        // Lifted a metre, no wheel reaches the road (and there is no ground collider here).
+        let high = Kinematics {
+            com: kin.com + Vec3::Z,
+            ..kin
+        };
+        let c = wheel_contact(&physics, &network, &t, &track, &high);
+        assert!(c.iter().all(|w| w.surface.is_none() && w.load_n == 0.0));
+        // Rolled to the left: the anti-roll bar moves load to the more compressed right side.
+        let rolled = Kinematics {
+            rot: Quat::from_rotation_x(0.02) * kin.rot,
+            ..kin
+        };
+        let c = wheel_contact(&physics, &network, &t, &track, &rolled);
+        assert!(c[1].compression_m > c[0].compression_m && c[1].load_n > c[0].load_n);
+    }
+
+    #[test]
+    fn tyre_forces_of_a_rolling_wheel_are_zero_and_a_slide_is_opposed() {
+        let (physics, network, t, track, kin, mut state) = parked();
+        let rolling = Kinematics {
+            v: Vec3::new(20.0, 0.0, 0.0),
+            ..kin
+        };
+        for w in &mut state.wheels {
+            w.omega = 20.0 / t.params.wheels.radius_m;
+        }
+        let contacts = wheel_contact(&physics, &network, &t, &track, &rolling);
+        let (patches, slope_pull) =
+            tyre_forces(&t, &rolling, &contacts, &[0.0; 4], &mut state, 1.0 / 120.0);
+        for (i, p) in patches.iter().enumerate() {
+            assert!(p.long_n.abs() < 1e-3, "wheel {i}: {}", p.long_n);
+            assert!(state.wheels[i].force_lat_n.abs() < 1e-3);
+            assert!(p.peak_n > 0.0 && (p.vx - 20.0).abs() < 1e-4);
+        }
+        assert!(slope_pull.abs() < 1e-3, "flat road: no pull along it");
+        // Sliding left at 1 m/s: every tyre pushes right, and no more than it can.
+        let sliding = Kinematics {
+            v: Vec3::new(20.0, 1.0, 0.0),
+            ..kin
+        };
+        let (patches, _) = tyre_forces(&t, &sliding, &contacts, &[0.0; 4], &mut state, 1.0 / 120.0);
+        for (i, p) in patches.iter().enumerate() {
+            let fy = state.wheels[i].force_lat_n;
+            assert!(fy < 0.0 && fy.abs() <= p.peak_n, "wheel {i}: {fy}");
+        }
+        // Spinning faster than the road: a driving force, and a wheel in the air has none.
+        state.wheels[2].omega *= 1.1;
+        let mut airborne = contacts;
+        airborne[3].surface = None;
+        let (patches, _) = tyre_forces(&t, &rolling, &airborne, &[0.0; 4], &mut state, 1.0 / 120.0);
+        assert!(patches[2].long_n > 0.0);
+        assert_eq!(patches[3], TyrePatch::default());
+        assert!(!state.wheels[3].grounded);
+    }
+
+    #[test]
+    fn brakes_release_beyond_the_abs_slip_and_the_handbrake_holds_the_rear() {
+        let (_, _, t, _, _, mut state) = parked();
+        let patches = [TyrePatch {
+            peak_n: 4000.0,
+            ..TyrePatch::default()
+        }; 4];
+        let braking = Pedals {
+            accelerator: 0.0,
+            brake: 1.0,
+        };
+        let peak = t.tyre.peak_slip_ratio;
+        for (i, w) in state.wheels.iter_mut().enumerate() {
+            w.omega = 50.0;
+            w.load_n = 3000.0;
+            // Slips at 50 %, 100 %, 150 % of the peak, and none.
+            w.slip_ratio = -peak * [0.5, 1.0, 1.5, 0.0][i];
+        }
+        let controls = Controls::default();
+        let (brake, omega) =
+            brakes_and_abs(&t, &controls, &braking, 25.0, &state, &patches, 1.0 / 120.0);
+        let rolling = t.params.chassis.rolling_resistance * 3000.0 * t.params.wheels.radius_m;
+        let full = (t.params.brakes.max_brake_torque_nm).min(4000.0 * t.params.wheels.radius_m);
+        assert!((brake[0] - rolling - full).abs() < 1e-2, "below 70 %: full");
+        assert!(
+            brake[1] - rolling < full && brake[1] - rolling > 0.0,
+            "released part way"
+        );
+        assert!((brake[2] - rolling).abs() < 1e-3, "past 130 %: released");
+        assert!((brake[3] - rolling - full).abs() < 1e-2);
+        assert!(
+            omega.iter().all(|&w| (0.0..=50.0).contains(&w)),
+            "never reversed"
+        );
+        // The handbrake acts on the rear wheels only.
+        let hand = Controls {
+            handbrake: true,
+            ..Controls::default()
+        };
+        let coast = Pedals::default();
+        let (brake, _) = brakes_and_abs(&t, &hand, &coast, 0.0, &state, &patches, 1.0 / 120.0);
+        assert!((brake[0] - rolling).abs() < 1e-3 && (brake[1] - rolling).abs() < 1e-3);
+        assert!((brake[2] - rolling - t.params.brakes.max_handbrake_torque_nm).abs() < 1e-2);
+    }
+
+    #[test]
+    fn a_braked_car_at_a_standstill_holds_on_a_slope_unless_the_brakes_are_too_weak() {
+        let (_, _, t, _, _, mut state) = parked();
+        for w in &mut state.wheels {
+            w.grounded = true;
+        }
+        let patches = [TyrePatch::default(); 4];
+        let spin = SpinOutput {
+            omega: [0.0; 4],
+            tyre_force_n: [0.0; 4],
+            engine_omega: 0.0,
+            drive_torque_nm: [0.0; 4],
+        };
+        // A 4 % hill pulls 1500 kg × 9.81 × 0.04 ≈ 590 N along the road.
+        let pull = 590.0;
+        let (holding, holders) =
+            standstill_hold(&t.params, &state, &patches, &spin, &[500.0; 4], pull);
+        assert_eq!((holding, holders), ([true; 4], 4.0));
+        // Only the rear brakes (the handbrake): they share the pull between two.
+        let (holding, holders) = standstill_hold(
+            &t.params,
+            &state,
+            &patches,
+            &spin,
+            &[0.0, 0.0, 500.0, 500.0],
+            pull,
+        );
+        assert_eq!((holding, holders), ([false, false, true, true], 2.0));
+        // Brakes too weak for their share: nobody holds, and the car rolls.
+        let (holding, _) = standstill_hold(&t.params, &state, &patches, &spin, &[10.0; 4], pull);
+        assert_eq!(holding, [false; 4]);
+    }
+
+    #[test]
+    fn the_longitudinal_force_stays_inside_the_friction_ellipse() {
+        let (_, _, t, _, _, mut state) = parked();
+        let dirs = (Vec3::Z, Vec3::X, Vec3::Y, Vec3::ZERO);
+        for w in &mut state.wheels {
+            w.grounded = true;
+            w.load_n = 3600.0;
+            w.omega = 30.0;
+        }
+        // Wheel 0 uses 3000 of its 5000 N for cornering: 4000 N are left along the tyre.
+        state.wheels[0].force_lat_n = 3000.0;
+        let patches = [TyrePatch {
+            dirs,
+            peak_n: 5000.0,
+            vx: 10.0,
+            ..TyrePatch::default()
+        }; 4];
+        let spin = SpinOutput {
+            omega: [30.0; 4],
+            tyre_force_n: [9000.0; 4],
+            engine_omega: 300.0,
+            drive_torque_nm: [0.0; 4],
+        };
+        let hold = Hold {
+            holding: [false; 4],
+            holders: 1.0,
+            slope_pull: 0.0,
+        };
+        let (force, torque) = contact_forces(
+            &t,
+            &mut state,
+            &patches,
+            &spin,
+            &[0.0; 4],
+            &hold,
+            1.0 / 120.0,
+        );
+        assert!((state.wheels[0].force_long_n - 4000.0).abs() < 1e-2);
+        assert!((state.wheels[1].force_long_n - 5000.0).abs() < 1e-2);
+        // The force it could not pass to the road spins the wheel up.
+        assert!(state.wheels[0].omega > 30.0);
+        assert!((force.z - 4.0 * 3600.0).abs() < 1e-2 && torque == Vec3::ZERO);
+        assert!(drag(&t.params, Vec3::new(30.0, 0.0, 0.0)).x < -300.0);
+    }
+
+    #[test]
+    fn clamp_towards_never_reverses_a_slip() {
+        assert_eq!(clamp_towards(500.0, 200.0), 200.0);
+        assert_eq!(clamp_towards(-50.0, 200.0), 0.0);
+        assert_eq!(clamp_towards(-500.0, -200.0), -200.0);
+        assert_eq!(clamp_towards(100.0, -200.0), 0.0);
+    }
+}

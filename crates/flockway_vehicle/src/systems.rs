@@ -1,0 +1,220 @@
+//! The per-tick vehicle systems: forces computed and applied before rapier steps, the new state
+//! read back and tracked along the roads after it, and guardrails gated in or out of each car's
+//! collider.
+
+use crate::components::{
+    BodyForces, Chassis, Controls, Motion, RAIL_GATE_END_M, RAIL_GATE_HYSTERESIS_M,
+    RAIL_GATE_MARGIN_M, RailGate, RoadTrack, VehicleModel, VehicleState,
+};
+use crate::forces::vehicle_forces;
+use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
+use bevy_ecs::prelude::*;
+use flockway_core::DT_S;
+use flockway_road::RoadNetwork;
+use glam::{DVec3, Vec3};
+use rapier3d::prelude::*;
+
+impl RailGate {
+    /// Decides from the car's track and motion whether guardrails must be in its filter for the
+    /// next step.
+    fn decide(&mut self, network: &RoadNetwork, track: &RoadTrack, motion: &Motion) {
+        let near_end = network.get(track.road).is_none_or(|g| {
+            !g.is_closed()
+                && (track.s_m < RAIL_GATE_END_M || track.s_m > g.length_m() - RAIL_GATE_END_M)
+        });
+        let upright = (motion.rotation * Vec3::Z).z > 0.8;
+        if near_end || !track.on_road || !upright {
+            self.want_open = true;
+            return;
+        }
+        // The box's reach across the road: its half width and half length turned by the
+        // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
+        let cos = track.heading_cos.abs().min(1.0);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let reach = self.half_length_m * sin + self.half_width_m * cos + 0.1;
+        let edge = 0.5 * track.width_m + flockway_road::GUARDRAIL_OFFSET_M as f32;
+        let clearance = edge - (track.lateral_m.abs() as f32 + reach);
+        // How far the box's side can move in two steps: sliding across, and turning.
+        let across = motion.linvel.dot(track.left).abs();
+        let turning = motion.angvel.z.abs() * self.half_length_m;
+        let moves = 2.0 * DT_S as f32 * (across + turning);
+        let needed = moves + RAIL_GATE_MARGIN_M;
+        self.want_open = if self.open {
+            clearance < needed + RAIL_GATE_HYSTERESIS_M
+        } else {
+            clearance < needed
+        };
+    }
+}
+
+/// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided.
+pub fn gate_guardrails(mut physics: ResMut<Physics>, mut gates: Query<&mut RailGate>) {
+    let gating = physics.rail_gates;
+    for mut gate in &mut gates {
+        let want_open = gate.want_open || !gating;
+        if want_open == gate.open {
+            continue;
+        }
+        let filter = if want_open {
+            VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
+        } else {
+            VEHICLE_GROUP | GROUND_GROUP
+        };
+        if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
+            collider.set_collision_groups(InteractionGroups::new(
+                VEHICLE_GROUP,
+                filter,
+                InteractionTestMode::And,
+            ));
+        }
+        gate.open = want_open;
+    }
+}
+
+/// Below this many vehicles the force computation runs on one thread: spreading a handful of
+/// cars over the task pool costs more than it saves.
+pub const PARALLEL_MIN_VEHICLES: usize = 128;
+
+/// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
+/// spin, engine and gearbox. Each vehicle reads only the physics world and writes only its own
+/// components, so they run in parallel on the task pool with results independent of threads.
+pub fn drive_vehicles(
+    physics: Res<Physics>,
+    network: Res<RoadNetwork>,
+    mut vehicles: Query<(
+        &Controls,
+        &VehicleModel,
+        &Chassis,
+        &RoadTrack,
+        &mut VehicleState,
+        &mut BodyForces,
+    )>,
+) {
+    let physics: &Physics = &physics;
+    let network: &RoadNetwork = &network;
+    let run = |(controls, model, chassis, track, mut state, mut out): (
+        &Controls,
+        &VehicleModel,
+        &Chassis,
+        &RoadTrack,
+        Mut<VehicleState>,
+        Mut<BodyForces>,
+    )| {
+        let (force, torque) = vehicle_forces(
+            physics, network, controls, model, chassis, track, &mut state,
+        )
+        .unwrap_or_default();
+        *out = BodyForces { force, torque };
+    };
+    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+        vehicles.iter_mut().for_each(run);
+    } else {
+        vehicles.par_iter_mut().for_each(run);
+    }
+}
+
+/// Replaces every vehicle body's forces with this tick's (rapier keeps user forces until they
+/// are reset, so adding them each tick would accumulate).
+pub fn apply_body_forces(mut physics: ResMut<Physics>, vehicles: Query<(&Chassis, &BodyForces)>) {
+    for (chassis, f) in &vehicles {
+        if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
+            body.reset_forces(false);
+            body.reset_torques(false);
+            body.add_force(f.force, false);
+            body.add_torque(f.torque, false);
+        }
+    }
+}
+
+/// Reads every vehicle's pose and velocity back from rapier and tracks it along the roads (in
+/// parallel: each vehicle writes only its own components).
+pub fn sync_vehicles(
+    physics: Res<Physics>,
+    network: Res<RoadNetwork>,
+    mut vehicles: Query<(&Chassis, &mut Motion, &mut RoadTrack, Option<&mut RailGate>)>,
+) {
+    let physics: &Physics = &physics;
+    let network: &RoadNetwork = &network;
+    type Item<'a> = (
+        &'a Chassis,
+        Mut<'a, Motion>,
+        Mut<'a, RoadTrack>,
+        Option<Mut<'a, RailGate>>,
+    );
+    let run = |(chassis, mut motion, mut track, gate): Item| {
+        let Some(body) = physics.world.bodies.get(chassis.body) else {
+            return;
+        };
+        let h = DT_S as f32;
+        let pose = *body.position();
+        let rot = pose.rotation;
+        let linvel = body.linvel();
+        let forward_mps = linvel.dot(rot * Vec3::X);
+        *motion = Motion {
+            position: pose.translation,
+            rotation: rot,
+            linvel,
+            angvel: body.angvel(),
+            forward_mps,
+            accel_mps2: (forward_mps - motion.forward_mps) / h,
+        };
+        track_road(
+            network,
+            &mut track,
+            pose.translation.as_dvec3(),
+            rot * Vec3::X,
+        );
+        track.speed_along_mps = linvel.dot(track.tangent);
+        if let Some(mut gate) = gate {
+            gate.decide(network, &track, &motion);
+        }
+    };
+    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+        vehicles.iter_mut().for_each(run);
+    } else {
+        vehicles.par_iter_mut().for_each(run);
+    }
+}
+
+/// Updates a road track for a new position: follows the current road with its cursor, moves on
+/// to the next road past the end of an open one, and searches the network when off every road.
+pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forward: Vec3) {
+    let Some(geometry) = network.get(track.road) else {
+        track.on_road = false;
+        return;
+    };
+    let (mut proj, mut frame) = geometry.project_tracked_frame(pos, &mut track.cursor);
+    if !geometry.is_closed()
+        && proj.s_m >= geometry.length_m() - 1.0e-6
+        && let Some(next) = network.next(track.road)
+        && let Some(g2) = network.get(next)
+    {
+        let mut cursor = g2.cursor_at(0.0);
+        let (p2, f2) = g2.project_tracked_frame(pos, &mut cursor);
+        if p2.distance_m <= proj.distance_m + 1.0e-6 {
+            track.road = next;
+            track.cursor = cursor;
+            proj = p2;
+            frame = f2;
+        }
+    }
+    if !proj.on_road
+        && let Some((id, p)) = network.project(pos)
+        && p.on_road
+        && id != track.road
+        && let Some(g) = network.get(id)
+    {
+        track.road = id;
+        track.cursor = g.cursor_at(p.s_m);
+        proj = p;
+        frame = g.frame_at(p.s_m);
+    }
+    track.heading_cos = forward.dot(frame.tangent.as_vec3());
+    track.tangent = frame.tangent.as_vec3();
+    track.left = frame.left.as_vec3();
+    track.width_m = frame.width_m as f32;
+    track.s_m = proj.s_m;
+    track.lateral_m = proj.lateral_m;
+    track.lane = proj.lane;
+    track.on_road = proj.on_road;
+}
