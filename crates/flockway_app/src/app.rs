@@ -6,8 +6,9 @@ use crate::editor::{Command, EditError, Editor, MarkerKind};
 use crate::play::{FRAME_BUDGET, PlaySession};
 use crate::scene::{StaticScene, Vertex, box_faces};
 use flockway_level::{
-    Destroyer, DestroyerPlace, DriverProfile, Level, Range, Spawner, Trigger, TriggerEffect,
-    mixed_shares, reference_profiles, reference_vehicle_types, validate,
+    DestroyerPlaceSpec, DestroyerSpec, DriverProfileSpec, Level, Range, SpawnerSpec,
+    TriggerEffectSpec, TriggerSpec, mixed_shares, reference_profiles, reference_vehicle_types,
+    validate,
 };
 use flockway_road::{RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
 use flockway_runner::{RunError, level_name, load_driver_profiles};
@@ -352,7 +353,7 @@ impl AppState {
 
     /// Why a driver profile cannot drive, if it cannot: its parameter file or an override is
     /// wrong. Profiles of plugin models are left to their plugin.
-    pub fn profile_problem(&mut self, profile: &DriverProfile) -> Option<String> {
+    pub fn profile_problem(&mut self, profile: &DriverProfileSpec) -> Option<String> {
         let key = format!("{profile:?}");
         if let Some(known) = self.profile_checks.get(&key) {
             return known.clone();
@@ -452,8 +453,8 @@ impl AppState {
                 (sp.road.clone(), sp.s_m, Some(sp.lane))
             }
             MarkerKind::Destroyer => match &level.destroyers.get(index)?.place {
-                DestroyerPlace::OnRoad { road, s_m } => (road.clone(), *s_m, None),
-                DestroyerPlace::Volume { .. } => return None,
+                DestroyerPlaceSpec::OnRoad { road, s_m } => (road.clone(), *s_m, None),
+                DestroyerPlaceSpec::Volume { .. } => return None,
             },
             MarkerKind::Trigger => {
                 let t = level.triggers.get(index)?;
@@ -490,7 +491,7 @@ impl AppState {
             }
         }
         for (i, d) in level.destroyers.iter().enumerate() {
-            let DestroyerPlace::OnRoad { road: name, s_m } = &d.place else {
+            let DestroyerPlaceSpec::OnRoad { road: name, s_m } = &d.place else {
                 continue;
             };
             let Some(g) = road(name) else { continue };
@@ -669,7 +670,7 @@ impl AppState {
                         .to_owned();
                 }
                 let n = unique("spawner", &|n| level.spawners.iter().any(|s| s.name == n));
-                setup.push(Command::AddSpawner(Spawner {
+                setup.push(Command::AddSpawner(SpawnerSpec {
                     name: n,
                     road: name,
                     lane: pick.lane,
@@ -695,9 +696,9 @@ impl AppState {
                     level.destroyers.iter().any(|d| d.name == n)
                 });
                 (
-                    Command::AddDestroyer(Destroyer {
+                    Command::AddDestroyer(DestroyerSpec {
                         name: n,
-                        place: DestroyerPlace::OnRoad { road: name, s_m },
+                        place: DestroyerPlaceSpec::OnRoad { road: name, s_m },
                     }),
                     MarkerKind::Destroyer,
                     level.destroyers.len(),
@@ -713,13 +714,13 @@ impl AppState {
                     (from, (from + 20.0).min(pick.length_m))
                 };
                 (
-                    Command::AddTrigger(Trigger {
+                    Command::AddTrigger(TriggerSpec {
                         name: n,
                         road: name,
                         from_m,
                         to_m,
                         lanes: None,
-                        effect: TriggerEffect::SpeedLimit {
+                        effect: TriggerEffectSpec::SpeedLimit {
                             kmh: (limit + 20.0).min(300.0),
                         },
                     }),

@@ -7,9 +7,9 @@
 //! one undo step until [`Editor::end_drag`].
 
 use flockway_level::{
-    Destroyer, DestroyerPlace, DriverProfile, Expectation, InitialVehicles, Level, LevelError,
-    Spawner, Telemetry, Template, Trigger, VehicleType, level_to_string, parse_level, validate,
-    write_atomic,
+    DestroyerPlaceSpec, DestroyerSpec, DriverProfileSpec, Expectation, InitialVehiclesSpec, Level,
+    LevelError, SpawnerSpec, TelemetrySpec, Template, TriggerSpec, VehicleTypeSpec,
+    level_to_string, parse_level, validate, write_atomic,
 };
 use flockway_road::{ControlPoint, RoadSpec};
 use glam::DVec3;
@@ -108,17 +108,17 @@ pub enum Command {
         speed_limit_kmh: f64,
     },
     /// Adds a spawner.
-    AddSpawner(Spawner),
+    AddSpawner(SpawnerSpec),
     /// Replaces a spawner.
-    SetSpawner(usize, Spawner),
+    SetSpawner(usize, SpawnerSpec),
     /// Adds a destroyer.
-    AddDestroyer(Destroyer),
+    AddDestroyer(DestroyerSpec),
     /// Replaces a destroyer.
-    SetDestroyer(usize, Destroyer),
+    SetDestroyer(usize, DestroyerSpec),
     /// Adds a trigger.
-    AddTrigger(Trigger),
+    AddTrigger(TriggerSpec),
     /// Replaces a trigger.
-    SetTrigger(usize, Trigger),
+    SetTrigger(usize, TriggerSpec),
     /// Moves a marker along its road (a trigger keeps its length).
     MoveMarker {
         /// What kind of marker.
@@ -146,26 +146,26 @@ pub enum Command {
         /// Simulated duration of a run, s.
         duration_s: f64,
         /// Sampling period and warm-up.
-        telemetry: Telemetry,
+        telemetry: TelemetrySpec,
     },
     /// Adds a vehicle type.
-    AddVehicleType(VehicleType),
+    AddVehicleType(VehicleTypeSpec),
     /// Replaces a vehicle type; a new name is followed by the profiles that drive it.
-    SetVehicleType(usize, VehicleType),
+    SetVehicleType(usize, VehicleTypeSpec),
     /// Deletes a vehicle type no profile drives.
     DeleteVehicleType(usize),
     /// Adds a driver profile.
-    AddDriverProfile(DriverProfile),
+    AddDriverProfile(DriverProfileSpec),
     /// Replaces a driver profile; a new name is followed by everything that refers to it.
-    SetDriverProfile(usize, DriverProfile),
+    SetDriverProfile(usize, DriverProfileSpec),
     /// Deletes a driver profile no spawner or vehicle group uses.
     DeleteDriverProfile(usize),
     /// Replaces the expectations.
     SetExpectations(Vec<Expectation>),
     /// Adds a group of vehicles present at the start.
-    AddVehicles(InitialVehicles),
+    AddVehicles(InitialVehiclesSpec),
     /// Replaces a group of initial vehicles.
-    SetVehicles(usize, InitialVehicles),
+    SetVehicles(usize, InitialVehiclesSpec),
     /// Deletes a group of initial vehicles.
     DeleteVehicles(usize),
     /// Several edits as one undo step (all or none).
@@ -642,7 +642,7 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             level.triggers.retain(|t| t.road != name);
             level.vehicles.retain(|v| v.road != name);
             level.destroyers.retain(
-                |d| !matches!(&d.place, DestroyerPlace::OnRoad { road, .. } if *road == name),
+                |d| !matches!(&d.place, DestroyerPlaceSpec::OnRoad { road, .. } if *road == name),
             );
             level.expect.retain(|e| {
                 e.qualifier.as_deref() != Some(name.as_str()) || e.metric != "road_length_m"
@@ -846,8 +846,8 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             match kind {
                 MarkerKind::Spawner => marker(&mut level.spawners, *index)?.s_m = *s_m,
                 MarkerKind::Destroyer => match &mut marker(&mut level.destroyers, *index)?.place {
-                    DestroyerPlace::OnRoad { s_m: at, .. } => *at = *s_m,
-                    DestroyerPlace::Volume { .. } => {
+                    DestroyerPlaceSpec::OnRoad { s_m: at, .. } => *at = *s_m,
+                    DestroyerPlaceSpec::Volume { .. } => {
                         return Err(EditError::BadValue(
                             "a volume destroyer is not on a road: edit its corners".to_owned(),
                         ));
@@ -928,7 +928,7 @@ fn rename_road(level: &mut Level, old: &str, new: &str) {
     level.triggers.iter_mut().for_each(|t| fix(&mut t.road));
     level.vehicles.iter_mut().for_each(|v| fix(&mut v.road));
     for d in &mut level.destroyers {
-        if let DestroyerPlace::OnRoad { road, .. } = &mut d.place {
+        if let DestroyerPlaceSpec::OnRoad { road, .. } = &mut d.place {
             fix(road);
         }
     }

@@ -3,7 +3,7 @@
 
 use bevy_ecs::prelude::*;
 use flockway_drivers::{FlockDriver, HumanDriver};
-use flockway_level::{DestroyerPlace, Level, TriggerEffect};
+use flockway_level::{DestroyerPlaceSpec, Level, TriggerEffectSpec};
 use flockway_road::{Mesh, RoadGeometry, RoadNetwork, lane_offset};
 use flockway_vehicle::{Motion, VehicleModel};
 use glam::{DVec3, Quat, Vec3};
@@ -161,7 +161,7 @@ impl StaticScene {
         }
         for d in &level.destroyers {
             match &d.place {
-                DestroyerPlace::OnRoad { road: name, s_m } => {
+                DestroyerPlaceSpec::OnRoad { road: name, s_m } => {
                     if let Some(g) = road(name) {
                         let f = g.frame_at(*s_m);
                         let t = f.tangent.as_vec3();
@@ -178,7 +178,7 @@ impl StaticScene {
                         );
                     }
                 }
-                DestroyerPlace::Volume { min, max } => {
+                DestroyerPlaceSpec::Volume { min, max } => {
                     let (a, b) = (min.as_vec3(), max.as_vec3());
                     let c = 0.5 * (a + b);
                     scene.cuboid(
@@ -199,8 +199,8 @@ impl StaticScene {
         for t in &level.triggers {
             if let Some(g) = road(&t.road) {
                 let colour = match t.effect {
-                    TriggerEffect::SpeedLimit { .. } => palette::SPEED_TRIGGER,
-                    TriggerEffect::Friction { .. } => palette::FRICTION_TRIGGER,
+                    TriggerEffectSpec::SpeedLimit { .. } => palette::SPEED_TRIGGER,
+                    TriggerEffectSpec::Friction { .. } => palette::FRICTION_TRIGGER,
                 };
                 scene.strip(g, t.from_m, t.to_m, colour);
             }

@@ -19,8 +19,9 @@ pub use io::{
 };
 pub use locate::{PathStep, Pos, locate};
 pub use schema::{
-    CURRENT_VERSION, Destroyer, DestroyerPlace, DriverModel, DriverProfile, InitialVehicles, Level,
-    ProfileShare, Range, Spawner, Telemetry, Trigger, TriggerEffect, VehicleType,
+    CURRENT_VERSION, DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec,
+    InitialVehiclesSpec, Level, ProfileShare, Range, SpawnerSpec, TelemetrySpec, TriggerEffectSpec,
+    TriggerSpec, VehicleTypeSpec,
 };
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,

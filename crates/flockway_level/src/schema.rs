@@ -31,25 +31,25 @@ pub struct Level {
     pub roads: Vec<RoadSpec>,
     /// Vehicle types by name, each a vehicle definition file under `assets/`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub vehicle_types: Vec<VehicleType>,
+    pub vehicle_types: Vec<VehicleTypeSpec>,
     /// Driver profiles by name: a driver model, its parameters and the vehicle it drives.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub driver_profiles: Vec<DriverProfile>,
+    pub driver_profiles: Vec<DriverProfileSpec>,
     /// Places that add vehicles during the run.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub spawners: Vec<Spawner>,
+    pub spawners: Vec<SpawnerSpec>,
     /// Places that remove vehicles that reach them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub destroyers: Vec<Destroyer>,
+    pub destroyers: Vec<DestroyerSpec>,
     /// Stretches of road that change vehicles entering them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub triggers: Vec<Trigger>,
+    pub triggers: Vec<TriggerSpec>,
     /// Vehicles present at the start, in groups spaced evenly along a lane.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub vehicles: Vec<InitialVehicles>,
+    pub vehicles: Vec<InitialVehiclesSpec>,
     /// What is recorded, and how often.
-    #[serde(default, skip_serializing_if = "Telemetry::is_default")]
-    pub telemetry: Telemetry,
+    #[serde(default, skip_serializing_if = "TelemetrySpec::is_default")]
+    pub telemetry: TelemetrySpec,
     /// Checks a run must pass, e.g. `"collisions == 0"`, `"mean_speed_kmh in 57..63"`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub expect: Vec<Expectation>,
@@ -71,7 +71,7 @@ impl Level {
             destroyers: Vec::new(),
             triggers: Vec::new(),
             vehicles: Vec::new(),
-            telemetry: Telemetry::default(),
+            telemetry: TelemetrySpec::default(),
             expect: Vec::new(),
         }
     }
@@ -85,7 +85,7 @@ impl Level {
 /// A named vehicle type: a vehicle definition file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct VehicleType {
+pub struct VehicleTypeSpec {
     /// Name that driver profiles refer to.
     pub name: String,
     /// Path of the vehicle definition, relative to `assets/` (e.g. `"vehicles/sedan.ron"`).
@@ -113,7 +113,7 @@ pub enum DriverModel {
 /// A named driver profile: which model, with which parameters, in which vehicle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct DriverProfile {
+pub struct DriverProfileSpec {
     /// Name that spawners and initial vehicles refer to.
     pub name: String,
     /// The driver model.
@@ -152,7 +152,7 @@ pub struct ProfileShare {
 /// Adds a vehicle every T seconds, T uniform in `interval_s`, at a point of a lane.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Spawner {
+pub struct SpawnerSpec {
     /// Unique name (shown in the HUD and in the summary).
     pub name: String,
     /// Road to spawn on.
@@ -180,7 +180,7 @@ pub struct Spawner {
 
 /// Where a destroyer removes vehicles.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum DestroyerPlace {
+pub enum DestroyerPlaceSpec {
     /// Vehicles that pass this arc position of a road (all lanes).
     OnRoad {
         /// Road name.
@@ -200,16 +200,16 @@ pub enum DestroyerPlace {
 /// Removes vehicles that reach it and records their travel times.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Destroyer {
+pub struct DestroyerSpec {
     /// Unique name (keys the flow figures in the summary).
     pub name: String,
     /// Where it acts.
-    pub place: DestroyerPlace,
+    pub place: DestroyerPlaceSpec,
 }
 
 /// What a trigger does to a vehicle entering it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum TriggerEffect {
+pub enum TriggerEffectSpec {
     /// Sets the vehicle's speed limit.
     SpeedLimit {
         /// New limit in km/h.
@@ -225,7 +225,7 @@ pub enum TriggerEffect {
 /// A stretch of road that changes vehicles entering it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Trigger {
+pub struct TriggerSpec {
     /// Unique name.
     pub name: String,
     /// Road it lies on.
@@ -238,13 +238,13 @@ pub struct Trigger {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lanes: Option<Vec<u32>>,
     /// What it does.
-    pub effect: TriggerEffect,
+    pub effect: TriggerEffectSpec,
 }
 
 /// `count` vehicles present at the start, evenly spaced along one lane.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct InitialVehicles {
+pub struct InitialVehiclesSpec {
     /// Road to place them on.
     pub road: String,
     /// Lane to place them in.
@@ -270,10 +270,10 @@ pub struct InitialVehicles {
     pub jitter_m: f64,
 }
 
-/// Telemetry settings.
+/// Telemetry settings: how often vehicles are sampled, and the warm-up left out of statistics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Telemetry {
+pub struct TelemetrySpec {
     /// Sampling period of the speed CSV in simulated seconds (a multiple of 1/120 s).
     #[serde(default = "half_second")]
     pub period_s: f64,
@@ -282,18 +282,18 @@ pub struct Telemetry {
     pub stats_from_s: f64,
 }
 
-impl Default for Telemetry {
-    fn default() -> Telemetry {
-        Telemetry {
+impl Default for TelemetrySpec {
+    fn default() -> TelemetrySpec {
+        TelemetrySpec {
             period_s: 0.5,
             stats_from_s: 0.0,
         }
     }
 }
 
-impl Telemetry {
+impl TelemetrySpec {
     fn is_default(&self) -> bool {
-        *self == Telemetry::default()
+        *self == TelemetrySpec::default()
     }
 }
 

@@ -6,8 +6,8 @@
 
 use crate::expect::Expectation;
 use crate::schema::{
-    Destroyer, DestroyerPlace, DriverModel, DriverProfile, InitialVehicles, Level, ProfileShare,
-    Range, Spawner, VehicleType,
+    DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec, InitialVehiclesSpec, Level,
+    ProfileShare, Range, SpawnerSpec, VehicleTypeSpec,
 };
 use flockway_road::RoadSpec;
 use glam::DVec3;
@@ -77,7 +77,7 @@ impl Template {
                     80.0,
                     &[DVec3::ZERO, 0.5 * end, end],
                 ));
-                level.spawners.push(Spawner {
+                level.spawners.push(SpawnerSpec {
                     name: "start".to_owned(),
                     road: "main".to_owned(),
                     lane: 0,
@@ -88,9 +88,9 @@ impl Template {
                     active: true,
                     max_vehicles: None,
                 });
-                level.destroyers.push(Destroyer {
+                level.destroyers.push(DestroyerSpec {
                     name: "end".to_owned(),
-                    place: DestroyerPlace::OnRoad {
+                    place: DestroyerPlaceSpec::OnRoad {
                         road: "main".to_owned(),
                         s_m: 480.0,
                     },
@@ -106,7 +106,7 @@ impl Template {
                 level
                     .roads
                     .push(RoadSpec::ring("ring", 1, 50.0, DVec3::ZERO, 60.0, 12));
-                level.vehicles.push(InitialVehicles {
+                level.vehicles.push(InitialVehiclesSpec {
                     road: "ring".to_owned(),
                     lane: 0,
                     count: 20,
@@ -136,13 +136,13 @@ impl fmt::Display for Template {
 }
 
 /// The reference sedan and its human-driven variant, from the shipped assets.
-pub fn reference_vehicle_types() -> Vec<VehicleType> {
+pub fn reference_vehicle_types() -> Vec<VehicleTypeSpec> {
     vec![
-        VehicleType {
+        VehicleTypeSpec {
             name: "sedan".to_owned(),
             path: "vehicles/sedan.ron".to_owned(),
         },
-        VehicleType {
+        VehicleTypeSpec {
             name: "sedan_human".to_owned(),
             path: "vehicles/sedan_human.ron".to_owned(),
         },
@@ -150,16 +150,16 @@ pub fn reference_vehicle_types() -> Vec<VehicleType> {
 }
 
 /// The `autonomous` (lane-keeping flocking) and `human` (human-like) driver profiles.
-pub fn reference_profiles() -> Vec<DriverProfile> {
+pub fn reference_profiles() -> Vec<DriverProfileSpec> {
     vec![
-        DriverProfile {
+        DriverProfileSpec {
             name: AUTONOMOUS_PROFILE.to_owned(),
             model: DriverModel::FlockLanes,
             vehicle: "sedan".to_owned(),
             params: Some("drivers/flock_lanes.ron".to_owned()),
             set: BTreeMap::new(),
         },
-        DriverProfile {
+        DriverProfileSpec {
             name: HUMAN_PROFILE.to_owned(),
             model: DriverModel::Human,
             vehicle: "sedan_human".to_owned(),
@@ -172,7 +172,7 @@ pub fn reference_profiles() -> Vec<DriverProfile> {
 /// Profile shares for a new spawner: every profile of the level, the human-like ones together
 /// weighing as much as the others together (half and half with the template's two profiles).
 pub fn mixed_shares(level: &Level) -> Vec<ProfileShare> {
-    let human = |p: &&DriverProfile| p.model == DriverModel::Human;
+    let human = |p: &&DriverProfileSpec| p.model == DriverModel::Human;
     let humans = level.driver_profiles.iter().filter(human).count();
     let others = level.driver_profiles.len() - humans;
     level

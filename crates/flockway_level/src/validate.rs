@@ -458,7 +458,7 @@ impl Checker<'_> {
         for (i, d) in l.destroyers.iter().enumerate() {
             let base = vec![Field("destroyers"), Index(i), Field("place")];
             match &d.place {
-                DestroyerPlace::OnRoad { road, s_m } => {
+                DestroyerPlaceSpec::OnRoad { road, s_m } => {
                     if let Some(r) = self.road_lane(&base, road, None) {
                         self.arc(
                             [&base[..], &[Field("s_m")]].concat(),
@@ -468,7 +468,7 @@ impl Checker<'_> {
                         );
                     }
                 }
-                DestroyerPlace::Volume { min, max } => {
+                DestroyerPlaceSpec::Volume { min, max } => {
                     if !(min.is_finite() && max.is_finite() && min.cmplt(*max).all()) {
                         self.issue(
                             base,
@@ -507,13 +507,13 @@ impl Checker<'_> {
                 }
             }
             match t.effect {
-                TriggerEffect::SpeedLimit { kmh } if !finite_in(kmh, 1.0, 400.0) => {
+                TriggerEffectSpec::SpeedLimit { kmh } if !finite_in(kmh, 1.0, 400.0) => {
                     self.issue(
                         p("effect"),
                         format!("speed limit {kmh} km/h: expected a number from 1 to 400"),
                     );
                 }
-                TriggerEffect::Friction { scale }
+                TriggerEffectSpec::Friction { scale }
                     if !(scale.is_finite() && scale > 0.0 && scale <= 2.0) =>
                 {
                     self.issue(

@@ -3,7 +3,7 @@
 
 use crate::runner::RunError;
 use flockway_drivers::{BuiltinModel, DriverSpec};
-use flockway_level::{DriverModel, Level};
+use flockway_level::Level;
 use flockway_vehicle::{VehicleParams, VehicleType};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -66,13 +66,9 @@ pub fn load_driver_profiles(
 ) -> Result<BTreeMap<String, DriverSpec>, RunError> {
     let mut out = BTreeMap::new();
     for profile in &level.driver_profiles {
-        let model = match &profile.model {
-            DriverModel::Flock => BuiltinModel::Flock,
-            DriverModel::FlockLanes => BuiltinModel::FlockLanes,
-            DriverModel::Human => BuiltinModel::Human,
-            DriverModel::Idm => BuiltinModel::Idm,
-            DriverModel::WaveDamper => BuiltinModel::WaveDamper,
-            DriverModel::Custom(_) => continue,
+        // A custom model's profile is left to the plugin of that name.
+        let Ok(model) = BuiltinModel::try_from(&profile.model) else {
+            continue;
         };
         let fail = |message: String| RunError::Driver {
             level: level_name.to_owned(),

@@ -58,7 +58,7 @@ fn vehicle_types_load_from_assets_and_bad_ones_are_named() {
     )
     .expect("write");
     let mut level = Level::new(1, 10.0);
-    level.vehicle_types = vec![flockway_level::VehicleType {
+    level.vehicle_types = vec![flockway_level::VehicleTypeSpec {
         name: "light".into(),
         path: "vehicles/light.ron".into(),
     }];
@@ -94,13 +94,13 @@ fn vehicle_types_load_from_assets_and_bad_ones_are_named() {
 fn driver_profiles_build_from_assets_with_overrides_and_name_bad_ones() {
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
     let mut level = Level::new(1, 10.0);
-    level.vehicle_types = vec![flockway_level::VehicleType {
+    level.vehicle_types = vec![flockway_level::VehicleTypeSpec {
         name: "sedan".into(),
         path: "vehicles/sedan.ron".into(),
     }];
     let mut set = BTreeMap::new();
     set.insert("target_speed_kmh".to_owned(), 70.0);
-    level.driver_profiles = vec![flockway_level::DriverProfile {
+    level.driver_profiles = vec![flockway_level::DriverProfileSpec {
         name: "auto".into(),
         model: DriverModel::FlockLanes,
         vehicle: "sedan".into(),

@@ -101,11 +101,11 @@ pub fn populate(
     }
     for (i, d) in level.destroyers.iter().enumerate() {
         let place = match &d.place {
-            flockway_level::DestroyerPlace::OnRoad { road: r, s_m } => DestroyerPlace::OnRoad {
+            flockway_level::DestroyerPlaceSpec::OnRoad { road: r, s_m } => DestroyerPlace::OnRoad {
                 road: road(r)?,
                 s_m: *s_m,
             },
-            flockway_level::DestroyerPlace::Volume { min, max } => DestroyerPlace::Volume {
+            flockway_level::DestroyerPlaceSpec::Volume { min, max } => DestroyerPlace::Volume {
                 min: min.as_vec3(),
                 max: max.as_vec3(),
             },
@@ -119,14 +119,7 @@ pub fn populate(
         ));
     }
     for (i, t) in level.triggers.iter().enumerate() {
-        let effect = match t.effect {
-            flockway_level::TriggerEffect::SpeedLimit { kmh } => {
-                TriggerEffect::SpeedLimit(kmh as f32)
-            }
-            flockway_level::TriggerEffect::Friction { scale } => {
-                TriggerEffect::Friction(scale as f32)
-            }
-        };
+        let effect = TriggerEffect::from(&t.effect);
         world.spawn((
             Trigger {
                 name: t.name.clone(),

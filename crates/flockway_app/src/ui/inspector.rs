@@ -5,7 +5,8 @@ use super::widgets::{choice, count, error, lane, number, row, text};
 use crate::app::{AppState, Selection, Tool};
 use crate::editor::{Command, MarkerKind};
 use flockway_level::{
-    Destroyer, DestroyerPlace, Level, ProfileShare, Spawner, Trigger, TriggerEffect,
+    DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, SpawnerSpec, TriggerEffectSpec,
+    TriggerSpec,
 };
 use glam::DVec3;
 
@@ -216,7 +217,7 @@ fn lanes_of(level: &Level, road: &str) -> u32 {
     level.road(road).map_or(1, |r| r.lanes)
 }
 
-fn spawner(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, s: &Spawner) {
+fn spawner(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, s: &SpawnerSpec) {
     ui.label(egui::RichText::new(format!("spawner `{}`", s.name)).strong());
     let mut sp = s.clone();
     let mut changed = false;
@@ -349,7 +350,7 @@ fn shares(ui: &mut egui::Ui, level: &Level, shares: &mut Vec<ProfileShare>, i: u
     changed
 }
 
-fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: &Destroyer) {
+fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: &DestroyerSpec) {
     ui.label(egui::RichText::new(format!("destroyer `{}`", d.name)).strong());
     ui.weak("Vehicles that reach it are removed; their travel times and the flow through it are measured.");
     let mut dest = d.clone();
@@ -361,14 +362,14 @@ fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: 
                 changed = true;
             }
         });
-        let on_road = matches!(d.place, DestroyerPlace::OnRoad { .. });
+        let on_road = matches!(d.place, DestroyerPlaceSpec::OnRoad { .. });
         row(ui, "where", |ui, _| {
             ui.horizontal(|ui| {
                 if ui.radio(on_road, "across a road").clicked()
                     && !on_road
                     && let Some(road) = level.roads.iter().find(|r| r.points.len() >= 2)
                 {
-                    dest.place = DestroyerPlace::OnRoad {
+                    dest.place = DestroyerPlaceSpec::OnRoad {
                         road: road.name.clone(),
                         s_m: 0.0,
                     };
@@ -378,7 +379,7 @@ fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: 
                     let centre = app
                         .marker_position(MarkerKind::Destroyer, i)
                         .unwrap_or(DVec3::ZERO);
-                    dest.place = DestroyerPlace::Volume {
+                    dest.place = DestroyerPlaceSpec::Volume {
                         min: centre - DVec3::new(5.0, 5.0, 1.0),
                         max: centre + DVec3::new(5.0, 5.0, 4.0),
                     };
@@ -387,13 +388,13 @@ fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: 
             });
         });
         match &mut dest.place {
-            DestroyerPlace::OnRoad { road, s_m } => {
+            DestroyerPlaceSpec::OnRoad { road, s_m } => {
                 if let Some((r, s)) = place(ui, app, level, "destroyer", road, *s_m) {
                     (*road, *s_m) = (r, s);
                     changed = true;
                 }
             }
-            DestroyerPlace::Volume { min, max } => {
+            DestroyerPlaceSpec::Volume { min, max } => {
                 for (label, corner) in [("lower corner", min), ("upper corner", max)] {
                     changed |= row(ui, label, |ui, by| {
                         ui.horizontal(|ui| {
@@ -416,7 +417,7 @@ fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: 
     }
 }
 
-fn trigger(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, t: &Trigger) {
+fn trigger(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, t: &TriggerSpec) {
     ui.label(egui::RichText::new(format!("trigger `{}`", t.name)).strong());
     let mut tr = t.clone();
     let mut changed = false;
@@ -471,35 +472,35 @@ fn trigger(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, t: &T
                 }
             });
         });
-        let speed = matches!(t.effect, TriggerEffect::SpeedLimit { .. });
+        let speed = matches!(t.effect, TriggerEffectSpec::SpeedLimit { .. });
         row(ui, "effect", |ui, _| {
             ui.horizontal(|ui| {
                 if ui.radio(speed, "speed limit").clicked() && !speed {
-                    tr.effect = TriggerEffect::SpeedLimit {
+                    tr.effect = TriggerEffectSpec::SpeedLimit {
                         kmh: level.road(&t.road).map_or(50.0, |r| r.speed_limit_kmh),
                     };
                     changed = true;
                 }
                 if ui.radio(!speed, "friction").clicked() && speed {
-                    tr.effect = TriggerEffect::Friction { scale: 0.6 };
+                    tr.effect = TriggerEffectSpec::Friction { scale: 0.6 };
                     changed = true;
                 }
             });
         });
         match &mut tr.effect {
-            TriggerEffect::SpeedLimit { kmh } => {
+            TriggerEffectSpec::SpeedLimit { kmh } => {
                 changed |= row(ui, "new limit", |ui, by| {
                     number(ui, by, kmh, 1.0..=400.0, 0.5, " km/h")
                 });
             }
-            TriggerEffect::Friction { scale } => {
+            TriggerEffectSpec::Friction { scale } => {
                 changed |= row(ui, "friction ×", |ui, by| {
                     number(ui, by, scale, 0.05..=2.0, 0.01, "")
                 })
             }
         }
     });
-    if matches!(tr.effect, TriggerEffect::Friction { .. }) {
+    if matches!(tr.effect, TriggerEffectSpec::Friction { .. }) {
         ui.weak("Tyre friction is scaled while a vehicle is inside (0.6: wet asphalt).");
     } else {
         ui.weak("A vehicle entering gets the new limit and keeps it.");

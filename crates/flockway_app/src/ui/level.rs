@@ -7,8 +7,8 @@ use crate::app::AppState;
 use crate::editor::Command;
 use flockway_drivers::BuiltinModel;
 use flockway_level::{
-    DriverModel, DriverProfile, Expectation, InitialVehicles, Level, MAX_DURATION_S, VehicleType,
-    validate,
+    DriverModel, DriverProfileSpec, Expectation, InitialVehiclesSpec, Level, MAX_DURATION_S,
+    VehicleTypeSpec, validate,
 };
 use std::collections::BTreeMap;
 
@@ -146,7 +146,7 @@ fn vehicle_types(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
         let name = unique("vehicle", |n| {
             level.vehicle_types.iter().any(|v| v.name == n)
         });
-        app.apply(Command::AddVehicleType(VehicleType {
+        app.apply(Command::AddVehicleType(VehicleTypeSpec {
             name,
             path: files
                 .first()
@@ -175,7 +175,7 @@ fn model_name(m: &DriverModel) -> String {
 }
 
 fn builtin(m: &DriverModel) -> Option<BuiltinModel> {
-    BuiltinModel::from_name(&model_name(m))
+    BuiltinModel::try_from(m).ok()
 }
 
 fn profiles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
@@ -206,7 +206,7 @@ fn profiles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
                     let mut model = model_name(&p.model);
                     if row(ui, "model", |ui, by| choice(ui, by, ("profile model", i), &mut model, &models)) {
                         edited.model = match BuiltinModel::from_name(&model) {
-                            Some(m) => level_model(m),
+                            Some(m) => DriverModel::from(m),
                             None => DriverModel::Custom(p.name.clone()),
                         };
                         // Parameters belong to a model: a new model starts from its own file.
@@ -262,23 +262,13 @@ fn profiles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
         let name = unique("profile", |n| {
             level.driver_profiles.iter().any(|p| p.name == n)
         });
-        app.apply(Command::AddDriverProfile(DriverProfile {
+        app.apply(Command::AddDriverProfile(DriverProfileSpec {
             name,
             model: DriverModel::FlockLanes,
             vehicle: vehicles.first().cloned().unwrap_or_default(),
             params: Some(BuiltinModel::FlockLanes.default_params_path().to_owned()),
             set: BTreeMap::new(),
         }));
-    }
-}
-
-fn level_model(m: BuiltinModel) -> DriverModel {
-    match m {
-        BuiltinModel::Flock => DriverModel::Flock,
-        BuiltinModel::FlockLanes => DriverModel::FlockLanes,
-        BuiltinModel::Human => DriverModel::Human,
-        BuiltinModel::Idm => DriverModel::Idm,
-        BuiltinModel::WaveDamper => DriverModel::WaveDamper,
     }
 }
 
@@ -428,7 +418,7 @@ fn initial_vehicles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
             .on_hover_text("cars spaced evenly along a lane at the start")
             .clicked()
     {
-        app.apply(Command::AddVehicles(InitialVehicles {
+        app.apply(Command::AddVehicles(InitialVehiclesSpec {
             road: road.clone(),
             lane: 0,
             count: 10,
