@@ -103,6 +103,9 @@ fn help_documents_every_run_option() {
 
 #[test]
 fn every_shipped_level_checks_and_runs_passing_its_expectations() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // Every metric an expectation may name, seen measured by some shipped level's run.
+    let mut measured = std::collections::BTreeSet::new();
     for level in shipped_levels() {
         let path = level.to_string_lossy().into_owned();
         let out = flockway(&["check", &path]);
@@ -111,7 +114,9 @@ fn every_shipped_level_checks_and_runs_passing_its_expectations() {
             "check {path}: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let out = flockway(&["run", &path, "--quiet"]);
+        let summary = dir.path().join("s.json");
+        let summary_text = summary.to_string_lossy().into_owned();
+        let out = flockway(&["run", &path, "--quiet", "--summary", &summary_text]);
         assert_eq!(
             out.status.code(),
             Some(0),
@@ -122,6 +127,22 @@ fn every_shipped_level_checks_and_runs_passing_its_expectations() {
             out.stdout.is_empty(),
             "--quiet printed: {}",
             String::from_utf8_lossy(&out.stdout)
+        );
+        let s = flockway::run::Summary::read(&summary).expect("the summary reads");
+        for key in s.metrics.keys() {
+            let name = key.split('.').next().unwrap_or_default().to_owned();
+            assert!(
+                flockway::level::Metric::from_name(&name).is_some(),
+                "{path}: the run measured `{key}`, which is not in the metric table"
+            );
+            measured.insert(name);
+        }
+    }
+    for m in flockway::level::Metric::ALL {
+        assert!(
+            measured.contains(m.name()),
+            "no shipped level's run measures `{}`: an expectation on it could never pass",
+            m.name()
         );
     }
 }

@@ -1,8 +1,10 @@
 //! The editor's panels and the play-mode HUD, rendered by egui_kittest (wgpu on lavapipe in CI)
 //! and compared with the PNGs in `tests/snapshots/`, and the input rules of the scene (what a
-//! click on a panel or on the scene does), driven through egui's own event queue. Run with
-//! `UPDATE_SNAPSHOTS=1` to accept a deliberate change, then look at the new pictures before
-//! committing them.
+//! click on a panel or on the scene does), driven through egui's own event queue.
+//!
+//! To accept a deliberate change of a picture, run once with `FLOCKWAY_BLESS=1` (as for every
+//! golden output): it rewrites the snapshot and fails, so it can never be left on. Look at the
+//! new pictures before committing them.
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -18,6 +20,22 @@ fn app() -> AppState {
     // A fixed file field: the snapshot must not show a machine's paths.
     app.file_field = "levels/sugiyama_ring.ron".to_owned();
     app
+}
+
+/// Compares the harness's picture with `tests/snapshots/NAME.png`, or rewrites that file (and
+/// fails) when `FLOCKWAY_BLESS` is set.
+fn snapshot(h: &mut Harness<'static, AppState>, name: &str) {
+    if std::env::var_os("FLOCKWAY_BLESS").is_some() {
+        let image = h.render().expect("the harness renders");
+        image
+            .save(format!("tests/snapshots/{name}.png"))
+            .expect("write the snapshot");
+        panic!(
+            "FLOCKWAY_BLESS is set: {name}.png was rewritten; look at it, commit it, and run \
+             again without it"
+        );
+    }
+    h.snapshot(name);
 }
 
 fn harness(state: AppState) -> Harness<'static, AppState> {
@@ -65,7 +83,7 @@ fn the_editor_panels_show_the_selected_point_and_road() {
             "the inspector lacks `{label}`"
         );
     }
-    harness.snapshot("editor_panels");
+    snapshot(&mut harness, "editor_panels");
 }
 
 #[test]
@@ -91,7 +109,7 @@ fn the_spawner_inspector_edits_every_field_of_a_spawner() {
             "the spawner inspector lacks `{label}`"
         );
     }
-    harness.snapshot("spawner_inspector");
+    snapshot(&mut harness, "spawner_inspector");
     // Switching the lane in its menu is one undoable edit.
     harness.get_by_label("lane").click();
     harness.run();
@@ -146,7 +164,7 @@ fn the_level_panel_shows_settings_types_profiles_and_expectations() {
             "the profile lacks `{label}`"
         );
     }
-    harness.snapshot("level_panel");
+    snapshot(&mut harness, "level_panel");
 }
 
 #[test]
@@ -213,7 +231,7 @@ fn the_play_hud_shows_the_level_monitor_and_its_chart() {
             "the HUD lacks `{label}`"
         );
     }
-    harness.snapshot("play_hud");
+    snapshot(&mut harness, "play_hud");
 }
 
 /// Where a point of a road's lane appears on the screen: `share` of the way along road `road`,
