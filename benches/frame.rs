@@ -1,4 +1,4 @@
-//! Frame preparation on the CPU with 5 000 vehicles (issue 7): capturing every vehicle's pose
+//! Frame preparation on the CPU with 5 000 vehicles: capturing every vehicle's pose
 //! from the world after a step, and blending the last two steps' poses for a frame between them.
 //! Uploading the instances is one `write_buffer` of 56 bytes per vehicle, and drawing them is one
 //! instanced draw call, so this is the per-frame work that grows with the traffic.

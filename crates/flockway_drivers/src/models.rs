@@ -10,7 +10,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
-/// Parameters of the flocking drivers (SPEC §4, thesis §3.2.4–3.2.5). Units are in the names.
+/// Parameters of the flocking drivers (thesis §3.2.4–3.2.5). Units are in the names.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FlockParams {
@@ -533,7 +533,7 @@ fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> 
 }
 
 /// Decides every flocking (human-like, wave-damping) vehicle's target: speed matching + road
-/// following + collision avoidance (SPEC §4); a [`WaveDamper`] then caps the speed with its law.
+/// following + collision avoidance (thesis §3.2.4); a [`WaveDamper`] then caps the speed with its law.
 #[allow(clippy::type_complexity)]
 pub fn drive_flock(
     network: Res<RoadNetwork>,

@@ -45,7 +45,7 @@ impl Kinematics {
 }
 
 /// The road surface under one wheel: a point on it and its normal, with its friction.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Surface {
     /// Where the suspension's line meets the surface, m.
     pub point: Vec3,
@@ -69,7 +69,7 @@ pub(crate) struct Transmission {
 }
 
 /// Where each wheel touches: its surface (if any), spring compression and load.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct WheelContact {
     /// The surface under the wheel; `None` for a wheel in the air.
     pub surface: Option<Surface>,
@@ -173,7 +173,8 @@ pub(crate) fn wheel_contact(
     t: &VehicleType,
     track: &RoadTrack,
     body: &Kinematics,
-) -> [WheelContact; 4] {
+    contacts: &mut [WheelContact; 4],
+) {
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
     let down = body.down();
@@ -258,11 +259,13 @@ pub(crate) fn wheel_contact(
             spring[rr] = (spring[rr] - arb).max(0.0);
         }
     }
-    std::array::from_fn(|i| WheelContact {
-        surface: surfaces[i],
-        compression_m: compression[i],
-        load_n: spring[i],
-    })
+    for (i, c) in contacts.iter_mut().enumerate() {
+        *c = WheelContact {
+            surface: surfaces[i],
+            compression_m: compression[i],
+            load_n: spring[i],
+        };
+    }
 }
 
 /// Stage 4, tyre forces: each grounded tyre's slips and forces, the lateral one limited so it
@@ -277,14 +280,14 @@ pub(crate) fn tyre_forces(
     steer: &[f32; 4],
     state: &mut VehicleState,
     h: f32,
-) -> ([TyrePatch; 4], f32) {
+    patches: &mut [TyrePatch; 4],
+) -> f32 {
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
     let fwd = body.forward();
     let r = p.wheels.radius_m;
     // A quarter of the car's mass moves with each contact patch.
     let m_eff = p.chassis.mass_kg / 4.0;
-    let mut patches = [TyrePatch::default(); 4];
     let mut slope_pull = 0.0f32;
     for i in 0..4 {
         let ws = &mut state.wheels[i];
@@ -292,6 +295,7 @@ pub(crate) fn tyre_forces(
         ws.compression_m = contacts[i].compression_m;
         ws.load_n = contacts[i].load_n;
         let Some(s) = contacts[i].surface else {
+            patches[i] = TyrePatch::default();
             ws.grounded = false;
             ws.slip_ratio = 0.0;
             ws.slip_angle_rad = 0.0;
@@ -355,7 +359,7 @@ pub(crate) fn tyre_forces(
             hold_n,
         };
     }
-    (patches, slope_pull)
+    slope_pull
 }
 
 /// Stage 5, brakes and ABS: the torque holding each wheel (brake, handbrake on the rear,
@@ -574,8 +578,11 @@ pub(crate) fn vehicle_forces(
     let forward_mps = kin.v.dot(kin.forward());
     let transmission = gearbox_and_clutch(t, controls, state, forward_mps, h);
     let steer = steer_wheels(&t.params, controls, state, forward_mps, h);
-    let contacts = wheel_contact(physics, network, t, track, &kin);
-    let (patches, slope_pull) = tyre_forces(t, &kin, &contacts, &steer, state, h);
+    // The arrays are written in place: returned by value they would be copied each tick.
+    let mut contacts = [WheelContact::default(); 4];
+    wheel_contact(physics, network, t, track, &kin, &mut contacts);
+    let mut patches = [TyrePatch::default(); 4];
+    let slope_pull = tyre_forces(t, &kin, &contacts, &steer, state, h, &mut patches);
     let (brake_nm, omega_braked) = brakes_and_abs(
         t,
         controls,
@@ -652,10 +659,33 @@ mod tests {
         (Physics::default(), network, t, track, kin, state)
     }
 
+    fn contacts_of(
+        physics: &Physics,
+        network: &RoadNetwork,
+        t: &VehicleType,
+        track: &RoadTrack,
+        kin: &Kinematics,
+    ) -> [WheelContact; 4] {
+        let mut c = [WheelContact::default(); 4];
+        wheel_contact(physics, network, t, track, kin, &mut c);
+        c
+    }
+
+    fn patches_of(
+        t: &VehicleType,
+        kin: &Kinematics,
+        contacts: &[WheelContact; 4],
+        state: &mut VehicleState,
+    ) -> ([TyrePatch; 4], f32) {
+        let mut p = [TyrePatch::default(); 4];
+        let pull = tyre_forces(t, kin, contacts, &[0.0; 4], state, 1.0 / 120.0, &mut p);
+        (p, pull)
+    }
+
     #[test]
     fn wheel_contact_at_rest_carries_the_static_axle_loads() {
         let (physics, network, t, track, kin, _) = parked();
-        let c = wheel_contact(&physics, &network, &t, &track, &kin);
+        let c = contacts_of(&physics, &network, &t, &track, &kin);
         let g = -GRAVITY.z;
         let total: f32 = c.iter().map(|w| w.load_n).sum();
         assert!(
@@ -678,14 +708,14 @@ mod tests {
             com: kin.com + Vec3::Z,
             ..kin
         };
-        let c = wheel_contact(&physics, &network, &t, &track, &high);
+        let c = contacts_of(&physics, &network, &t, &track, &high);
         assert!(c.iter().all(|w| w.surface.is_none() && w.load_n == 0.0));
         // Rolled to the left: the anti-roll bar moves load to the more compressed right side.
         let rolled = Kinematics {
             rot: Quat::from_rotation_x(0.02) * kin.rot,
             ..kin
         };
-        let c = wheel_contact(&physics, &network, &t, &track, &rolled);
+        let c = contacts_of(&physics, &network, &t, &track, &rolled);
         assert!(c[1].compression_m > c[0].compression_m && c[1].load_n > c[0].load_n);
     }
 
@@ -699,9 +729,8 @@ mod tests {
         for w in &mut state.wheels {
             w.omega = 20.0 / t.params.wheels.radius_m;
         }
-        let contacts = wheel_contact(&physics, &network, &t, &track, &rolling);
-        let (patches, slope_pull) =
-            tyre_forces(&t, &rolling, &contacts, &[0.0; 4], &mut state, 1.0 / 120.0);
+        let contacts = contacts_of(&physics, &network, &t, &track, &rolling);
+        let (patches, slope_pull) = patches_of(&t, &rolling, &contacts, &mut state);
         for (i, p) in patches.iter().enumerate() {
             assert!(p.long_n.abs() < 1e-3, "wheel {i}: {}", p.long_n);
             assert!(state.wheels[i].force_lat_n.abs() < 1e-3);
@@ -713,7 +742,7 @@ mod tests {
             v: Vec3::new(20.0, 1.0, 0.0),
             ..kin
         };
-        let (patches, _) = tyre_forces(&t, &sliding, &contacts, &[0.0; 4], &mut state, 1.0 / 120.0);
+        let (patches, _) = patches_of(&t, &sliding, &contacts, &mut state);
         for (i, p) in patches.iter().enumerate() {
             let fy = state.wheels[i].force_lat_n;
             assert!(fy < 0.0 && fy.abs() <= p.peak_n, "wheel {i}: {fy}");
@@ -722,7 +751,7 @@ mod tests {
         state.wheels[2].omega *= 1.1;
         let mut airborne = contacts;
         airborne[3].surface = None;
-        let (patches, _) = tyre_forces(&t, &rolling, &airborne, &[0.0; 4], &mut state, 1.0 / 120.0);
+        let (patches, _) = patches_of(&t, &rolling, &airborne, &mut state);
         assert!(patches[2].long_n > 0.0);
         assert_eq!(patches[3], TyrePatch::default());
         assert!(!state.wheels[3].grounded);

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Everything that defines one kind of car. `Default` is the reference sedan (SPEC §3).
+/// Everything that defines one kind of car. `Default` is the reference sedan (thesis §3.2.2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct VehicleParams {

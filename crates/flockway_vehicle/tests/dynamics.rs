@@ -1,4 +1,4 @@
-//! The sedan in the full simulation: the dyno figures of SPEC §3, straight-line and banked-curve
+//! The sedan in the full simulation: the dyno figures of the thesis's car (§3.2.2), straight-line and banked-curve
 //! behaviour, parking, determinism and clean removal.
 
 use bevy_ecs::prelude::*;
