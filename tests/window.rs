@@ -276,14 +276,23 @@ fn new_app() -> AppState {
     )
 }
 
-/// The camera an empty level opens with, in a window of [`SIZE`].
+/// The camera an empty level opens with, in a window of [`SIZE`]: the view is fitted to the
+/// part of the window the panels leave to the scene, which a drawn frame tells.
 fn empty_level_camera() -> (Camera, Vec2) {
     let size = Vec2::new(SIZE.0 as f32, SIZE.1 as f32);
-    let camera = Camera::top_fit(
-        Vec3::new(-EMPTY_VIEW_M, -EMPTY_VIEW_M, 0.0),
-        Vec3::new(EMPTY_VIEW_M, EMPTY_VIEW_M, 0.0),
-        size.x / size.y,
-    );
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(size.x, size.y))
+        .build_ui_state(
+            |ui, app: &mut AppState| flockway::app::ui(ui, app),
+            new_app(),
+        );
+    h.run();
+    let (_, lo, hi) = h.state().view_area().expect("a frame was drawn");
+    // The harness draws the UI 8 px inside its edges; the panels keep their sizes, so in the
+    // window the scene reaches 8 px further each way.
+    let margin = Vec2::splat(8.0);
+    let half = Vec3::new(EMPTY_VIEW_M, EMPTY_VIEW_M, 0.0);
+    let camera = Camera::top_fit_area(-half, half, size, lo - margin, hi + margin);
     (camera, size)
 }
 

@@ -172,6 +172,11 @@ pub struct AppState {
     edited_level: Option<Level>,
     asset_listing: BTreeMap<String, Vec<String>>,
     profile_checks: BTreeMap<String, Option<String>>,
+    /// The window's size and the part of it the panels leave to the scene, pixels.
+    view_area: Option<(Vec2, Vec2, Vec2)>,
+    /// The camera the last fit chose, while the user has not moved it: a change of the
+    /// scene's area (the first frame, a resize, a panel) fits the view again.
+    fitted: Option<Camera>,
 }
 
 /// The pages of the side panel while editing.
@@ -211,6 +216,8 @@ impl AppState {
             edited_level: None,
             asset_listing: BTreeMap::new(),
             profile_checks: BTreeMap::new(),
+            view_area: None,
+            fitted: None,
         };
         app.rebuild_network();
         app.fit_view(16.0 / 9.0);
@@ -279,21 +286,48 @@ impl AppState {
         scene
     }
 
-    /// Frames the whole level.
+    /// Frames the whole level: in the part of the window the panels leave free, once the
+    /// window has said where that is ([`AppState::set_view_area`]).
     pub fn fit_view(&mut self, aspect: f32) {
         let s = self.static_scene();
-        self.camera = match self.camera {
-            Camera::Top { .. } => Camera::top_fit(s.min, s.max, aspect),
-            Camera::Orbit { .. } => Camera::orbit_fit(s.min, s.max),
+        self.camera = match (self.camera, self.view_area) {
+            (Camera::Top { .. }, Some((viewport, lo, hi))) => {
+                Camera::top_fit_area(s.min, s.max, viewport, lo, hi)
+            }
+            (Camera::Top { .. }, None) => Camera::top_fit(s.min, s.max, aspect),
+            (Camera::Orbit { .. }, _) => Camera::orbit_fit(s.min, s.max),
         };
+        self.fitted = Some(self.camera);
+    }
+
+    /// Where the scene is drawn: the window's size and the part of it no panel covers, pixels.
+    /// When it changes, a fitted view the user has not moved since is fitted again.
+    pub fn set_view_area(&mut self, viewport: Vec2, area_min: Vec2, area_max: Vec2) {
+        let area = Some((viewport, area_min, area_max));
+        if area == self.view_area {
+            return;
+        }
+        self.view_area = area;
+        if self.fitted == Some(self.camera) {
+            self.fit_view(viewport.x / viewport.y.max(1.0));
+        }
+    }
+
+    /// The window's size and the part of it the panels leave to the scene, pixels, once a frame
+    /// has been drawn.
+    pub fn view_area(&self) -> Option<(Vec2, Vec2, Vec2)> {
+        self.view_area
     }
 
     /// Switches between the top and the orbit view.
     pub fn toggle_camera(&mut self, aspect: f32) {
         let s = self.static_scene();
-        self.camera = match self.camera {
-            Camera::Top { .. } => Camera::orbit_fit(s.min, s.max),
-            Camera::Orbit { .. } => Camera::top_fit(s.min, s.max, aspect),
+        self.camera = match (self.camera, self.view_area) {
+            (Camera::Top { .. }, _) => Camera::orbit_fit(s.min, s.max),
+            (Camera::Orbit { .. }, Some((viewport, lo, hi))) => {
+                Camera::top_fit_area(s.min, s.max, viewport, lo, hi)
+            }
+            (Camera::Orbit { .. }, None) => Camera::top_fit(s.min, s.max, aspect),
         };
     }
 

@@ -40,6 +40,30 @@ impl Camera {
         }
     }
 
+    /// A top view that shows the box `min..max` whole inside the part `area_min..area_max` of
+    /// a viewport of `viewport` pixels (the part the panels leave free), centred there.
+    pub fn top_fit_area(
+        min: Vec3,
+        max: Vec3,
+        viewport: glam::Vec2,
+        area_min: glam::Vec2,
+        area_max: glam::Vec2,
+    ) -> Camera {
+        let area = (area_max - area_min).max(glam::Vec2::splat(1.0));
+        let size = (max - min).truncate().max(glam::Vec2::splat(1e-3));
+        // Metres per pixel that fit the box in the area, with a margin.
+        let k = (size.x / area.x).max(size.y / area.y) * 1.08;
+        let half_height_m = (0.5 * k * viewport.y).max(5.0);
+        let k = 2.0 * half_height_m / viewport.y.max(1.0);
+        // The box's centre appears at the area's centre: x right is east, y down is south.
+        let offset = 0.5 * (area_min + area_max) - 0.5 * viewport;
+        let centre = 0.5 * (min + max) - Vec3::new(offset.x * k, -offset.y * k, 0.0);
+        Camera::Top {
+            centre,
+            half_height_m,
+        }
+    }
+
     /// An orbit view from the south-west, high enough to see the box `min..max` whole.
     pub fn orbit_fit(min: Vec3, max: Vec3) -> Camera {
         let radius = (0.5 * (max - min)).length().max(5.0);
@@ -223,6 +247,25 @@ mod picking_tests {
                 let back = cam.to_screen(g, size).expect("in front");
                 assert!((back - px).length() < 0.5, "{cam:?}: {px} → {g} → {back}");
             }
+        }
+    }
+
+    #[test]
+    fn a_fit_to_the_free_area_shows_the_box_whole_and_centred_there() {
+        let (min, max) = (Vec3::new(-100.0, -50.0, 0.0), Vec3::new(60.0, 90.0, 0.0));
+        let size = Vec2::new(1400.0, 860.0);
+        let (lo, hi) = (Vec2::new(0.0, 25.0), Vec2::new(1060.0, 835.0));
+        let cam = Camera::top_fit_area(min, max, size, lo, hi);
+        let centre = cam.to_screen(0.5 * (min + max), size).expect("in view");
+        assert!((centre - 0.5 * (lo + hi)).length() < 0.5, "{centre}");
+        for corner in [
+            min,
+            max,
+            Vec3::new(min.x, max.y, 0.0),
+            Vec3::new(max.x, min.y, 0.0),
+        ] {
+            let p = cam.to_screen(corner, size).expect("in view");
+            assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{corner} at {p}");
         }
     }
 }

@@ -54,6 +54,7 @@ pub(super) fn scene(ui: &mut egui::Ui, app: &mut AppState) {
     let ctx = ui.ctx().clone();
     ctx.data_mut(|d| d.insert_temp(scene_rect_id(), rect));
     let (size, ppp) = viewport_px(&ctx);
+    app.set_view_area(size, px(rect.min, ppp), px(rect.max, ppp));
     let mut state: ScenePointer = ctx.data(|d| d.get_temp(pointer_id())).unwrap_or_default();
     let events = ctx.input(|i| i.events.clone());
     for event in events {
