@@ -66,6 +66,15 @@ impl EntityRng {
         lo + (hi - lo) * self.unit_f64()
     }
 
+    /// A standard normal sample (mean 0, deviation 1), by the Box–Muller transform from two
+    /// uniform draws, with `libm` so it is the same on every machine.
+    pub fn normal(&mut self) -> f64 {
+        // 1 − u lies in (0, 1]: the logarithm stays finite.
+        let u1 = 1.0 - self.unit_f64();
+        let u2 = self.unit_f64();
+        libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(std::f64::consts::TAU * u2)
+    }
+
     /// Picks an index with probability proportional to `weights` (non-finite or negative weights
     /// count as zero). Returns `None` when no weight is positive.
     pub fn weighted_index(&mut self, weights: &[f64]) -> Option<usize> {
@@ -95,6 +104,20 @@ impl EntityRng {
 mod tests {
     use super::*;
     use crate::IdKind;
+
+    #[test]
+    fn normal_draws_have_mean_zero_and_deviation_one() {
+        let mut rng = RngStreams::new(3).stream(StableId::new(IdKind::Vehicle, 9));
+        let n = 200_000;
+        let xs: Vec<f64> = (0..n).map(|_| rng.normal()).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+        assert!(mean.abs() < 0.01, "{mean}");
+        assert!((var.sqrt() - 1.0).abs() < 0.01, "{}", var.sqrt());
+        let within_one = xs.iter().filter(|x| x.abs() < 1.0).count() as f64 / n as f64;
+        assert!((within_one - 0.6827).abs() < 0.005, "{within_one}");
+        assert!(xs.iter().all(|x| x.is_finite()));
+    }
 
     #[test]
     fn same_seed_and_id_give_the_same_stream() {

@@ -2,7 +2,8 @@
 //!
 //! Each tick, in [`StepSet::Sense`], [`rebuild_lane_index`] sorts every vehicle into a
 //! [`LaneIndex`] per road and lane, so a driver finds its leader, follower and neighbours in
-//! O(log n + k). In [`StepSet::Decide`] every driver system writes a [`DriveTarget`] (a speed and
+//! O(log n + k), and [`RoadAhead`] holds each lane's speed envelope (the bends and slippery
+//! stretches ahead, braked for in time), so a driver reads the road ahead in O(1). In [`StepSet::Decide`] every driver system writes a [`DriveTarget`] (a speed and
 //! a heading) for the vehicles it drives — [`drive_flock`] (Reynolds flocking, free or keeping
 //! its lane, human-like with [`HumanDriver`], and wave-damping with [`WaveDamper`]) and
 //! [`drive_idm`] (the Intelligent Driver Model) — and then [`follow_targets`] turns targets into `Controls` with two PID loops. A driver
@@ -11,19 +12,23 @@
 //! A new driver is a component and a system added with [`add_driver`]; see
 //! `examples/custom_driver.rs`.
 
+mod ahead;
 mod control;
 mod models;
 mod perception;
 mod profile;
 
+pub use ahead::{
+    ReadsRoad, RoadAhead, RoadAheadParams, RoadSurface, SurfaceStretch, update_road_ahead,
+};
 pub use control::{
     DriveTarget, HOLD_BRAKE, Pid, PidGains, STOP_BELOW_MPS, SharedController, TargetController,
     follow_targets, wrap_angle,
 };
 pub use models::{
-    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
-    WaveDamper, WaveDamperParams, drive_flock, drive_idm, idm_accel, lane_following,
-    update_speed_limits,
+    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedFactor,
+    SpeedFactorParams, SpeedLimit, WaveDamper, WaveDamperParams, desired_speed_mps, drive_flock,
+    drive_idm, idm_accel, lane_following, update_speed_limits,
 };
 pub use perception::{LaneEntry, LaneIndex, Seen, rebuild_lane_index};
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
@@ -38,7 +43,8 @@ use flockway_vehicle::VehiclePlugin;
 pub mod prelude {
     pub use crate::{
         DriveTarget, DriverSpec, DriversPlugin, FlockDriver, HumanDriver, IdmDriver, LaneIndex,
-        SharedController, SpeedLimit, TargetController, add_driver,
+        ReadsRoad, RoadAhead, SharedController, SpeedFactor, SpeedLimit, TargetController,
+        add_driver,
     };
 }
 
@@ -61,6 +67,8 @@ impl SimPlugin for DriversPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(VehiclePlugin);
         sim.world_mut().init_resource::<LaneIndex>();
+        sim.world_mut().init_resource::<RoadSurface>();
+        sim.world_mut().init_resource::<RoadAhead>();
         sim.schedule_mut().configure_sets((
             DriverSystems::Perceive.in_set(StepSet::Sense),
             DriverSystems::Decide.in_set(StepSet::Decide),
@@ -69,7 +77,8 @@ impl SimPlugin for DriversPlugin {
                 .in_set(StepSet::Decide),
         ));
         sim.schedule_mut().add_systems((
-            (rebuild_lane_index, update_speed_limits).in_set(DriverSystems::Perceive),
+            (rebuild_lane_index, update_speed_limits, update_road_ahead)
+                .in_set(DriverSystems::Perceive),
             follow_targets.in_set(DriverSystems::Control),
         ));
         add_driver(sim, drive_flock);

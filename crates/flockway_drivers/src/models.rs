@@ -1,5 +1,6 @@
 //! The built-in drivers: Reynolds flocking (free and lane-keeping), human-like, and the IDM.
 
+use crate::ahead::{ReadsRoad, RoadAhead, RoadAheadParams};
 use crate::control::{DriveTarget, PidGains};
 use crate::perception::{LaneIndex, Seen};
 use bevy_ecs::prelude::*;
@@ -39,10 +40,63 @@ pub struct FlockParams {
     pub lookahead_s: f32,
     /// Time gap needed ahead of and behind the car in the target lane before a lane change, s.
     pub lane_change_gap_s: f32,
+    /// How it slows for bends and slippery stretches ahead.
+    pub road_ahead: RoadAheadParams,
+    /// Each driver's desired speed as a share of the limit, drawn once per vehicle.
+    pub speed_factor: SpeedFactorParams,
     /// Throttle PID on speed error (per m/s).
     pub throttle: PidGains,
     /// Steering PID on heading error (per rad).
     pub steering: PidGains,
+}
+
+/// The distribution of drivers' desired-speed factors within a profile (as SUMO's
+/// `speedFactor` and `speedDev`): normal with this mean and deviation, clipped to `min..=max`.
+/// With no deviation every driver takes the mean and no random number is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SpeedFactorParams {
+    /// Mean share of the limit (1: the limit).
+    pub mean: f32,
+    /// Standard deviation of the share.
+    pub dev: f32,
+    /// Smallest share drawn.
+    pub min: f32,
+    /// Largest share drawn.
+    pub max: f32,
+}
+
+impl Default for SpeedFactorParams {
+    fn default() -> Self {
+        SpeedFactorParams {
+            mean: 1.0,
+            dev: 0.0,
+            min: 0.2,
+            max: 2.0,
+        }
+    }
+}
+
+impl SpeedFactorParams {
+    /// One driver's factor, from its own stream (drawn only if `dev` is above zero).
+    pub fn draw(&self, rng: &mut EntityRng) -> f32 {
+        if self.dev > 0.0 {
+            (self.mean + self.dev * rng.normal() as f32).clamp(self.min, self.max.max(self.min))
+        } else {
+            self.mean
+        }
+    }
+}
+
+/// A driver's desired speed as a share of the limit, drawn when it was spawned: every built-in
+/// driver drives at `limit × factor` where the road ahead allows.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct SpeedFactor(pub f32);
+
+impl Default for SpeedFactor {
+    fn default() -> Self {
+        SpeedFactor(1.0)
+    }
 }
 
 impl Default for FlockParams {
@@ -59,6 +113,8 @@ impl Default for FlockParams {
             rear_weight: 1.0,
             lookahead_s: 0.6,
             lane_change_gap_s: 1.0,
+            road_ahead: RoadAheadParams::default(),
+            speed_factor: SpeedFactorParams::default(),
             throttle: PidGains {
                 kp: 0.5,
                 ki: 0.2,
@@ -99,6 +155,10 @@ impl Default for HumanParams {
                 adjacent_range_m: 5.0,
                 avoid_weight_m2_per_s: 30.0,
                 rear_weight: 0.0,
+                road_ahead: RoadAheadParams {
+                    lateral_accel_mps2: 2.5,
+                    ..RoadAheadParams::default()
+                },
                 throttle: PidGains {
                     kp: 0.6,
                     ki: 0.05,
@@ -253,6 +313,10 @@ pub struct IdmParams {
     pub max_lateral_mps: f32,
     /// Lane direction look-ahead, s.
     pub lookahead_s: f32,
+    /// How it slows for bends and slippery stretches ahead.
+    pub road_ahead: RoadAheadParams,
+    /// Each driver's desired speed as a share of v₀, drawn once per vehicle.
+    pub speed_factor: SpeedFactorParams,
     /// Throttle PID on speed error (per m/s).
     pub throttle: PidGains,
     /// Steering PID on heading error (per rad).
@@ -274,6 +338,8 @@ impl Default for IdmParams {
             road_weight_per_s: flock.road_weight_per_s,
             max_lateral_mps: flock.max_lateral_mps,
             lookahead_s: flock.lookahead_s,
+            road_ahead: flock.road_ahead,
+            speed_factor: flock.speed_factor,
             throttle: PidGains {
                 kp: 0.8,
                 ki: 0.2,
@@ -345,12 +411,10 @@ impl FlockDriver {
     }
 }
 
-/// Makes a flocking driver human-like: its own desired speed, a wandering speed choice and a
-/// reaction delay.
+/// Makes a flocking driver human-like: a wandering speed choice and a reaction delay (its own
+/// desired speed is its [`SpeedFactor`]).
 #[derive(Component, Debug, Clone, PartialEq)]
 pub struct HumanDriver {
-    /// Its desired speed as a share of the limit (drawn once, 1 ± spread).
-    pub speed_factor: f32,
     /// Reaction delay, s.
     pub reaction_time_s: f32,
     /// Standard deviation of the wander added to its target speed, m/s.
@@ -363,10 +427,9 @@ pub struct HumanDriver {
 }
 
 impl HumanDriver {
-    /// A human with this speed factor and delay, whose speed choice does not wander.
-    pub fn new(speed_factor: f32, reaction_time_s: f32) -> HumanDriver {
+    /// A human with this reaction delay, whose speed choice does not wander.
+    pub fn new(reaction_time_s: f32) -> HumanDriver {
         HumanDriver {
-            speed_factor,
             reaction_time_s,
             speed_noise_mps: 0.0,
             noise_time_s: 4.0,
@@ -538,19 +601,21 @@ fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> 
 pub fn drive_flock(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
+    ahead: Res<RoadAhead>,
     mut vehicles: Query<(
         Entity,
         &RoadTrack,
         &Motion,
         &VehicleModel,
-        &SpeedLimit,
+        DesiredSpeed,
         &mut FlockDriver,
         Option<&mut HumanDriver>,
         Option<&mut WaveDamper>,
         &mut DriveTarget,
     )>,
 ) {
-    let run = |seen: &mut Vec<Seen>, item: FlockItem| flock_decide(&network, &index, seen, item);
+    let run =
+        |seen: &mut Vec<Seen>, item: FlockItem| flock_decide(&network, &index, &ahead, seen, item);
     // Each car reads the shared index and road network and writes only its own components,
     // so the decisions are the same whichever thread makes them.
     if vehicles.iter().len() < PARALLEL_MIN_VEHICLES {
@@ -561,13 +626,48 @@ pub fn drive_flock(
     }
 }
 
+/// What sets a vehicle's desired speed: the limit it obeys, its own share of it, and what the
+/// road ahead allows.
+type DesiredSpeed = (
+    &'static SpeedLimit,
+    Option<&'static SpeedFactor>,
+    Option<&'static ReadsRoad>,
+);
+
+/// The speed a driver wants before traffic, m/s, and what the road ahead allows: its cruising
+/// speed (the limit unless its parameters set one) times its factor, within the envelope of its
+/// lane read [`RoadAheadParams::preview_s`] ahead of it at `track_speed`.
+pub fn desired_speed_mps(
+    cruise_kmh: Option<f32>,
+    (limit, factor, reads): (&SpeedLimit, Option<&SpeedFactor>, Option<&ReadsRoad>),
+    ahead: &RoadAhead,
+    track: &RoadTrack,
+    track_speed: f32,
+    lane: u32,
+) -> (f32, f32) {
+    let factor = factor.map_or(1.0, |f| f.0);
+    let free = cruise_kmh.unwrap_or(limit.kmh) * factor;
+    let cap = reads.map_or(f32::INFINITY, |r| {
+        // Ahead to brake in time; here too, so it does not speed up out of a bend early.
+        let preview = f64::from(r.params.preview_s * track_speed.max(0.0));
+        ahead
+            .speed_cap_mps(r, track.road, lane, track.s_m + preview)
+            .min(ahead.speed_cap_mps(r, track.road, lane, track.s_m))
+    });
+    ((free.max(0.0) / 3.6).min(cap), cap)
+}
+
 /// What [`drive_flock`] reads and writes on one vehicle.
 type FlockItem<'a> = (
     Entity,
     &'a RoadTrack,
     &'a Motion,
     &'a VehicleModel,
-    &'a SpeedLimit,
+    (
+        &'a SpeedLimit,
+        Option<&'a SpeedFactor>,
+        Option<&'a ReadsRoad>,
+    ),
     Mut<'a, FlockDriver>,
     Option<Mut<'a, HumanDriver>>,
     Option<Mut<'a, WaveDamper>>,
@@ -578,20 +678,15 @@ type FlockItem<'a> = (
 fn flock_decide(
     network: &RoadNetwork,
     index: &LaneIndex,
+    ahead: &RoadAhead,
     seen: &mut Vec<Seen>,
-    (me, track, motion, model, limit, mut driver, human, damper, mut target): FlockItem,
+    (me, track, motion, model, desired, mut driver, human, damper, mut target): FlockItem,
 ) {
     let Some(geometry) = network.get(track.road) else {
         return;
     };
     let p = &driver.params;
     let lanes = geometry.lanes().max(1);
-    let speed_factor = human.as_ref().map_or(1.0, |h| h.speed_factor);
-    let v_target = p
-        .target_speed_kmh
-        .unwrap_or(limit.kmh * speed_factor)
-        .max(0.0)
-        / 3.6;
     let length = model.0.params.chassis.length_m;
     let v = motion.forward_mps;
 
@@ -614,6 +709,7 @@ fn flock_decide(
     }
     let lane = driver.lane.min(lanes - 1);
     let p = &driver.params;
+    let (v_target, cap) = desired_speed_mps(p.target_speed_kmh, desired, ahead, track, v, lane);
     let (dir, base, curvature) = lane_following(
         geometry,
         track,
@@ -665,7 +761,9 @@ fn flock_decide(
     }
     let desired = base + avoid;
     let steer_by = if driver.keep_lane { base } else { desired };
-    let decided = to_target(desired, steer_by, dir, curvature);
+    let mut decided = to_target(desired, steer_by, dir, curvature);
+    // A push from a follower never takes it faster than the road ahead allows.
+    decided.speed_mps = decided.speed_mps.min(cap);
     *target = match human {
         // The reaction delay is on the response to traffic (the speed); lane keeping is a
         // continuous skill and follows the road as it is now.
@@ -675,8 +773,10 @@ fn flock_decide(
                 speed_mps: (decided.speed_mps + wander).max(0.0),
                 ..decided
             };
+            // A bend is seen long before it is reached: what the road ahead allows binds
+            // without the delay.
             DriveTarget {
-                speed_mps: h.react(chosen).speed_mps,
+                speed_mps: h.react(chosen).speed_mps.min(cap),
                 ..decided
             }
         }
@@ -719,23 +819,31 @@ pub fn idm_accel(p: &IdmParams, v: f32, v0: f32, leader: Option<(f32, f32)>) -> 
 pub fn drive_idm(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
+    ahead: Res<RoadAhead>,
     mut vehicles: Query<(
         Entity,
         &RoadTrack,
         &Motion,
         &VehicleModel,
-        &SpeedLimit,
+        DesiredSpeed,
         &IdmDriver,
         &mut DriveTarget,
     )>,
 ) {
-    for (me, track, motion, model, limit, driver, mut target) in &mut vehicles {
+    for (me, track, motion, model, desired, driver, mut target) in &mut vehicles {
         let Some(geometry) = network.get(track.road) else {
             continue;
         };
         let p = &driver.params;
         let lane = driver.lane.min(geometry.lanes().max(1) - 1);
-        let v0 = p.target_speed_kmh.unwrap_or(limit.kmh).max(0.0) / 3.6;
+        let (v0, _) = desired_speed_mps(
+            p.target_speed_kmh,
+            desired,
+            &ahead,
+            track,
+            motion.forward_mps,
+            lane,
+        );
         let v = motion.forward_mps;
         let length = model.0.params.chassis.length_m;
         let leader = index
@@ -835,7 +943,7 @@ mod tests {
                 1,
             ))
         };
-        let mut h = HumanDriver::new(1.0, 0.0).with_noise(1.0, 4.0, rng());
+        let mut h = HumanDriver::new(0.0).with_noise(1.0, 4.0, rng());
         let n = 120 * 4000;
         let xs: Vec<f32> = (0..n).map(|_| h.wander()).collect();
         let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n as f64;
@@ -858,14 +966,14 @@ mod tests {
             cov / var
         );
         // The same stream gives the same wander; no noise gives none.
-        let mut again = HumanDriver::new(1.0, 0.0).with_noise(1.0, 4.0, rng());
+        let mut again = HumanDriver::new(0.0).with_noise(1.0, 4.0, rng());
         assert!(xs.iter().take(1000).all(|&x| x == again.wander()));
-        assert_eq!(HumanDriver::new(1.0, 0.0).wander(), 0.0);
+        assert_eq!(HumanDriver::new(0.0).wander(), 0.0);
     }
 
     #[test]
     fn human_reacts_after_its_delay() {
-        let mut h = HumanDriver::new(1.0, 0.5);
+        let mut h = HumanDriver::new(0.5);
         let t = |v: f32| DriveTarget {
             speed_mps: v,
             heading_rad: 0.0,

@@ -1,14 +1,16 @@
 //! Driver profiles: a built-in model with parameters from RON and overrides by name, ready to put
 //! on a vehicle.
 
+use crate::ahead::ReadsRoad;
 use crate::control::{DriveTarget, TargetController};
 use crate::models::{
-    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedLimit,
-    WaveDamper, WaveDamperParams,
+    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedFactor,
+    SpeedLimit, WaveDamper, WaveDamperParams,
 };
 use bevy_ecs::prelude::*;
 use flockway_core::EntityRng;
 use flockway_level::DriverModel;
+use flockway_vehicle::VehicleModel;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -229,26 +231,33 @@ impl DriverSpec {
             SpeedLimit::default(),
             DriverLabel::new(self.model().name(), self.model().name()),
         ));
-        match self {
+        // The tyres' grip the driver trusts for the road ahead: the vehicle's own, if it has one.
+        let grip = entity
+            .get::<VehicleModel>()
+            .map_or(1.0, |m| m.0.params.tyres.friction);
+        let (ahead, factor) = match self {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
                 entity.insert((
                     FlockDriver::new(p.clone(), keep, lane),
                     TargetController::new(p.throttle, p.steering),
                 ));
+                (p.road_ahead, p.speed_factor.draw(rng))
             }
             DriverSpec::Human(h) => {
                 let spread = f64::from(h.speed_spread.clamp(0.0, 0.9));
-                let factor = rng.uniform(1.0 - spread, 1.0 + spread) as f32;
+                let uniform = rng.uniform(1.0 - spread, 1.0 + spread) as f32;
                 entity.insert((
                     FlockDriver::new(h.flock.clone(), true, lane),
-                    HumanDriver::new(factor, h.reaction_time_s).with_noise(
+                    HumanDriver::new(h.reaction_time_s).with_noise(
                         h.speed_noise_kmh / 3.6,
                         h.noise_time_s,
                         rng.fork(),
                     ),
                     TargetController::new(h.flock.throttle, h.flock.steering),
                 ));
+                // The spread around the profile's factor: the two multiply.
+                (h.flock.road_ahead, h.flock.speed_factor.draw(rng) * uniform)
             }
             DriverSpec::WaveDamper(p) => {
                 entity.insert((
@@ -256,6 +265,7 @@ impl DriverSpec {
                     WaveDamper::new(p.clone()),
                     TargetController::new(p.flock.throttle, p.flock.steering),
                 ));
+                (p.flock.road_ahead, p.flock.speed_factor.draw(rng))
             }
             DriverSpec::Idm(p) => {
                 entity.insert((
@@ -265,8 +275,10 @@ impl DriverSpec {
                     },
                     TargetController::new(p.throttle, p.steering),
                 ));
+                (p.road_ahead, p.speed_factor.draw(rng))
             }
-        }
+        };
+        entity.insert((SpeedFactor(factor), ReadsRoad::new(ahead, grip)));
     }
 }
 

@@ -308,9 +308,10 @@ fn human_desired_speeds_span_ten_percent_and_follow_the_seed() {
                 let mut rng = streams.stream(StableId::new(IdKind::Vehicle, i));
                 let mut e = world.spawn_empty();
                 spec.insert(&mut e, 0, &mut rng);
-                e.get::<flockway_drivers::HumanDriver>()
-                    .expect("a human driver")
-                    .speed_factor
+                assert!(e.get::<flockway_drivers::HumanDriver>().is_some());
+                e.get::<flockway_drivers::SpeedFactor>()
+                    .expect("a speed factor")
+                    .0
             })
             .collect()
     };
@@ -414,5 +415,74 @@ fn human_drivers_form_stop_and_go_on_the_sugiyama_ring_and_autonomous_ones_do_no
     assert!(
         auto_spread < 1.0 && auto_lowest > 25.0,
         "autonomous cars jammed: {auto_spread}"
+    );
+}
+
+#[test]
+fn every_model_draws_its_speed_factor_from_its_profile_and_none_without_a_deviation() {
+    let draw = |model: BuiltinModel, overrides: &[(&str, f64)], seed: u64| -> Vec<f32> {
+        let mut world = World::new();
+        let streams = RngStreams::new(seed);
+        let set = overrides
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), *v))
+            .collect();
+        let spec = DriverSpec::build(model, None, &set).expect("valid overrides");
+        (0..2000u32)
+            .map(|i| {
+                let mut rng = streams.stream(StableId::new(IdKind::Vehicle, i));
+                let mut e = world.spawn_empty();
+                spec.insert(&mut e, 0, &mut rng);
+                e.get::<flockway_drivers::SpeedFactor>()
+                    .expect("a speed factor")
+                    .0
+            })
+            .collect()
+    };
+    let stats = |xs: &[f32]| {
+        let n = xs.len() as f64;
+        let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
+        let var = xs
+            .iter()
+            .map(|&x| (f64::from(x) - mean).powi(2))
+            .sum::<f64>()
+            / n;
+        (mean, var.sqrt())
+    };
+    for (model, prefix) in [
+        (BuiltinModel::Flock, ""),
+        (BuiltinModel::FlockLanes, ""),
+        (BuiltinModel::Idm, ""),
+        (BuiltinModel::WaveDamper, "flock."),
+    ] {
+        // No deviation: everyone drives the mean, and no number is drawn from the stream.
+        assert!(draw(model, &[], 1).iter().all(|&f| f == 1.0), "{model:?}");
+        let mean = format!("{prefix}speed_factor.mean");
+        let dev = format!("{prefix}speed_factor.dev");
+        let max = format!("{prefix}speed_factor.max");
+        let xs = draw(model, &[(&mean, 1.1), (&dev, 0.1), (&max, 1.25)], 3);
+        let (m, sd) = stats(&xs);
+        // Clipping at 1.5 σ above pulls the mean and the spread in a little (1.097 and 0.094).
+        assert!((m - 1.097).abs() < 0.01, "{model:?}: mean {m}");
+        assert!((sd - 0.094).abs() < 0.01, "{model:?}: deviation {sd}");
+        assert!(xs.iter().all(|&f| (0.2..=1.25).contains(&f)), "{model:?}");
+        assert!(xs.contains(&1.25), "{model:?}: the clip is reached");
+        assert_eq!(
+            xs,
+            draw(model, &[(&mean, 1.1), (&dev, 0.1), (&max, 1.25)], 3)
+        );
+    }
+    // A human's own spread multiplies the profile's factor.
+    let xs = draw(
+        BuiltinModel::Human,
+        &[("flock.speed_factor.mean", 0.8), ("speed_spread", 0.1)],
+        4,
+    );
+    let (lo, hi) = xs
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(lo, hi), &f| (lo.min(f), hi.max(f)));
+    assert!(
+        lo >= 0.72 - 1e-6 && hi <= 0.88 + 1e-6 && lo < 0.73 && hi > 0.87,
+        "{lo}..{hi}"
     );
 }

@@ -155,7 +155,7 @@ impl Metric {
             },
             Metric::CollisionsGuardrail => MetricInfo {
                 name: "collisions_guardrail",
-                qualifier: Qualifier::None,
+                qualifier: Qualifier::Profile,
                 unit: "events",
                 description: "vehicles removed after hitting a guardrail",
             },

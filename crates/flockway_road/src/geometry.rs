@@ -10,6 +10,8 @@ use glam::DVec3;
 const TABLE_STEP_M: f64 = 2.0;
 /// Most table entries one segment may have (a segment of over a kilometre is still fine).
 const MAX_SUBDIVISIONS: usize = 1024;
+/// Length of one bin of a road's curvature profile, m ([`RoadGeometry::curvature_bins`]).
+pub const CURVATURE_BIN_M: f64 = 1.0;
 
 /// The local frame of a road at one arc position.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -106,6 +108,9 @@ pub struct RoadGeometry {
     segments: Vec<SegmentData>,
     length_m: f64,
     grid: SegmentGrid,
+    /// Per [`CURVATURE_BIN_M`] of centre line, the ground-plane curvature of largest magnitude
+    /// in the bin, 1/m (signed, positive turning left).
+    curvature: Vec<f32>,
 }
 
 impl RoadGeometry {
@@ -154,12 +159,57 @@ impl RoadGeometry {
                 .map(|s| (&s.cubic, s.len()))
                 .collect::<Vec<_>>(),
         );
-        Ok(RoadGeometry {
+        let mut road = RoadGeometry {
             spec: spec.clone(),
             segments,
             length_m: s0,
             grid,
-        })
+            curvature: Vec::new(),
+        };
+        road.curvature = road.curvature_profile();
+        Ok(road)
+    }
+
+    /// The curvature profile: each bin's sharpest of its start, middle and end (the curvature of
+    /// a centripetal Catmull-Rom spline changes smoothly within a segment, so three samples per
+    /// metre find its peaks to well within a percent).
+    fn curvature_profile(&self) -> Vec<f32> {
+        let bins = (self.length_m / CURVATURE_BIN_M).ceil().max(1.0) as usize;
+        let at = |s: f64| self.curvature_at(s.min(self.length_m));
+        let mut edge = at(0.0);
+        (0..bins)
+            .map(|i| {
+                let s = i as f64 * CURVATURE_BIN_M;
+                let mid = at(s + 0.5 * CURVATURE_BIN_M);
+                let end = at(s + CURVATURE_BIN_M);
+                let sharpest = [edge, mid, end]
+                    .into_iter()
+                    .fold(0.0f64, |a, k| if k.abs() > a.abs() { k } else { a });
+                edge = end;
+                sharpest as f32
+            })
+            .collect()
+    }
+
+    /// Curvature of the centre line seen from above at arc position `s_m`, 1/m: positive turning
+    /// left, 0 on a straight. Elevation changes do not count (a crest is not a bend).
+    pub fn curvature_at(&self, s_m: f64) -> f64 {
+        let p = self.param_at(s_m);
+        let c = &self.segments[p.seg].cubic;
+        let (d1, d2) = (c.d1(p.u), c.d2(p.u));
+        let speed2 = d1.x * d1.x + d1.y * d1.y;
+        if speed2 < 1e-18 {
+            return 0.0;
+        }
+        (d1.x * d2.y - d1.y * d2.x) / (speed2 * speed2.sqrt())
+    }
+
+    /// The road's curvature profile: bin `i` covers arc positions `i·CURVATURE_BIN_M` to
+    /// `(i+1)·CURVATURE_BIN_M` and holds the centre line's sharpest curvature there, 1/m
+    /// (signed, positive turning left). A lane `d` metres left of the centre line turns on a
+    /// radius of `1/κ − d`.
+    pub fn curvature_bins(&self) -> &[f32] {
+        &self.curvature
     }
 
     /// The spec this geometry was built from.

@@ -21,7 +21,9 @@ mod spline;
 mod validate;
 
 pub use error::RoadError;
-pub use geometry::{RoadCursor, RoadFrame, RoadGeometry, RoadProjection, lane_offset};
+pub use geometry::{
+    CURVATURE_BIN_M, RoadCursor, RoadFrame, RoadGeometry, RoadProjection, lane_offset,
+};
 pub use mesh::{
     DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,
     RoadMeshes, STATION_STEP_M, Side,

@@ -567,3 +567,41 @@ fn project_tracked_frame_returns_the_frame_at_the_projection() {
     assert!((proj.s_m - s).abs() < 1e-6 && (proj.lateral_m - 1.7).abs() < 1e-6);
     assert!(frame.pos.distance(f.pos) < 1e-6 && frame.tangent.distance(f.tangent) < 1e-6);
 }
+
+#[test]
+fn a_ring_has_the_curvature_of_its_circle_and_a_straight_none() {
+    // A ring drawn counter-clockwise turns left: +1/R everywhere, also in every bin.
+    for (radius, n) in [(20.0, 12), (36.6, 12), (150.0, 16)] {
+        let g = RoadGeometry::new(&RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, radius, n))
+            .expect("valid");
+        for i in 0..50 {
+            let s = g.length_m() * f64::from(i) / 50.0;
+            let k = g.curvature_at(s);
+            assert!((k * radius - 1.0).abs() < 0.01, "R={radius} at {s}: κ={k}");
+        }
+        let bins = g.curvature_bins();
+        assert_eq!(bins.len(), (g.length_m() / CURVATURE_BIN_M).ceil() as usize);
+        assert!(
+            bins.iter()
+                .all(|&k| (f64::from(k) * radius - 1.0).abs() < 0.01),
+            "R={radius}"
+        );
+    }
+    let straight = RoadGeometry::new(&RoadSpec::through(
+        "s",
+        2,
+        50.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(150.0, 0.0, 4.0),
+            DVec3::new(300.0, 0.0, 0.0),
+        ],
+    ))
+    .expect("valid");
+    assert!(straight.curvature_bins().iter().all(|&k| k.abs() < 1e-9));
+    // Drawn clockwise, the same circle turns right.
+    let mut spec = RoadSpec::ring("cw", 1, 30.0, DVec3::ZERO, 50.0, 12);
+    spec.points.reverse();
+    let cw = RoadGeometry::new(&spec).expect("valid");
+    assert!((cw.curvature_at(10.0) * 50.0 + 1.0).abs() < 0.01);
+}

@@ -39,6 +39,14 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
         Metric::CollisionsGuardrail.key(),
         traffic.collisions_guardrail as f64,
     );
+    // Every profile of the level, hits or none: an expectation on one always finds its key.
+    for profile in &level.driver_profiles {
+        let hits = traffic.guardrail_by_profile.get(&profile.name);
+        put(
+            Metric::CollisionsGuardrail.key_for(&profile.name),
+            hits.copied().unwrap_or(0) as f64,
+        );
+    }
     put(
         Metric::CollisionsVehicle.key(),
         traffic.collisions_vehicle as f64,

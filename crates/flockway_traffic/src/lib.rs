@@ -19,7 +19,7 @@ pub use stats::{
 };
 pub use zones::{
     Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,
-    run_destroyers,
+    run_destroyers, sync_road_surface,
 };
 
 use bevy_ecs::prelude::*;
@@ -38,7 +38,7 @@ impl SimPlugin for TrafficPlugin {
         world.init_resource::<TelemetrySettings>();
         world.init_resource::<TelemetrySamples>();
         world.init_resource::<SpawnerRate>();
-        sim.add_systems(StepSet::Spawn, run_spawners);
+        sim.add_systems(StepSet::Spawn, (run_spawners, sync_road_surface));
         sim.add_systems(
             StepSet::Triggers,
             (count_collisions, apply_triggers).chain(),

@@ -75,6 +75,8 @@ pub struct TrafficStats {
     pub destroyed: u64,
     /// Vehicles removed after hitting a guardrail.
     pub collisions_guardrail: u64,
+    /// The same per driver profile.
+    pub guardrail_by_profile: BTreeMap<String, u64>,
     /// Vehicle–vehicle contacts (one per pair per episode of contact).
     pub collisions_vehicle: u64,
     /// Vehicles each destroyer removed after the warm-up.

@@ -3,7 +3,7 @@
 use crate::stats::{TelemetrySettings, TrafficStats};
 use bevy_ecs::prelude::*;
 use flockway_core::{SimClock, TICKS_PER_SECOND};
-use flockway_drivers::{DriverLabel, SpeedLimit};
+use flockway_drivers::{DriverLabel, RoadSurface, SpeedLimit, SurfaceStretch};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
@@ -98,6 +98,35 @@ impl Trigger {
     }
 }
 
+/// Tells the drivers where the friction triggers are (the [`RoadSurface`] they read the road
+/// ahead with), whenever a trigger is added, changed or removed.
+pub fn sync_road_surface(
+    triggers: Query<&Trigger>,
+    changed: Query<(), Changed<Trigger>>,
+    mut removed: RemovedComponents<Trigger>,
+    mut surface: ResMut<RoadSurface>,
+) {
+    if changed.is_empty() && removed.read().count() == 0 {
+        return;
+    }
+    let stretches: Vec<SurfaceStretch> = triggers
+        .iter()
+        .filter_map(|t| match t.effect {
+            TriggerEffect::Friction(scale) => Some(SurfaceStretch {
+                road: t.road,
+                from_m: t.from_m,
+                to_m: t.to_m,
+                lanes: t.lanes.clone(),
+                friction_scale: scale,
+            }),
+            TriggerEffect::SpeedLimit(_) => None,
+        })
+        .collect();
+    if surface.stretches != stretches {
+        surface.stretches = stretches;
+    }
+}
+
 /// Applies every trigger to the vehicles inside it: speed limits stick, friction lasts while
 /// inside.
 pub fn apply_triggers(
@@ -137,6 +166,7 @@ pub fn apply_triggers(
 /// vehicle–vehicle contact is counted once when it begins.
 pub fn count_collisions(
     mut contacts: MessageReader<VehicleContact>,
+    labels: Query<&DriverLabel>,
     mut stats: ResMut<TrafficStats>,
     mut commands: Commands,
 ) {
@@ -150,6 +180,12 @@ pub fn count_collisions(
                 if !removed.contains(&c.vehicle) {
                     removed.push(c.vehicle);
                     stats.collisions_guardrail += 1;
+                    if let Ok(label) = labels.get(c.vehicle) {
+                        *stats
+                            .guardrail_by_profile
+                            .entry(label.profile.to_string())
+                            .or_default() += 1;
+                    }
                     if let Ok(mut e) = commands.get_entity(c.vehicle) {
                         e.despawn();
                     }

@@ -1,0 +1,428 @@
+//! Reading the road ahead: the speed each lane allows from its bends and its grip, and how early
+//! a driver must slow down for them.
+//!
+//! For every way of driving (a [`RoadAheadParams`] and a tyre grip) and every lane, the
+//! [`RoadAhead`] resource holds a *speed envelope*: per metre of road, the square of the highest
+//! speed from which the driver can still take everything ahead — each bend within its comfortable
+//! lateral acceleration, slowing at its comfortable deceleration, on slippery stretches within
+//! the share of the grip it trusts. It is one backward pass over the road (and on along the road
+//! it leads onto), done when the roads or their surfaces change, so a driver's query is one
+//! array lookup.
+
+use bevy_ecs::prelude::*;
+use flockway_road::{CURVATURE_BIN_M, RoadGeometry, RoadId, RoadNetwork};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Standard gravity, m/s².
+const G_MPS2: f32 = 9.81;
+/// Radius beyond which a road counts as straight, m (caps the envelope at about 500 km/h).
+const STRAIGHT_RADIUS_M: f32 = 10_000.0;
+
+/// How a driver takes the road ahead. Units are in the names.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RoadAheadParams {
+    /// Largest lateral acceleration it accepts in a bend, m/s² (2 is a comfortable motorway
+    /// driver; 0 turns reading the road ahead off).
+    pub lateral_accel_mps2: f32,
+    /// Deceleration with which it slows for a bend or a slippery stretch ahead, m/s².
+    pub decel_mps2: f32,
+    /// Share of the tyres' grip it uses on a slippery stretch, for cornering and for braking
+    /// (on dry asphalt the comfort limits are far inside the grip).
+    pub grip_share: f32,
+    /// It reads the envelope this far ahead at its speed, s: the time its speed control takes
+    /// to follow a new target, so it is down to a bend's speed when the bend begins.
+    pub preview_s: f32,
+}
+
+impl Default for RoadAheadParams {
+    fn default() -> Self {
+        RoadAheadParams {
+            lateral_accel_mps2: 2.0,
+            decel_mps2: 1.5,
+            grip_share: 0.3,
+            preview_s: 1.0,
+        }
+    }
+}
+
+/// A vehicle whose driver reads the road ahead: its way of driving, and which of the
+/// [`RoadAhead`] envelopes is its own (assigned in `Sense` the tick it appears).
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct ReadsRoad {
+    /// How it takes bends and slippery stretches.
+    pub params: RoadAheadParams,
+    /// Its tyres' peak friction coefficient on dry asphalt.
+    pub grip: f32,
+    style: Option<u32>,
+}
+
+impl ReadsRoad {
+    /// A driver that reads the road with `params` on tyres of peak friction `grip`.
+    pub fn new(params: RoadAheadParams, grip: f32) -> ReadsRoad {
+        ReadsRoad {
+            params,
+            grip,
+            style: None,
+        }
+    }
+
+    fn key(&self) -> [u32; 4] {
+        let p = &self.params;
+        [
+            p.lateral_accel_mps2.to_bits(),
+            p.decel_mps2.to_bits(),
+            p.grip_share.to_bits(),
+            self.grip.to_bits(),
+        ]
+        // (`preview_s` is applied at the query: it does not change the envelope.)
+    }
+}
+
+/// A stretch of road with a different surface: tyre friction scaled by `friction_scale` (a wet
+/// patch, ice), on some lanes or all.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceStretch {
+    /// Road.
+    pub road: RoadId,
+    /// Start, m.
+    pub from_m: f64,
+    /// End, m (below `from_m` on a loop: it wraps).
+    pub to_m: f64,
+    /// Lanes it covers; `None` for all.
+    pub lanes: Option<Vec<u32>>,
+    /// Friction relative to dry asphalt.
+    pub friction_scale: f32,
+}
+
+impl SurfaceStretch {
+    fn covers(&self, road: RoadId, lane: u32, s_m: f64) -> bool {
+        let along = if self.from_m <= self.to_m {
+            (self.from_m..=self.to_m).contains(&s_m)
+        } else {
+            s_m >= self.from_m || s_m <= self.to_m
+        };
+        road == self.road && along && self.lanes.as_ref().is_none_or(|l| l.contains(&lane))
+    }
+}
+
+/// The road surfaces drivers know of (the traffic crate's friction triggers keep it filled).
+#[derive(Resource, Debug, Clone, Default, PartialEq)]
+pub struct RoadSurface {
+    /// The stretches whose friction differs from dry asphalt.
+    pub stretches: Vec<SurfaceStretch>,
+}
+
+impl RoadSurface {
+    /// Friction relative to dry asphalt at `s_m` in `lane` of `road`.
+    pub fn friction(&self, road: RoadId, lane: u32, s_m: f64) -> f32 {
+        self.stretches
+            .iter()
+            .filter(|t| t.covers(road, lane, s_m))
+            .map(|t| t.friction_scale)
+            .product()
+    }
+}
+
+/// One way of driving's envelopes: `[road][lane][bin]`, the square of the allowed speed.
+type Envelopes = Vec<Vec<Arc<[f32]>>>;
+
+/// The speed envelopes of every way of driving on the road now (see the module docs).
+#[derive(Resource, Debug, Default)]
+pub struct RoadAhead {
+    /// Per road, its length if it is a closed loop (a query past its end wraps).
+    loops: Vec<Option<f64>>,
+    keys: Vec<[u32; 4]>,
+    styles: Vec<ReadsRoad>,
+    envelopes: Vec<Envelopes>,
+}
+
+impl RoadAhead {
+    /// The highest speed, m/s, from which `reads` can take the road ahead of `s_m` in `lane` of
+    /// `road`; infinite where nothing ahead asks it to slow (or before its envelope exists).
+    pub fn speed_cap_mps(&self, reads: &ReadsRoad, road: RoadId, lane: u32, s_m: f64) -> f32 {
+        let Some(style) = reads.style else {
+            return f32::INFINITY;
+        };
+        let Some(lanes) = self
+            .envelopes
+            .get(style as usize)
+            .and_then(|r| r.get(road.0 as usize))
+        else {
+            return f32::INFINITY;
+        };
+        let Some(env) = lanes.get(lane as usize).or(lanes.last()) else {
+            return f32::INFINITY;
+        };
+        let s_m = match self.loops.get(road.0 as usize) {
+            Some(Some(length)) if *length > 0.0 => s_m.rem_euclid(*length),
+            _ => s_m,
+        };
+        let bin = ((s_m.max(0.0) / CURVATURE_BIN_M) as usize).min(env.len().saturating_sub(1));
+        env.get(bin).map_or(f32::INFINITY, |v2| v2.sqrt())
+    }
+
+    /// The number of ways of driving it holds envelopes for.
+    pub fn styles(&self) -> usize {
+        self.styles.len()
+    }
+
+    fn set_loops(&mut self, network: &RoadNetwork) {
+        self.loops = network
+            .iter()
+            .map(|(_, g)| g.is_closed().then(|| g.length_m()))
+            .collect();
+    }
+
+    fn style_of(&mut self, reads: &ReadsRoad, network: &RoadNetwork, surface: &RoadSurface) -> u32 {
+        if self.loops.len() != network.len() {
+            self.set_loops(network);
+        }
+        let key = reads.key();
+        if let Some(i) = self.keys.iter().position(|k| *k == key) {
+            return i as u32;
+        }
+        self.keys.push(key);
+        self.styles.push(*reads);
+        self.envelopes.push(envelopes(reads, network, surface));
+        (self.keys.len() - 1) as u32
+    }
+}
+
+/// Keeps [`RoadAhead`] in step: every envelope again when the roads or their surfaces change,
+/// and a new way of driving's envelopes the tick a vehicle brings one.
+pub fn update_road_ahead(
+    network: Res<RoadNetwork>,
+    surface: Res<RoadSurface>,
+    mut ahead: ResMut<RoadAhead>,
+    mut vehicles: Query<&mut ReadsRoad, Added<ReadsRoad>>,
+) {
+    if network.is_changed() || surface.is_changed() {
+        let ahead = &mut *ahead;
+        ahead.set_loops(&network);
+        ahead.envelopes = ahead
+            .styles
+            .iter()
+            .map(|s| envelopes(s, &network, &surface))
+            .collect();
+    }
+    for mut reads in &mut vehicles {
+        let style = ahead.style_of(&reads, &network, &surface);
+        reads.style = Some(style);
+    }
+}
+
+/// Every road's and lane's envelope for one way of driving, carried back from the road each one
+/// leads onto (around a loop and along a chain of roads: repeated until nothing changes).
+fn envelopes(reads: &ReadsRoad, network: &RoadNetwork, surface: &RoadSurface) -> Envelopes {
+    let n = network.len();
+    // Per road and lane: the allowed v² where it starts and, from those, where it ends.
+    let mut out: Envelopes = vec![Vec::new(); n];
+    let lanes_of = |id: RoadId| network.get(id).map_or(0, |g| g.lanes());
+    let mut tails: Vec<Vec<f32>> = (0..n)
+        .map(|i| vec![f32::INFINITY; lanes_of(RoadId(i as u32)) as usize])
+        .collect();
+    let limits: Vec<Vec<(Vec<f32>, Vec<f32>)>> = network
+        .iter()
+        .map(|(id, g)| {
+            (0..g.lanes())
+                .map(|lane| lane_limits(reads, id, g, lane, surface))
+                .collect()
+        })
+        .collect();
+    for _ in 0..=n + 1 {
+        for (i, lanes) in limits.iter().enumerate() {
+            out[i] = lanes
+                .iter()
+                .zip(&tails[i])
+                .map(|((cap, brake), &tail)| backward_pass(cap, brake, tail))
+                .collect();
+        }
+        let mut changed = false;
+        for (id, g) in network.iter() {
+            let i = id.0 as usize;
+            let next = if g.is_closed() {
+                Some(id)
+            } else {
+                network.next(id)
+            };
+            let Some(next) = next else { continue };
+            let heads = &out[next.0 as usize];
+            for (lane, tail) in tails[i].iter_mut().enumerate() {
+                let head = heads
+                    .get(lane)
+                    .or(heads.last())
+                    .and_then(|e| e.first())
+                    .copied()
+                    .unwrap_or(f32::INFINITY);
+                if head != *tail {
+                    *tail = head;
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    out
+}
+
+/// One lane's limits per bin: the v² its bends allow, and the deceleration usable there.
+fn lane_limits(
+    reads: &ReadsRoad,
+    road: RoadId,
+    g: &RoadGeometry,
+    lane: u32,
+    surface: &RoadSurface,
+) -> (Vec<f32>, Vec<f32>) {
+    let p = &reads.params;
+    let bins = g.curvature_bins();
+    let mut caps = Vec::with_capacity(bins.len());
+    let mut brakes = Vec::with_capacity(bins.len());
+    for (i, &k) in bins.iter().enumerate() {
+        let s = (i as f64 + 0.5) * CURVATURE_BIN_M;
+        let grip = p.grip_share * reads.grip * surface.friction(road, lane, s) * G_MPS2;
+        let lateral = p.lateral_accel_mps2.min(grip);
+        let radius = if k.abs() > 1.0 / STRAIGHT_RADIUS_M {
+            // The lane's own radius: inside a bend it turns tighter than the centre line.
+            let d = g.lane_offset_m(lane, s) as f32;
+            (1.0 / k - d).abs().clamp(1.0, STRAIGHT_RADIUS_M)
+        } else {
+            STRAIGHT_RADIUS_M
+        };
+        caps.push(if p.lateral_accel_mps2 > 0.0 {
+            lateral * radius
+        } else {
+            f32::INFINITY
+        });
+        brakes.push(p.decel_mps2.min(grip).max(0.1));
+    }
+    (caps, brakes)
+}
+
+/// The envelope from the per-bin limits: v²[i] = min(cap[i], v²[i+1] + 2·decel[i]·bin), the
+/// speed from which every later limit is reached braking at the usable deceleration; `tail` is
+/// what the road beyond the end allows.
+fn backward_pass(caps: &[f32], brakes: &[f32], tail: f32) -> Arc<[f32]> {
+    let mut env = vec![0.0f32; caps.len()];
+    let mut after = tail;
+    for i in (0..caps.len()).rev() {
+        after = caps[i].min(after + 2.0 * brakes[i] * CURVATURE_BIN_M as f32);
+        env[i] = after;
+    }
+    env.into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_road::RoadSpec;
+    use glam::DVec3;
+
+    /// A 300 m straight into a quarter circle of radius `r` (left), then 300 m straight.
+    fn bend(r: f64) -> RoadSpec {
+        let mut pts = vec![
+            DVec3::ZERO,
+            DVec3::new(150.0, 0.0, 0.0),
+            DVec3::new(300.0, 0.0, 0.0),
+        ];
+        for i in 1..=6 {
+            let a = std::f64::consts::FRAC_PI_2 * f64::from(i) / 6.0;
+            pts.push(DVec3::new(300.0 + r * a.sin(), r * (1.0 - a.cos()), 0.0));
+        }
+        pts.push(DVec3::new(300.0 + r, r + 150.0, 0.0));
+        pts.push(DVec3::new(300.0 + r, r + 300.0, 0.0));
+        RoadSpec::through("bend", 2, 250.0, &pts)
+    }
+
+    fn envelope_of(
+        spec: RoadSpec,
+        reads: ReadsRoad,
+        surface: &RoadSurface,
+    ) -> (RoadAhead, ReadsRoad) {
+        let network = RoadNetwork::build(&[spec]).expect("valid");
+        let mut ahead = RoadAhead::default();
+        let mut reads = reads;
+        reads.style = Some(ahead.style_of(&reads, &network, surface));
+        (ahead, reads)
+    }
+
+    #[test]
+    fn the_cap_in_a_bend_is_the_comfortable_lateral_acceleration_and_it_is_braked_for_in_time() {
+        let r = 40.0;
+        let reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        let (ahead, reads) = envelope_of(bend(r), reads, &RoadSurface::default());
+        let road = RoadId(0);
+        // Mid-bend, in the right lane (1.75 m outside the centre line of a left bend).
+        let mid = 300.0 + 0.25 * std::f64::consts::PI * r;
+        let v = ahead.speed_cap_mps(&reads, road, 0, mid);
+        let want = (2.0 * (r + 1.75) as f32).sqrt();
+        assert!((v - want).abs() / want < 0.03, "{v} vs {want}");
+        // The left lane turns tighter.
+        assert!(ahead.speed_cap_mps(&reads, road, 1, mid) < v);
+        // 100 m before the bend: exactly what braking at 1.5 m/s² from there reaches.
+        let before = ahead.speed_cap_mps(&reads, road, 0, 200.0);
+        let reach = (want * want + 2.0 * 1.5 * 100.0).sqrt();
+        assert!((before - reach).abs() / reach < 0.03, "{before} vs {reach}");
+        // 300 m before it: 31 m/s (112 km/h); after the last bend, straight-road speeds (over
+        // 400 km/h).
+        let start = ahead.speed_cap_mps(&reads, road, 0, 0.0);
+        let reach = (want * want + 2.0 * 1.5 * 300.0).sqrt();
+        assert!((start - reach).abs() / reach < 0.03, "{start} vs {reach}");
+        let end = ahead.speed_cap_mps(
+            &reads,
+            road,
+            0,
+            300.0 + 0.5 * std::f64::consts::PI * r + 250.0,
+        );
+        assert!(end > 110.0, "{end}");
+    }
+
+    #[test]
+    fn a_wet_stretch_lowers_the_cap_to_the_grip_it_trusts() {
+        let r = 60.0;
+        let reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        let dry = envelope_of(bend(r), reads, &RoadSurface::default());
+        let wet_surface = RoadSurface {
+            stretches: vec![SurfaceStretch {
+                road: RoadId(0),
+                from_m: 250.0,
+                to_m: 500.0,
+                lanes: None,
+                friction_scale: 0.3,
+            }],
+        };
+        let wet = envelope_of(bend(r), reads, &wet_surface);
+        let mid = 300.0 + 0.25 * std::f64::consts::PI * r;
+        let (v_dry, v_wet) = (
+            dry.0.speed_cap_mps(&dry.1, RoadId(0), 0, mid),
+            wet.0.speed_cap_mps(&wet.1, RoadId(0), 0, mid),
+        );
+        // A share of 0.3 of a grip of 0.3 × 9.81: 0.88 m/s² of the 2 m/s² it would accept on
+        // dry asphalt.
+        let ratio = v_wet / v_dry;
+        assert!((ratio - (0.8829f32 / 2.0).sqrt()).abs() < 0.01, "{ratio}");
+    }
+
+    #[test]
+    fn on_a_ring_the_envelope_is_the_bend_everywhere_and_zero_lateral_accel_turns_it_off() {
+        let spec = RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.6, 12);
+        let reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        let (ahead, reads) = envelope_of(spec.clone(), reads, &RoadSurface::default());
+        for s in [0.0, 50.0, 229.0] {
+            let v = ahead.speed_cap_mps(&reads, RoadId(0), 0, s);
+            assert!((v - (2.0f32 * 36.6).sqrt()).abs() < 0.1, "{s}: {v}");
+        }
+        let off = ReadsRoad::new(
+            RoadAheadParams {
+                lateral_accel_mps2: 0.0,
+                ..RoadAheadParams::default()
+            },
+            1.0,
+        );
+        let (ahead, off) = envelope_of(spec, off, &RoadSurface::default());
+        assert_eq!(ahead.speed_cap_mps(&off, RoadId(0), 0, 10.0), f32::INFINITY);
+    }
+}
