@@ -20,7 +20,7 @@ pub enum Template {
     /// A 500 m two-lane road with a spawner at its start and a destroyer near its end.
     #[default]
     Straight,
-    /// 20 cars on a single-lane loop, 377 m round.
+    /// 20 cars on a single-lane loop, 628 m round (a 100 m radius: 50 km/h within 2 m/s²).
     Ring,
     /// Vehicle types and driver profiles only: draw the roads yourself.
     Empty,
@@ -56,7 +56,7 @@ impl Template {
                 "a 500 m two-lane road at 80 km/h, a spawner (half autonomous, half human-like \
                  cars) and a destroyer near the end"
             }
-            Template::Ring => "20 autonomous cars on a single-lane 377 m loop at 50 km/h",
+            Template::Ring => "20 autonomous cars on a single-lane 628 m loop at 50 km/h",
             Template::Empty => "the reference vehicle types and driver profiles, no roads",
         }
     }
@@ -105,7 +105,7 @@ impl Template {
             Template::Ring => {
                 level
                     .roads
-                    .push(RoadSpec::ring("ring", 1, 50.0, DVec3::ZERO, 60.0, 12));
+                    .push(RoadSpec::ring("ring", 1, 50.0, DVec3::ZERO, 100.0, 16));
                 level.vehicles.push(InitialVehiclesSpec {
                     road: "ring".to_owned(),
                     lane: 0,
