@@ -133,7 +133,6 @@ type Envelopes = Vec<Vec<Arc<[f32]>>>;
 pub struct RoadAhead {
     /// Per road, its length if it is a closed loop (a query past its end wraps).
     loops: Vec<Option<f64>>,
-    keys: Vec<[u32; 4]>,
     styles: Vec<ReadsRoad>,
     envelopes: Vec<Envelopes>,
 }
@@ -180,13 +179,12 @@ impl RoadAhead {
             self.set_loops(network);
         }
         let key = reads.key();
-        if let Some(i) = self.keys.iter().position(|k| *k == key) {
+        if let Some(i) = self.styles.iter().position(|s| s.key() == key) {
             return i as u32;
         }
-        self.keys.push(key);
         self.styles.push(*reads);
         self.envelopes.push(envelopes(reads, network, surface));
-        (self.keys.len() - 1) as u32
+        (self.styles.len() - 1) as u32
     }
 }
 

@@ -241,7 +241,9 @@ impl Runner {
     pub fn step(&mut self, max_ticks: u64) -> Result<u64, RunError> {
         let n = max_ticks.min(self.total_ticks - self.ticks_done());
         for _ in 0..n {
-            // Wall-clock time is measured for the report only; it never reaches the simulation.
+            // Wall-clock time is measured for the report only (the summary's `wall_seconds` and
+            // `realtime_factor`, which the golden outputs leave out); it never reaches the
+            // simulation or the CSV.
             let started = Instant::now();
             self.sim.step();
             self.stepping += started.elapsed();
