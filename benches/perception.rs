@@ -42,7 +42,7 @@ fn bench(c: &mut Criterion) {
             })
             .collect();
         let mut index = LaneIndex::default();
-        let entries = || cars.iter().map(|(e, t)| (*e, t, 4.6f32));
+        let entries = || cars.iter().map(|(e, t)| (*e, t, 4.6f32, 0i8));
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function(BenchmarkId::new("rebuild", n), |b| {
             b.iter(|| index.rebuild(&network, entries()))
@@ -53,8 +53,11 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let mut found = 0usize;
                 for (e, t) in cars.iter().take(QUERIES) {
-                    found +=
-                        usize::from(index.leader(RoadId(0), t.lane, t.s_m, *e, 200.0).is_some());
+                    found += usize::from(
+                        index
+                            .leader(RoadId(0), t.lane, t.s_m, *e, 200.0, None)
+                            .is_some(),
+                    );
                 }
                 found
             })

@@ -28,7 +28,14 @@ fn keep_gap(
             continue;
         };
         let (limit, v) = (road.speed_limit_kmh() as f32 / 3.6, motion.forward_mps);
-        let speed = match index.leader(track.road, track.lane, track.s_m, me, 200.0) {
+        let speed = match index.leader(
+            track.road,
+            track.lane,
+            track.s_m,
+            me,
+            200.0,
+            track.next_road,
+        ) {
             Some(l) => l.entry.speed_mps + (l.gap_m as f32 - 6.0 - driver.gap_s * v) / 2.0,
             None => limit,
         };

@@ -16,13 +16,16 @@ pub fn check(levels: &[PathBuf]) -> ExitCode {
             Ok((level, name))
         });
         match loaded {
-            Ok((level, name)) => println!(
-                "ok    {} ({}, {} road(s), {} vehicle type(s))",
-                path.display(),
-                name,
-                level.roads.len(),
-                level.vehicle_types.len()
-            ),
+            Ok((level, name)) => {
+                super::print_warnings(&level, path);
+                println!(
+                    "ok    {} ({}, {} road(s), {} vehicle type(s))",
+                    path.display(),
+                    name,
+                    level.roads.len(),
+                    level.vehicle_types.len()
+                )
+            }
             Err(e) => {
                 bad += 1;
                 eprintln!("error: {e}");

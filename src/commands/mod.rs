@@ -16,3 +16,13 @@ pub fn fail(e: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {e}");
     ExitCode::from(2)
 }
+
+/// Prints a level file's warnings (a road leading nowhere, …) to stderr.
+pub(crate) fn print_warnings(level: &flockway::level::Level, path: &std::path::Path) {
+    let Ok(src) = std::fs::read_to_string(path) else {
+        return;
+    };
+    for w in flockway::level::level_warnings(level, &src, path) {
+        eprintln!("{w}");
+    }
+}

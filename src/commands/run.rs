@@ -14,6 +14,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         Ok(l) => l,
         Err(e) => return fail(e),
     };
+    super::print_warnings(&level, &args.level);
     let name = level_name(&level, &args.level);
     let options = RunOptions {
         seconds: args.seconds,

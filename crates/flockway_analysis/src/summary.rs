@@ -38,12 +38,19 @@ pub struct Summary {
     pub flow_veh_per_h: BTreeMap<String, f64>,
     /// The level's name (its `name`, or the file stem).
     pub level: String,
+    /// Mean travel time above free-flow travel time of the vehicles removed after the warm-up,
+    /// s.
+    #[serde(default)]
+    pub mean_delay_s: Option<f64>,
     /// Mean of the sampled speeds after the warm-up, km/h.
     pub mean_speed_kmh: Option<f64>,
     /// Mean time from creation to a destroyer of the vehicles removed after the warm-up, s.
     pub mean_travel_time_s: Option<f64>,
     /// Every measured metric by key (`metric` or `metric.name`; see `flockway_level::Metric`).
     pub metrics: BTreeMap<String, f64>,
+    /// Times a vehicle missed the exit its route took.
+    #[serde(default)]
+    pub missed_exits: Option<f64>,
     /// Whether every expectation held.
     pub passed: bool,
     /// Simulated seconds per wall second (`null` in the file when the run took no time).
@@ -91,9 +98,11 @@ impl Summary {
             expectations: Vec::new(),
             flow_veh_per_h: BTreeMap::new(),
             level: String::new(),
+            mean_delay_s: None,
             mean_speed_kmh: None,
             mean_travel_time_s: None,
             metrics: BTreeMap::new(),
+            missed_exits: None,
             passed: true,
             realtime_factor: 0.0,
             seed: 0,

@@ -41,11 +41,14 @@ pub enum Column {
     Rpm,
     /// The driver model (`FlockLanes`, `Human`, …; `Custom(name)` for a plugin's).
     Model,
+    /// The name of the route its spawner gave it (its destination road's name for a spawner
+    /// with a destination); empty when it just follows the road.
+    Route,
 }
 
 impl Column {
     /// Every column, in file order.
-    pub const ALL: [Column; 16] = [
+    pub const ALL: [Column; 17] = [
         Column::TimeS,
         Column::VehicleId,
         Column::Driver,
@@ -62,6 +65,7 @@ impl Column {
         Column::Gear,
         Column::Rpm,
         Column::Model,
+        Column::Route,
     ];
 
     /// The column's name in the header.
@@ -83,6 +87,7 @@ impl Column {
             Column::Gear => "gear",
             Column::Rpm => "rpm",
             Column::Model => "model",
+            Column::Route => "route",
         }
     }
 
@@ -109,15 +114,18 @@ impl Column {
             Column::Model => {
                 "the driver model (`FlockLanes`, `Human`, …; `Custom(NAME)` for a plugin's)"
             }
+            Column::Route => {
+                "its route's name (a spawner's route, or its destination road); empty when it follows the road"
+            }
         }
     }
 }
 
 /// The header line's names, in order.
-pub const CSV_COLUMNS: [&str; 16] = {
-    let mut out = [""; 16];
+pub const CSV_COLUMNS: [&str; 17] = {
+    let mut out = [""; 17];
     let mut i = 0;
-    while i < 16 {
+    while i < 17 {
         out[i] = Column::ALL[i].name();
         i += 1;
     }
@@ -155,12 +163,14 @@ pub struct TelemetryRow {
     pub rpm: f64,
     /// Driver model.
     pub model: String,
+    /// Route name (empty: it follows the road).
+    pub route: String,
 }
 
 impl TelemetryRow {
     /// The row's fields as the CSV writes them, in [`CSV_COLUMNS`] order. Fixed decimals keep
     /// files byte-identical across platforms' float formatting, and diffable.
-    pub fn to_record(&self) -> [String; 16] {
+    pub fn to_record(&self) -> [String; 17] {
         [
             format!("{:.3}", self.time_s),
             self.vehicle_id.to_string(),
@@ -178,6 +188,7 @@ impl TelemetryRow {
             self.gear.to_string(),
             format!("{:.1}", self.rpm),
             self.model.clone(),
+            self.route.clone(),
         ]
     }
 
@@ -279,14 +290,15 @@ mod tests {
             gear: 3,
             rpm: 2100.0,
             model: "FlockLanes".into(),
+            route: "north".into(),
         };
         w.write_sample(std::slice::from_ref(&row)).expect("write");
         // Readable before finish: a killed run keeps what it measured.
         let text = std::fs::read_to_string(&path).expect("read");
         assert_eq!(
             text,
-            "time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm,model\n\
-             0.500,3,auto,main,1,12.346,1.000,2.000,0.250,59.990,-0.500,0.2500,-0.0100,3,2100.0,FlockLanes\n"
+            "time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm,model,route\n\
+             0.500,3,auto,main,1,12.346,1.000,2.000,0.250,59.990,-0.500,0.2500,-0.0100,3,2100.0,FlockLanes,north\n"
         );
         assert_eq!(w.rows(), 1);
         w.finish().expect("finish");
@@ -300,5 +312,6 @@ mod tests {
             assert!(!c.description().is_empty());
         }
         assert_eq!(CSV_COLUMNS[15], "model", "new columns go at the end");
+        assert_eq!(CSV_COLUMNS[16], "route", "new columns go at the end");
     }
 }

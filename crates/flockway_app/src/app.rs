@@ -714,6 +714,9 @@ impl AppState {
                     speed_kmh: None,
                     active: true,
                     max_vehicles: None,
+                    routes: Vec::new(),
+                    destination: None,
+                    schedule: Vec::new(),
                 }));
                 let command = if setup.len() == 1 {
                     setup.remove(0)

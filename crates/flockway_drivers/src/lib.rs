@@ -17,6 +17,7 @@ mod control;
 mod models;
 mod perception;
 mod profile;
+mod route;
 
 pub use ahead::{
     ReadsRoad, RoadAhead, RoadAheadParams, RoadSurface, SurfaceStretch, update_road_ahead,
@@ -26,12 +27,15 @@ pub use control::{
     follow_targets, wrap_angle,
 };
 pub use models::{
-    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedFactor,
-    SpeedFactorParams, SpeedLimit, WaveDamper, WaveDamperParams, desired_speed_mps, drive_flock,
-    drive_idm, idm_accel, lane_following, update_speed_limits,
+    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, LANE_END_DECEL_MPS2,
+    SpeedFactor, SpeedFactorParams, SpeedLimit, WaveDamper, WaveDamperParams, carry_lane,
+    desired_speed_mps, drive_flock, drive_idm, idm_accel, lane_following, update_speed_limits,
 };
-pub use perception::{LaneEntry, LaneIndex, Seen, rebuild_lane_index};
+pub use perception::{LaneEntry, LaneIndex, LaneSignal, Seen, rebuild_lane_index};
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
+pub use route::{
+    LANE_CHANGE_AHEAD_M, LANE_CHANGE_AHEAD_S, LANE_END_MARGIN_M, Route, RouteStats, follow_routes,
+};
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleConfigs;
@@ -69,6 +73,7 @@ impl SimPlugin for DriversPlugin {
         sim.world_mut().init_resource::<LaneIndex>();
         sim.world_mut().init_resource::<RoadSurface>();
         sim.world_mut().init_resource::<RoadAhead>();
+        sim.world_mut().init_resource::<RouteStats>();
         sim.schedule_mut().configure_sets((
             DriverSystems::Perceive.in_set(StepSet::Sense),
             DriverSystems::Decide.in_set(StepSet::Decide),
@@ -77,7 +82,11 @@ impl SimPlugin for DriversPlugin {
                 .in_set(StepSet::Decide),
         ));
         sim.schedule_mut().add_systems((
-            (rebuild_lane_index, update_speed_limits, update_road_ahead)
+            (
+                follow_routes,
+                (rebuild_lane_index, update_speed_limits, update_road_ahead),
+            )
+                .chain()
                 .in_set(DriverSystems::Perceive),
             follow_targets.in_set(DriverSystems::Control),
         ));

@@ -2,7 +2,9 @@
 
 use crate::ahead::{ReadsRoad, RoadAhead, RoadAheadParams};
 use crate::control::{DriveTarget, PidGains};
+use crate::perception::LaneSignal;
 use crate::perception::{LaneIndex, Seen};
+use crate::route::{LANE_CHANGE_AHEAD_M, LANE_END_MARGIN_M, Route};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
@@ -40,6 +42,12 @@ pub struct FlockParams {
     pub lookahead_s: f32,
     /// Time gap needed ahead of and behind the car in the target lane before a lane change, s.
     pub lane_change_gap_s: f32,
+    /// How hard it brakes, at most, to make room for a car signalling to merge in ahead of it,
+    /// m/s² (0: it does not make room).
+    pub courtesy_decel_mps2: f32,
+    /// Time gap it keeps to the car ahead in its lane, s, as adaptive cruise control does (0:
+    /// none beyond what collision avoidance keeps, the flocking rule).
+    pub time_gap_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of the limit, drawn once per vehicle.
@@ -113,6 +121,8 @@ impl Default for FlockParams {
             rear_weight: 1.0,
             lookahead_s: 0.6,
             lane_change_gap_s: 1.0,
+            courtesy_decel_mps2: 1.5,
+            time_gap_s: 0.0,
             road_ahead: RoadAheadParams::default(),
             speed_factor: SpeedFactorParams::default(),
             throttle: PidGains {
@@ -155,6 +165,7 @@ impl Default for HumanParams {
                 adjacent_range_m: 5.0,
                 avoid_weight_m2_per_s: 30.0,
                 rear_weight: 0.0,
+                courtesy_decel_mps2: 0.5,
                 road_ahead: RoadAheadParams {
                     lateral_accel_mps2: 2.5,
                     ..RoadAheadParams::default()
@@ -313,6 +324,11 @@ pub struct IdmParams {
     pub max_lateral_mps: f32,
     /// Lane direction look-ahead, s.
     pub lookahead_s: f32,
+    /// Time gap needed ahead of and behind the car in the target lane before a lane change, s.
+    pub lane_change_gap_s: f32,
+    /// How hard it brakes, at most, to make room for a car signalling to merge in ahead of it,
+    /// m/s² (0: it does not make room).
+    pub courtesy_decel_mps2: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of v₀, drawn once per vehicle.
@@ -338,6 +354,8 @@ impl Default for IdmParams {
             road_weight_per_s: flock.road_weight_per_s,
             max_lateral_mps: flock.max_lateral_mps,
             lookahead_s: flock.lookahead_s,
+            lane_change_gap_s: flock.lane_change_gap_s,
+            courtesy_decel_mps2: flock.courtesy_decel_mps2,
             road_ahead: flock.road_ahead,
             speed_factor: flock.speed_factor,
             throttle: PidGains {
@@ -397,6 +415,9 @@ pub struct FlockDriver {
     pub lane: u32,
     /// The lane it wants: set this to change lanes; it moves over when the gap allows.
     pub target_lane: u32,
+    /// The road its lane numbers count on (`None` until it first decides): when it drives onto
+    /// another road its lanes carry over along the link.
+    pub road: Option<RoadId>,
 }
 
 impl FlockDriver {
@@ -407,7 +428,27 @@ impl FlockDriver {
             keep_lane,
             lane,
             target_lane: lane,
+            road: None,
         }
+    }
+}
+
+/// The lane that lane `lane` of road `from` leads onto on road `to` (its link's lane pair), or
+/// `on_track` (the lane under the car) when the link does not take it; `lane` itself while still
+/// on `from` or with no road yet.
+pub fn carry_lane(
+    network: &RoadNetwork,
+    from: Option<RoadId>,
+    to: RoadId,
+    lane: u32,
+    on_track: u32,
+) -> u32 {
+    match from {
+        Some(f) if f != to => network
+            .link(f, to)
+            .and_then(|l| l.lane_to(lane))
+            .unwrap_or(on_track),
+        _ => lane,
     }
 }
 
@@ -481,6 +522,8 @@ pub struct IdmDriver {
     pub params: IdmParams,
     /// The lane it follows.
     pub lane: u32,
+    /// The road its lane number counts on (`None` until it first decides).
+    pub road: Option<RoadId>,
 }
 
 /// Lane following for a car in `lane`: speed matching along the lane direction plus road
@@ -612,6 +655,7 @@ pub fn drive_flock(
         Option<&mut HumanDriver>,
         Option<&mut WaveDamper>,
         &mut DriveTarget,
+        Wayfinding,
     )>,
 ) {
     let run =
@@ -625,6 +669,9 @@ pub fn drive_flock(
         vehicles.par_iter_mut().for_each_init(Vec::new, run);
     }
 }
+
+/// Where a vehicle is going and the lane change it signals.
+type Wayfinding = (Option<&'static Route>, Option<&'static mut LaneSignal>);
 
 /// What sets a vehicle's desired speed: the limit it obeys, its own share of it, and what the
 /// road ahead allows.
@@ -672,6 +719,7 @@ type FlockItem<'a> = (
     Option<Mut<'a, HumanDriver>>,
     Option<Mut<'a, WaveDamper>>,
     Mut<'a, DriveTarget>,
+    (Option<&'a Route>, Option<Mut<'a, LaneSignal>>),
 );
 
 /// One flocking vehicle's decision; `seen` is scratch space for its neighbours.
@@ -680,36 +728,75 @@ fn flock_decide(
     index: &LaneIndex,
     ahead: &RoadAhead,
     seen: &mut Vec<Seen>,
-    (me, track, motion, model, desired, mut driver, human, damper, mut target): FlockItem,
+    (me, track, motion, model, desired, mut driver, human, damper, mut target, (route, signal)): FlockItem,
 ) {
     let Some(geometry) = network.get(track.road) else {
         return;
     };
-    let p = &driver.params;
     let lanes = geometry.lanes().max(1);
     let length = model.0.params.chassis.length_m;
     let v = motion.forward_mps;
+    if driver.road != Some(track.road) {
+        let lane = carry_lane(network, driver.road, track.road, driver.lane, track.lane);
+        let target = carry_lane(network, driver.road, track.road, driver.target_lane, lane);
+        driver.lane = lane;
+        driver.target_lane = target;
+        driver.road = Some(track.road);
+    }
 
+    // The route asks for a lane in good time before its lane ends or leads elsewhere.
+    let wanted = route.and_then(|r| r.lane_change(driver.lane, track.s_m, v));
+    if driver.keep_lane
+        && let Some((dir, _)) = wanted
+    {
+        driver.target_lane =
+            (i64::from(driver.lane) + i64::from(dir)).clamp(0, i64::from(lanes) - 1) as u32;
+    }
     // A lane change waits for room in the target lane: a time gap ahead and behind.
     let target_lane = driver.target_lane.min(lanes - 1);
+    let mut signal_dir = 0;
     if driver.keep_lane && target_lane != driver.lane {
         let step = if target_lane > driver.lane { 1 } else { -1 };
         let next = (driver.lane as i64 + step) as u32;
-        let need =
-            |speed: f32| f64::from((speed.max(0.0) * p.lane_change_gap_s).max(0.0) + length + 2.0);
-        let ahead_ok = index
-            .leader(track.road, next, track.s_m, me, 200.0)
-            .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
-        let behind_ok = index
-            .follower(track.road, next, track.s_m, me, 200.0)
-            .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
-        if ahead_ok && behind_ok {
+        let urgency = wanted.map_or(1.0, |(_, left)| lane_change_urgency(left));
+        let gap_s = driver.params.lane_change_gap_s * urgency;
+        let cross_s = crossing_s(track, lanes, driver.params.max_lateral_mps);
+        let room = wanted.is_none_or(|(_, left)| left >= crossing_m(v, cross_s, length));
+        if room
+            && lane_gap_accepted(index, track, me, next, v, length, gap_s)
+            && !lane_claimed(index, track, next, step as i8, v, length, gap_s, lanes)
+        {
             driver.lane = next;
+        } else {
+            signal_dir = step as i8;
         }
+    }
+    // Still over its old lane while it moves across: it shows that it is crossing.
+    let crossing_dir = if driver.keep_lane && track.lane != driver.lane && signal_dir == 0 {
+        if driver.lane > track.lane { 2 } else { -2 }
+    } else {
+        signal_dir
+    };
+    if let Some(mut signal) = signal
+        && signal.0 != crossing_dir
+    {
+        signal.0 = crossing_dir;
     }
     let lane = driver.lane.min(lanes - 1);
     let p = &driver.params;
     let (v_target, cap) = desired_speed_mps(p.target_speed_kmh, desired, ahead, track, v, lane);
+    // A lane that ends is a wall ahead for whoever could not leave it yet.
+    let cap = cap
+        .min(route.map_or(f32::INFINITY, |r| {
+            r.lane_end_cap_mps(lane, track.s_m, length, LANE_END_DECEL_MPS2)
+        }))
+        .min(leaving_lane_cap_mps(
+            route,
+            track,
+            lane,
+            crossing_s(track, lanes, p.max_lateral_mps),
+        ));
+    let v_target = v_target.min(cap);
     let (dir, base, curvature) = lane_following(
         geometry,
         track,
@@ -764,6 +851,40 @@ fn flock_decide(
     let mut decided = to_target(desired, steer_by, dir, curvature);
     // A push from a follower never takes it faster than the road ahead allows.
     decided.speed_mps = decided.speed_mps.min(cap);
+    if driver.keep_lane && p.courtesy_decel_mps2 > 0.0 {
+        let room = courtesy_speed_mps(
+            index,
+            track,
+            (lane, lanes),
+            v,
+            length,
+            (p.courtesy_decel_mps2, p.lane_change_gap_s),
+            seen,
+        );
+        decided.speed_mps = decided.speed_mps.min(room);
+    }
+    if driver.keep_lane && p.time_gap_s > 0.0 {
+        // Adaptive cruise control: close the gap beyond 2 m plus the time gap over 1.5 s.
+        let range = f64::from(p.detection_range_m.max(v * p.time_gap_s * 2.0 + 50.0));
+        if let Some(l) = index.leader(track.road, lane, track.s_m, me, range, track.next_road) {
+            let bumper = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
+            let keep = l.entry.speed_mps + (bumper - 2.0 - v.max(0.0) * p.time_gap_s) / 1.5;
+            decided.speed_mps = decided.speed_mps.min(keep.max(0.0));
+        }
+    }
+    if signal_dir != 0 {
+        // Waiting to move over: fall in behind the car ahead in the target lane.
+        let next = (i64::from(lane) + i64::from(signal_dir)) as u32;
+        decided.speed_mps = decided.speed_mps.min(merge_speed_mps(
+            index,
+            track,
+            me,
+            next,
+            v,
+            length,
+            p.lane_change_gap_s,
+        ));
+    }
     *target = match human {
         // The reaction delay is on the response to traffic (the speed); lane keeping is a
         // continuous skill and follows the road as it is now.
@@ -785,7 +906,7 @@ fn flock_decide(
     if let Some(mut damper) = damper {
         let range = f64::from(damper.params.leader_range_m);
         let leader = index
-            .leader(track.road, lane, track.s_m, me, range)
+            .leader(track.road, lane, track.s_m, me, range, track.next_road)
             .map(|l| {
                 let bumpers = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
                 (bumpers.max(0.0), l.entry.speed_mps)
@@ -794,6 +915,182 @@ fn flock_decide(
         // The flocking driver's choice is the backstop: it brakes for a car far too close.
         target.speed_mps = command.min(target.speed_mps);
     }
+}
+
+/// Braking towards the end of a lane that ends, m/s²: firm but not an emergency.
+pub const LANE_END_DECEL_MPS2: f32 = 2.5;
+
+/// How much of its usual lane-change gap a driver insists on with `left_m` metres of its lane
+/// left: all of it far from the end, down to 0.7 of it close to it.
+fn lane_change_urgency(left_m: f64) -> f32 {
+    (left_m / LANE_CHANGE_AHEAD_M).clamp(0.7, 1.0) as f32
+}
+
+/// Time a car takes to move over one lane, s: the pull towards the new lane's centre eases as
+/// it nears it, and the car turns in with a lag, so it crosses at about 0.7 of its largest
+/// sideways speed on average.
+fn crossing_s(track: &RoadTrack, lanes: u32, max_lateral_mps: f32) -> f32 {
+    track.width_m / lanes.max(1) as f32 / (0.7 * max_lateral_mps.max(0.1))
+}
+
+/// Whether a car on the far side of `lane` (moving the other way, `-dir`) claims it near this
+/// one: one already crossing into it always does; one waiting to does when this car moves left
+/// (`dir` +1), so two cars waiting for the same lane from both sides never both go, nor both wait.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the query's coordinates and the driver's"
+)]
+fn lane_claimed(
+    index: &LaneIndex,
+    track: &RoadTrack,
+    lane: u32,
+    dir: i8,
+    v: f32,
+    length_m: f32,
+    gap_s: f32,
+    lanes: u32,
+) -> bool {
+    let far = i64::from(lane) + i64::from(dir);
+    if far < 0 || far >= i64::from(lanes) {
+        return false;
+    }
+    let reach = f64::from(v.max(0.0) * gap_s + length_m + 2.0);
+    let mut near = Vec::new();
+    index.within(
+        track.road, far as u32, track.s_m, reach, reach, None, &mut near,
+    );
+    near.iter()
+        .any(|s| s.entry.signal == -2 * dir || (dir == 1 && s.entry.signal == -dir))
+}
+
+/// Distance a car at `v` needs to be mostly (0.8) across one lane taking `cross_s` for the whole
+/// crossing, m, plus half its length.
+fn crossing_m(v: f32, cross_s: f32, length_m: f32) -> f64 {
+    f64::from(0.8 * v.max(0.0) * cross_s + 0.5 * length_m + 0.5)
+}
+
+/// While a car moves out of a lane that ends (it is still over `on_track`, its driver already
+/// follows another lane), the speed that covers the rest of that lane in the time the crossing
+/// takes, never below 3 m/s so it does not stop halfway; `INFINITY` otherwise.
+fn leaving_lane_cap_mps(route: Option<&Route>, track: &RoadTrack, lane: u32, cross_s: f32) -> f32 {
+    match route {
+        Some(r) if track.lane != lane => {
+            let left = r.lane_end_m(track.lane) - track.s_m;
+            if left.is_finite() {
+                ((left.max(0.0) as f32) / cross_s.max(0.1)).max(3.0)
+            } else {
+                f32::INFINITY
+            }
+        }
+        _ => f32::INFINITY,
+    }
+}
+
+/// Gap acceptance: whether a car of `length_m` at `v` may move into `lane` now, with the time
+/// gap `gap_s` ahead of it (at the closing speed, plus half its own) and behind it (at the
+/// follower's speed) in that lane, as it sees the cars there (across links too).
+fn lane_gap_accepted(
+    index: &LaneIndex,
+    track: &RoadTrack,
+    me: Entity,
+    lane: u32,
+    v: f32,
+    length_m: f32,
+    gap_s: f32,
+) -> bool {
+    let need = |speed: f32| f64::from((speed.max(0.0) * gap_s).max(0.0) + length_m + 2.0);
+    let ahead_ok = index
+        .leader(track.road, lane, track.s_m, me, 200.0, track.next_road)
+        .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
+    let behind_ok = index
+        .follower(track.road, lane, track.s_m, me, 200.0)
+        .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
+    ahead_ok && behind_ok
+}
+
+/// How far ahead a driver looks for a car signalling to merge into its lane, m.
+const COURTESY_RANGE_M: f64 = 80.0;
+
+/// The speed that makes room for the nearest car ahead in a lane either side that signals into
+/// `lane`: its speed, plus closing the bumper gap beyond what the merging car needs behind it
+/// (half the lane-change time gap `gap_s` at this speed, and 3 m) over 1.5 s, braking at most
+/// `decel_mps2` below `v`. `INFINITY` when nobody signals.
+fn courtesy_speed_mps(
+    index: &LaneIndex,
+    track: &RoadTrack,
+    (lane, lanes): (u32, u32),
+    v: f32,
+    length_m: f32,
+    (decel_mps2, gap_s): (f32, f32),
+    seen: &mut Vec<Seen>,
+) -> f32 {
+    if lanes < 2 {
+        return f32::INFINITY;
+    }
+    seen.clear();
+    let behind = 0.5 * f64::from(length_m);
+    if lane > 0 {
+        index.within(
+            track.road,
+            lane - 1,
+            track.s_m,
+            behind,
+            COURTESY_RANGE_M,
+            None,
+            seen,
+        );
+    }
+    let right = seen.len();
+    if lane + 1 < lanes {
+        index.within(
+            track.road,
+            lane + 1,
+            track.s_m,
+            behind,
+            COURTESY_RANGE_M,
+            None,
+            seen,
+        );
+    }
+    // Only a car wholly ahead: one alongside falls in behind instead (were both to wait for
+    // the other, neither would move).
+    let bumper = |s: &Seen| s.gap_m as f32 - 0.5 * (length_m + s.entry.length_m);
+    let merger = seen
+        .iter()
+        .enumerate()
+        .filter(|(i, s)| {
+            s.entry.signal.signum() == if *i < right { 1 } else { -1 } && bumper(s) > 0.0
+        })
+        .map(|(_, s)| s)
+        .min_by(|a, b| a.gap_m.total_cmp(&b.gap_m));
+    let Some(m) = merger else {
+        return f32::INFINITY;
+    };
+    let bumper = bumper(m);
+    let needed = 0.5 * gap_s * v.max(0.0) + 3.0;
+    (m.entry.speed_mps + (bumper - needed) / 1.5).max(v - decel_mps2)
+}
+
+/// The speed at which a car waiting to change into `lane` falls in behind the nearest car ahead
+/// of it there, with the bumper gap its gap acceptance wants ahead (half the time gap `gap_s`
+/// at its speed, and 3 m), closed over 2 s, slowing by at most 2.5 m/s per second. `INFINITY`
+/// with nobody ahead within 100 m.
+fn merge_speed_mps(
+    index: &LaneIndex,
+    track: &RoadTrack,
+    me: Entity,
+    lane: u32,
+    v: f32,
+    length_m: f32,
+    gap_s: f32,
+) -> f32 {
+    index
+        .leader(track.road, lane, track.s_m, me, 100.0, track.next_road)
+        .map_or(f32::INFINITY, |l| {
+            let bumper = l.gap_m as f32 - 0.5 * (length_m + l.entry.length_m);
+            let wanted = 0.5 * gap_s * v.max(0.0) + 3.0;
+            (l.entry.speed_mps + (bumper - wanted) / 2.0).max(v - LANE_END_DECEL_MPS2)
+        })
 }
 
 /// The IDM acceleration, m/s², for speed `v`, desired speed `v0`, and a leader at bumper gap
@@ -816,6 +1113,7 @@ pub fn idm_accel(p: &IdmParams, v: f32, v0: f32, leader: Option<(f32, f32)>) -> 
 }
 
 /// Decides every IDM vehicle's target: IDM acceleration behind its leader, lane keeping.
+#[allow(clippy::type_complexity)]
 pub fn drive_idm(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
@@ -826,16 +1124,55 @@ pub fn drive_idm(
         &Motion,
         &VehicleModel,
         DesiredSpeed,
-        &IdmDriver,
+        &mut IdmDriver,
         &mut DriveTarget,
+        Wayfinding,
     )>,
 ) {
-    for (me, track, motion, model, desired, driver, mut target) in &mut vehicles {
+    let mut seen = Vec::new();
+    for (me, track, motion, model, desired, mut driver, mut target, (route, signal)) in
+        &mut vehicles
+    {
         let Some(geometry) = network.get(track.road) else {
             continue;
         };
+        let lanes = geometry.lanes().max(1);
+        let length = model.0.params.chassis.length_m;
+        let v = motion.forward_mps;
+        if driver.road != Some(track.road) {
+            driver.lane = carry_lane(&network, driver.road, track.road, driver.lane, track.lane);
+            driver.road = Some(track.road);
+        }
+        // Lane changes only when its route asks, once the gap allows.
+        let mut signal_dir = 0;
+        if let Some((dir, left)) =
+            route.and_then(|r| r.lane_change(driver.lane.min(lanes - 1), track.s_m, v))
+        {
+            let next = (i64::from(driver.lane.min(lanes - 1)) + i64::from(dir))
+                .clamp(0, i64::from(lanes) - 1) as u32;
+            let gap_s = driver.params.lane_change_gap_s * lane_change_urgency(left);
+            let cross_s = crossing_s(track, lanes, driver.params.max_lateral_mps);
+            if left >= crossing_m(v, cross_s, length)
+                && lane_gap_accepted(&index, track, me, next, v, length, gap_s)
+                && !lane_claimed(&index, track, next, dir, v, length, gap_s, lanes)
+            {
+                driver.lane = next;
+            } else {
+                signal_dir = dir;
+            }
+        }
+        let shown = if track.lane != driver.lane.min(lanes - 1) && signal_dir == 0 {
+            if driver.lane > track.lane { 2 } else { -2 }
+        } else {
+            signal_dir
+        };
+        if let Some(mut signal) = signal
+            && signal.0 != shown
+        {
+            signal.0 = shown;
+        }
         let p = &driver.params;
-        let lane = driver.lane.min(geometry.lanes().max(1) - 1);
+        let lane = driver.lane.min(lanes - 1);
         let (v0, _) = desired_speed_mps(
             p.target_speed_kmh,
             desired,
@@ -844,8 +1181,6 @@ pub fn drive_idm(
             motion.forward_mps,
             lane,
         );
-        let v = motion.forward_mps;
-        let length = model.0.params.chassis.length_m;
         let leader = index
             .leader(
                 track.road,
@@ -853,12 +1188,48 @@ pub fn drive_idm(
                 track.s_m,
                 me,
                 f64::from(p.detection_range_m),
+                track.next_road,
             )
             .map(|l| {
                 let gap = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
                 (gap, v - l.entry.speed_mps)
             });
-        let a = idm_accel(p, v, v0, leader);
+        let v0 = v0.min(leaving_lane_cap_mps(
+            route,
+            track,
+            lane,
+            crossing_s(track, lanes, p.max_lateral_mps),
+        ));
+        let mut a = idm_accel(p, v, v0, leader);
+        // The end of a lane it could not leave yet is a standing obstacle.
+        if let Some(r) = route {
+            let end = r.lane_end_m(lane) - track.s_m - 0.5 * f64::from(length) - LANE_END_MARGIN_M;
+            if end.is_finite() {
+                a = a.min(idm_accel(p, v, v0, Some((end as f32, v))));
+            }
+        }
+        // Room for a car signalling to merge in ahead, braking at most its courtesy.
+        if p.courtesy_decel_mps2 > 0.0 {
+            let room = courtesy_speed_mps(
+                &index,
+                track,
+                (lane, lanes),
+                v,
+                length,
+                (p.courtesy_decel_mps2, p.lane_change_gap_s),
+                &mut seen,
+            );
+            if room < v {
+                a = a.min((room - v) / p.accel_horizon_s.max(0.1));
+            }
+        }
+        if signal_dir != 0 {
+            let next = (i64::from(lane) + i64::from(signal_dir)) as u32;
+            let fall_in = merge_speed_mps(&index, track, me, next, v, length, p.lane_change_gap_s);
+            if fall_in < v {
+                a = a.min((fall_in - v) / p.accel_horizon_s.max(0.1));
+            }
+        }
         let speed = (v + a * p.accel_horizon_s).max(0.0);
         let (dir, base, curvature) = lane_following(
             geometry,

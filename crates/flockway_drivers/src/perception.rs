@@ -1,7 +1,7 @@
 //! What drivers see: a per-lane index of vehicles sorted by arc position, rebuilt every tick.
 
 use bevy_ecs::prelude::*;
-use flockway_road::{RoadId, RoadNetwork};
+use flockway_road::{Link, RoadId, RoadNetwork};
 use flockway_vehicle::{RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
@@ -18,6 +18,9 @@ pub struct LaneEntry {
     pub speed_mps: f32,
     /// Body length, m.
     pub length_m: f32,
+    /// The lane change it signals: +1 left, -1 right (waiting for a gap), ±2 (moving across),
+    /// 0 none.
+    pub signal: i8,
 }
 
 /// A vehicle seen from another: its entry and the arc distance to it (positive ahead).
@@ -36,9 +39,28 @@ pub struct Seen {
 struct RoadLanes {
     length_m: f64,
     closed: bool,
-    next: Option<RoadId>,
+    links: Vec<Link>,
+    /// Per lane: the `(road, lane)` pairs leading onto it.
+    prev: Vec<Vec<(RoadId, u32)>>,
     lanes: Vec<Vec<LaneEntry>>,
 }
+
+impl RoadLanes {
+    /// Where `lane` leads at the road's end: onto `prefer` if it can, else its first link.
+    fn lane_next(&self, lane: u32, prefer: Option<RoadId>) -> Option<(RoadId, u32)> {
+        prefer
+            .and_then(|p| self.links.iter().find(|l| l.to == p))
+            .and_then(|l| l.lane_to(lane).map(|b| (l.to, b)))
+            .or_else(|| {
+                self.links
+                    .iter()
+                    .find_map(|l| l.lane_to(lane).map(|b| (l.to, b)))
+            })
+    }
+}
+
+/// Most roads a leader or follower search crosses (short roads in a row).
+const MAX_HOPS: usize = 8;
 
 /// Every vehicle on the roads, per road and lane, sorted by arc position (ties by entity), as of
 /// the start of this tick. Queries cost O(log n + k) for k vehicles returned.
@@ -49,11 +71,11 @@ pub struct LaneIndex {
 }
 
 impl LaneIndex {
-    /// Rebuilds the index from vehicles' `(entity, track, body length in m)`.
+    /// Rebuilds the index from vehicles' `(entity, track, body length in m, signal)`.
     pub fn rebuild<'a>(
         &mut self,
         network: &RoadNetwork,
-        vehicles: impl Iterator<Item = (Entity, &'a RoadTrack, f32)>,
+        vehicles: impl Iterator<Item = (Entity, &'a RoadTrack, f32, i8)>,
     ) {
         // Keep the allocations of last tick's lanes.
         for road in self.roads.values_mut() {
@@ -64,11 +86,21 @@ impl LaneIndex {
             let road = self.roads.entry(id).or_default();
             road.length_m = g.length_m();
             road.closed = g.is_closed();
-            road.next = network.next(id);
+            let links = network.links(id);
+            if road.links.as_slice() != links {
+                road.links = links.to_vec();
+            }
+            road.prev.resize_with(g.lanes() as usize, Vec::new);
+            for (lane, prev) in road.prev.iter_mut().enumerate() {
+                let now = network.lane_prev(id, lane as u32);
+                if prev.as_slice() != now {
+                    *prev = now.to_vec();
+                }
+            }
             road.lanes.resize_with(g.lanes() as usize, Vec::new);
         }
         self.vehicles = 0;
-        for (entity, track, length_m) in vehicles {
+        for (entity, track, length_m, signal) in vehicles {
             if !track.on_road {
                 continue;
             }
@@ -84,6 +116,7 @@ impl LaneIndex {
                 lateral_m: track.lateral_m as f32,
                 speed_mps: track.speed_along_mps,
                 length_m,
+                signal,
             });
             self.vehicles += 1;
         }
@@ -182,24 +215,42 @@ impl LaneIndex {
             }
         }
         if !r.closed && hi > r.length_m {
-            // Traffic continues onto the connected road's start, in the same lane if it has one.
-            if let Some(next) = r.next {
-                let lanes = self.lanes(next);
-                if lanes > 0 {
-                    let lane2 = lane.min(lanes - 1);
-                    if let Some(r2) = self.roads.get(&next)
-                        && let Some(e2) = r2.lanes.get(lane2 as usize)
-                    {
-                        let end = e2.partition_point(|e| e.s_m <= hi - r.length_m);
-                        for e in &e2[..end] {
-                            if Some(e.entity) != exclude {
-                                out.push(Seen {
-                                    gap_m: r.length_m - s_m + e.s_m,
-                                    lane: lane2,
-                                    entry: *e,
-                                });
-                            }
-                        }
+            // Traffic continues onto its lane's link.
+            if let Some((next, lane2)) = r.lane_next(lane, None)
+                && let Some(e2) = self
+                    .roads
+                    .get(&next)
+                    .and_then(|r2| r2.lanes.get(lane2 as usize))
+            {
+                let end = e2.partition_point(|e| e.s_m <= hi - r.length_m);
+                for e in &e2[..end] {
+                    if Some(e.entity) != exclude {
+                        out.push(Seen {
+                            gap_m: r.length_m - s_m + e.s_m,
+                            lane: lane2,
+                            entry: *e,
+                        });
+                    }
+                }
+            }
+        }
+        if !r.closed && lo < 0.0 {
+            // And back along the lanes that lead onto this one.
+            for &(prev, lane0) in r.prev.get(lane as usize).map_or(&[][..], Vec::as_slice) {
+                let Some(r0) = self.roads.get(&prev) else {
+                    continue;
+                };
+                let Some(e0) = r0.lanes.get(lane0 as usize) else {
+                    continue;
+                };
+                let from = e0.partition_point(|e| e.s_m < r0.length_m + lo);
+                for e in &e0[from..] {
+                    if Some(e.entity) != exclude {
+                        out.push(Seen {
+                            gap_m: e.s_m - r0.length_m - s_m,
+                            lane: lane0,
+                            entry: *e,
+                        });
                     }
                 }
             }
@@ -207,7 +258,8 @@ impl LaneIndex {
     }
 
     /// The nearest vehicle ahead in `lane` within `range_m` (strictly ahead of `s_m`, or level
-    /// with it but later in entity order), following loops and connections. O(log n).
+    /// with it but later in entity order), following loops and the lane's links at a road's end
+    /// (onto `next` where the lane leads there: the vehicle's route). O(log n) per road crossed.
     pub fn leader(
         &self,
         road: RoadId,
@@ -215,6 +267,7 @@ impl LaneIndex {
         s_m: f64,
         me: Entity,
         range_m: f64,
+        next: Option<RoadId>,
     ) -> Option<Seen> {
         let r = self.roads.get(&road)?;
         let entries = r.lanes.get(lane as usize)?;
@@ -237,18 +290,29 @@ impl LaneIndex {
                 .filter(|e| e.entity != me)
                 .and_then(|e| seen(e, e.s_m + r.length_m - s_m, lane));
         }
-        let next = r.next?;
-        let lanes = self.lanes(next);
-        if lanes == 0 {
-            return None;
+        // Along the lane's links, road after road, until someone is found or out of range.
+        let mut gap = r.length_m - s_m;
+        let (mut road, mut lane) = r.lane_next(lane, next)?;
+        for _ in 0..MAX_HOPS {
+            if gap > range_m {
+                return None;
+            }
+            let r = self.roads.get(&road)?;
+            if let Some(e) = r.lanes.get(lane as usize)?.first() {
+                return seen(e, gap + e.s_m, lane);
+            }
+            if r.closed {
+                return None;
+            }
+            gap += r.length_m;
+            (road, lane) = r.lane_next(lane, None)?;
         }
-        let lane2 = lane.min(lanes - 1);
-        let e = self.roads.get(&next)?.lanes.get(lane2 as usize)?.first()?;
-        seen(e, r.length_m - s_m + e.s_m, lane2)
+        None
     }
 
     /// The nearest vehicle behind in `lane` within `range_m` (strictly behind, or level with
-    /// `s_m` but earlier in entity order), following loops. O(log n).
+    /// `s_m` but earlier in entity order), following loops and back along every lane that leads
+    /// onto this one (the nearest of them). O(log n) per road crossed.
     pub fn follower(
         &self,
         road: RoadId,
@@ -260,39 +324,94 @@ impl LaneIndex {
         let r = self.roads.get(&road)?;
         let entries = r.lanes.get(lane as usize)?;
         let behind = |e: &LaneEntry| e.s_m < s_m || (e.s_m == s_m && e.entity < me);
-        let seen = |e: &LaneEntry, gap_m: f64| {
-            (-gap_m <= range_m).then_some(Seen {
-                gap_m,
-                lane,
-                entry: *e,
-            })
-        };
         let i = entries.partition_point(behind);
         if i > 0 {
             let e = &entries[i - 1];
-            return seen(e, e.s_m - s_m);
+            return (s_m - e.s_m <= range_m).then_some(Seen {
+                gap_m: e.s_m - s_m,
+                lane,
+                entry: *e,
+            });
         }
         if r.closed {
             return entries
                 .last()
                 .filter(|e| e.entity != me)
-                .and_then(|e| seen(e, e.s_m - r.length_m - s_m));
+                .filter(|e| s_m + r.length_m - e.s_m <= range_m)
+                .map(|e| Seen {
+                    gap_m: e.s_m - r.length_m - s_m,
+                    lane,
+                    entry: *e,
+                });
         }
-        None
+        self.follower_before(road, lane, s_m, range_m, MAX_HOPS)
+    }
+
+    /// The nearest vehicle on the lanes leading onto `lane` of `road`, behind arc position
+    /// `s_m` of it.
+    fn follower_before(
+        &self,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        range_m: f64,
+        hops: usize,
+    ) -> Option<Seen> {
+        if hops == 0 || s_m > range_m {
+            return None;
+        }
+        let r = self.roads.get(&road)?;
+        let mut best: Option<Seen> = None;
+        for &(prev, lane0) in r.prev.get(lane as usize)? {
+            let Some(r0) = self.roads.get(&prev) else {
+                continue;
+            };
+            if r0.closed {
+                continue;
+            }
+            let found = match r0.lanes.get(lane0 as usize).and_then(|l| l.last()) {
+                Some(e) => {
+                    let gap_m = e.s_m - r0.length_m - s_m;
+                    (-gap_m <= range_m).then_some(Seen {
+                        gap_m,
+                        lane: lane0,
+                        entry: *e,
+                    })
+                }
+                None => self.follower_before(prev, lane0, s_m + r0.length_m, range_m, hops - 1),
+            };
+            if let Some(f) = found
+                && best.is_none_or(|b| f.gap_m > b.gap_m)
+            {
+                best = Some(f);
+            }
+        }
+        best
     }
 }
+
+/// The lane change a vehicle signals to the others: +1 left or -1 right while it waits for a
+/// gap, +2 or -2 while it moves across, 0 none. Its driver sets it; the others see it in the
+/// [`LaneIndex`] next tick.
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LaneSignal(pub i8);
 
 /// Rebuilds the [`LaneIndex`] from every vehicle's track, once per tick before drivers decide.
 pub fn rebuild_lane_index(
     network: Res<RoadNetwork>,
     mut index: ResMut<LaneIndex>,
-    vehicles: Query<(Entity, &RoadTrack, &VehicleModel)>,
+    vehicles: Query<(Entity, &RoadTrack, &VehicleModel, Option<&LaneSignal>)>,
 ) {
     index.rebuild(
         &network,
-        vehicles
-            .iter()
-            .map(|(e, t, model)| (e, t, model.0.params.chassis.length_m)),
+        vehicles.iter().map(|(e, t, model, signal)| {
+            (
+                e,
+                t,
+                model.0.params.chassis.length_m,
+                signal.map_or(0, |s| s.0),
+            )
+        }),
     );
 }
 
@@ -357,6 +476,7 @@ mod tests {
                 lateral_m: 0.0,
                 speed_mps: 10.0,
                 length_m: 4.6,
+                signal: 0,
             };
             index.roads.get_mut(&road).expect("indexed road").lanes[lane as usize].push(e);
             all.push((road, lane, e));
@@ -459,7 +579,7 @@ mod tests {
                         .map(|(e, _)| *e);
                     assert_eq!(
                         index
-                            .leader(RoadId(0), lane, s, me, 80.0)
+                            .leader(RoadId(0), lane, s, me, 80.0, None)
                             .map(|v| v.entry.entity),
                         best_ahead,
                         "leader: closed {closed} seed {seed} lane {lane} s {s}"
@@ -488,8 +608,14 @@ mod tests {
             .last()
             .map(|e| e.s_m)
             .unwrap_or(0.0);
-        if let Some(l) = index.leader(RoadId(0), 0, lane0_last + 0.001, Entity::PLACEHOLDER, 500.0)
-        {
+        if let Some(l) = index.leader(
+            RoadId(0),
+            0,
+            lane0_last + 0.001,
+            Entity::PLACEHOLDER,
+            500.0,
+            None,
+        ) {
             assert!(l.gap_m > 0.0);
             assert!(l.gap_m >= len0 - lane0_last - 1e-9, "{:?}", l);
             assert!(

@@ -272,6 +272,7 @@ impl DriverSpec {
                     IdmDriver {
                         params: p.clone(),
                         lane,
+                        road: None,
                     },
                     TargetController::new(p.throttle, p.steering),
                 ));

@@ -70,6 +70,10 @@ pub enum Metric {
     FinalLimitShare,
     /// Mean time from creation to a destroyer (s).
     MeanTravelTimeS,
+    /// Mean travel time above free-flow travel time, of vehicles reaching a destroyer (s).
+    MeanDelayS,
+    /// Vehicles that missed the exit their route took and were sent another way (vehicles).
+    MissedExits,
     /// Whether a stop-and-go wave was found (bool).
     WaveDetected,
     /// Propagation speed of the wave (negative: against traffic) (km/h).
@@ -80,7 +84,7 @@ pub enum Metric {
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 19] = [
+    pub const ALL: [Metric; 21] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -97,6 +101,8 @@ impl Metric {
         Metric::FinalSpeedKmh,
         Metric::FinalLimitShare,
         Metric::MeanTravelTimeS,
+        Metric::MeanDelayS,
+        Metric::MissedExits,
         Metric::WaveDetected,
         Metric::WaveSpeedKmh,
         Metric::WavePeriodS,
@@ -201,6 +207,18 @@ impl Metric {
                 unit: "s",
                 description: "mean time from creation to a destroyer",
             },
+            Metric::MeanDelayS => MetricInfo {
+                name: "mean_delay_s",
+                qualifier: Qualifier::Profile,
+                unit: "s",
+                description: "mean travel time above free-flow travel time (the distance at the speed limits in force) of vehicles reaching a destroyer after the warm-up",
+            },
+            Metric::MissedExits => MetricInfo {
+                name: "missed_exits",
+                qualifier: Qualifier::Profile,
+                unit: "vehicles",
+                description: "times a vehicle left its route because it could not reach a lane leading on along it (it then takes the quickest way to its destination, if any)",
+            },
             Metric::WaveDetected => MetricInfo {
                 name: "wave_detected",
                 qualifier: Qualifier::None,
@@ -245,8 +263,8 @@ impl Metric {
 }
 
 /// Every metric's [`MetricInfo`], in [`Metric::ALL`] order.
-pub const METRICS: [MetricInfo; 19] = {
-    let mut out = [Metric::Ticks.info(); 19];
+pub const METRICS: [MetricInfo; 21] = {
+    let mut out = [Metric::Ticks.info(); 21];
     let mut i = 0;
     while i < out.len() {
         out[i] = Metric::ALL[i].info();

@@ -2,7 +2,7 @@
 
 use crate::locate::{Pos, locate};
 use crate::schema::Level;
-use crate::validate::validate;
+use crate::validate::{validate, warnings};
 use serde::Deserialize;
 use std::fmt;
 use std::io::Write;
@@ -159,6 +159,31 @@ pub fn parse_level(src: &str, path: &Path) -> Result<Level, LevelError> {
 }
 
 /// RON's messages, with the ones users meet most often reworded to say what was expected.
+/// The level's warnings (see [`crate::warnings`]) as `PATH:LINE:COL: warning: …` lines, placed
+/// in its text `src`.
+pub fn level_warnings(level: &Level, src: &str, path: &Path) -> Vec<String> {
+    let mut found: Vec<Diagnostic> = warnings(level)
+        .into_iter()
+        .map(|i| Diagnostic {
+            pos: locate(src, &i.path),
+            message: i.message,
+        })
+        .collect();
+    found.sort_by_key(|d| d.pos);
+    found
+        .iter()
+        .map(|d| {
+            format!(
+                "{}:{}:{}: warning: {}",
+                path.display(),
+                d.pos.line,
+                d.pos.col,
+                d.message
+            )
+        })
+        .collect()
+}
+
 fn describe_ron_error(code: &ron::Error) -> String {
     match code {
         ron::Error::Eof => {

@@ -14,14 +14,14 @@ mod validate;
 
 pub use expect::{Check, Expectation, METRICS, Metric, MetricInfo, Qualifier, metric_info};
 pub use io::{
-    Diagnostic, LevelError, MAX_FILE_BYTES, level_to_string, load_level, parse_level, save_level,
-    write_atomic,
+    Diagnostic, LevelError, MAX_FILE_BYTES, level_to_string, level_warnings, load_level,
+    parse_level, save_level, write_atomic,
 };
 pub use locate::{PathStep, Pos, locate};
 pub use schema::{
-    CURRENT_VERSION, DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec,
-    InitialVehiclesSpec, Level, ProfileShare, Range, SpawnerSpec, TelemetrySpec, TriggerEffectSpec,
-    TriggerSpec, VehicleTypeSpec,
+    CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec,
+    InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec, TelemetrySpec,
+    TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,
@@ -29,5 +29,5 @@ pub use template::{
 };
 pub use validate::{
     Issue, MAX_DURATION_S, MAX_INITIAL_VEHICLES, MAX_LIST_LEN, MIN_INITIAL_SPACING_M,
-    MIN_SPAWN_INTERVAL_S, validate,
+    MIN_SPAWN_INTERVAL_S, validate, warnings,
 };

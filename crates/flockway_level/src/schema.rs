@@ -176,6 +176,40 @@ pub struct SpawnerSpec {
     /// Stop after this many vehicles; `None` for no limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_vehicles: Option<u32>,
+    /// Where its vehicles go: each vehicle takes one of these routes, chosen by weight. Empty
+    /// (and no `destination`): vehicles follow their lane's links.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routes: Vec<RouteSpec>,
+    /// Or: the road its vehicles are bound for, reached by the quickest path at free flow.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub destination: Option<String>,
+    /// Demand over time: from each step's time on, the interval is that step's (before the
+    /// first step, `interval_s`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub schedule: Vec<DemandStep>,
+}
+
+/// One route a spawner gives its vehicles: the roads in driving order, from the spawner's road.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RouteSpec {
+    /// Name (the telemetry's `route` column).
+    pub name: String,
+    /// Road names in driving order; the first is the spawner's road (it may be left out).
+    pub roads: Vec<String>,
+    /// Relative probability.
+    #[serde(default = "one_f64")]
+    pub weight: f64,
+}
+
+/// A change of a spawner's demand at a time of the run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemandStep {
+    /// When it takes effect, s from the start.
+    pub from_s: f64,
+    /// Seconds between spawns from then on, drawn uniformly from this range.
+    pub interval_s: Range,
 }
 
 /// Where a destroyer removes vehicles.
@@ -295,6 +329,10 @@ impl TelemetrySpec {
     fn is_default(&self) -> bool {
         *self == TelemetrySpec::default()
     }
+}
+
+fn one_f64() -> f64 {
+    1.0
 }
 
 fn yes() -> bool {

@@ -87,6 +87,9 @@ impl Template {
                     speed_kmh: None,
                     active: true,
                     max_vehicles: None,
+                    routes: Vec::new(),
+                    destination: None,
+                    schedule: Vec::new(),
                 });
                 level.destroyers.push(DestroyerSpec {
                     name: "end".to_owned(),

@@ -116,6 +116,55 @@ pub fn validate(level: &Level) -> Vec<Issue> {
     c.issues
 }
 
+/// What is allowed but likely wrong in a valid level's network: a road that leads nowhere and
+/// has no destroyer (vehicles stop at its end), a road whose links take none of its lanes.
+/// `flockway check` and `flockway run` print these; the editor shows them without refusing the
+/// edit (a road is drawn before its destroyer).
+pub fn warnings(level: &Level) -> Vec<Issue> {
+    let mut out = Vec::new();
+    for (i, spec) in level.roads.iter().enumerate() {
+        if spec.closed {
+            continue;
+        }
+        let Ok(g) = RoadGeometry::new(spec) else {
+            continue;
+        };
+        let last = spec.points.len().saturating_sub(1);
+        let end = g.pos_at(g.length_m());
+        let destroyed = level.destroyers.iter().any(|d| match &d.place {
+            DestroyerPlaceSpec::OnRoad { road, .. } => *road == spec.name,
+            DestroyerPlaceSpec::Volume { min, max } => {
+                // Within a car length of the end is close enough: vehicles drive into it.
+                let (lo, hi) = (
+                    *min - glam::DVec3::splat(5.0),
+                    *max + glam::DVec3::splat(5.0),
+                );
+                end.cmpge(lo).all() && end.cmple(hi).all()
+            }
+        });
+        let outgoing = spec.outgoing();
+        if outgoing.is_empty() {
+            if !destroyed {
+                out.push(Issue {
+                    path: vec![Field("roads"), Index(i), Field("points"), Index(last)],
+                    message: format!("road `{}` leads nowhere and has no destroyer: vehicles stop at its end; link it onto another road or put a destroyer on it", spec.name),
+                });
+            }
+            continue;
+        }
+        let any_lane = outgoing
+            .iter()
+            .any(|l| l.lanes.is_empty() || l.lanes.iter().any(|(a, _)| *a < spec.lanes));
+        if !any_lane && !destroyed {
+            out.push(Issue {
+                path: vec![Field("roads"), Index(i), Field("links")],
+                message: format!("no lane of road `{}` leads on: every lane ends with no lane to merge into; add lane pairs to its links", spec.name),
+            });
+        }
+    }
+    out
+}
+
 fn finite_in(x: f64, lo: f64, hi: f64) -> bool {
     x.is_finite() && x >= lo && x <= hi
 }
@@ -209,7 +258,9 @@ impl Checker<'_> {
                         RoadError::Lanes { .. } => at(&[Field("lanes")]),
                         RoadError::LaneWidth { .. } => at(&[Field("lane_width_m")]),
                         RoadError::SpeedLimit { .. } => at(&[Field("speed_limit_kmh")]),
-                        RoadError::ClosedWithNext { .. } => at(&[Field("next")]),
+                        RoadError::ClosedWithNext { .. } => {
+                            at(&[Field(if spec.next.is_some() { "next" } else { "links" })])
+                        }
                         RoadError::Position { point, .. } => {
                             at(&[Field("points"), Index(*point), Field("pos")])
                         }
@@ -234,23 +285,69 @@ impl Checker<'_> {
                 }
             }
         }
+        let mut found: Vec<(Vec<PathStep>, String)> = Vec::new();
         for (i, spec) in l.roads.iter().enumerate() {
-            let Some(next) = &spec.next else { continue };
-            let path = vec![Field("roads"), Index(i), Field("next")];
-            match l.roads.iter().position(|r| &r.name == next) {
-                None => self.issue(
-                    path,
-                    format!("unknown road `{next}`; {}", self.road_names()),
-                ),
-                Some(j) => {
-                    if let (Some(a), Some(b)) = (&self.roads[i], &self.roads[j]) {
+            let mut targets = BTreeSet::new();
+            let links = spec.next.iter().map(|n| (None, n.as_str(), &[][..])).chain(
+                spec.links
+                    .iter()
+                    .enumerate()
+                    .map(|(k, link)| (Some(k), link.to.as_str(), link.lanes.as_slice())),
+            );
+            for (k, next, lanes) in links {
+                let base = match k {
+                    None => vec![Field("roads"), Index(i)],
+                    Some(k) => vec![Field("roads"), Index(i), Field("links"), Index(k)],
+                };
+                let at = |f: &'static str| {
+                    let mut p = base.clone();
+                    p.push(Field(if k.is_none() { "next" } else { f }));
+                    p
+                };
+                let Some(j) = l.roads.iter().position(|r| r.name == next) else {
+                    found.push((
+                        at("to"),
+                        format!("unknown road `{next}`; {}", self.road_names()),
+                    ));
+                    continue;
+                };
+                if !targets.insert(j) {
+                    found.push((at("to"), format!("road `{}` already leads onto `{next}`; give all the lane pairs of one link together", spec.name)));
+                    continue;
+                }
+                let (a, b) = (&self.roads[i], &self.roads[j]);
+                if lanes.is_empty() {
+                    if let (Some(a), Some(b)) = (a, b) {
                         let gap = (b.pos_at(0.0) - a.pos_at(a.length_m())).length();
                         if gap > flockway_road::MAX_CONNECTION_GAP_M {
-                            self.issue(path, format!("road `{}` ends {gap:.2} m from the start of `{next}`; a connection needs them within 1 m", spec.name));
+                            let msg = format!(
+                                "road `{}` ends {gap:.2} m from the start of `{next}`; a connection needs them within 1 m",
+                                spec.name
+                            );
+                            found.push((at("to"), msg));
+                        }
+                    }
+                    continue;
+                }
+                let to_lanes = l.roads[j].lanes;
+                for (m, &(la, lb)) in lanes.iter().enumerate() {
+                    let mut path = base.clone();
+                    path.extend([Field("lanes"), Index(m)]);
+                    if la >= spec.lanes {
+                        found.push((path, format!("lane {la} is out of range: road `{}` has {} lane(s), numbered 0 to {}", spec.name, spec.lanes, spec.lanes.saturating_sub(1))));
+                    } else if lb >= to_lanes {
+                        found.push((path, format!("lane {lb} is out of range: road `{next}` has {to_lanes} lane(s), numbered 0 to {}", to_lanes.saturating_sub(1))));
+                    } else if let (Some(a), Some(b)) = (a, b) {
+                        let gap = (b.lane_point(lb, 0.0) - a.lane_point(la, a.length_m())).length();
+                        if gap > flockway_road::MAX_CONNECTION_GAP_M {
+                            found.push((path, format!("lane {la} of `{}` ends {gap:.2} m from the start of lane {lb} of `{next}`; linked lanes must meet within 1 m", spec.name)));
                         }
                     }
                 }
             }
+        }
+        for (path, message) in found {
+            self.issue(path, message);
         }
     }
 
@@ -449,7 +546,110 @@ impl Checker<'_> {
                 );
             }
             self.speed(p("speed_kmh"), s.speed_kmh);
+            self.spawner_routes(i, s);
         }
+    }
+
+    /// Whether road `a` leads onto road `b` at its end.
+    fn leads_onto(&self, a: &str, b: &str) -> bool {
+        self.level
+            .road(a)
+            .is_some_and(|r| r.outgoing().iter().any(|l| l.to == b))
+    }
+
+    fn spawner_routes(&mut self, i: usize, s: &SpawnerSpec) {
+        let base = [Field("spawners"), Index(i)];
+        if !s.routes.is_empty() && s.destination.is_some() {
+            self.issue(
+                [&base[..], &[Field("destination")]].concat(),
+                "a spawner has either routes or a destination, not both",
+            );
+        }
+        let mut total = 0.0;
+        for (k, route) in s.routes.iter().enumerate() {
+            let at = |rest: &[PathStep]| [&base[..], &[Field("routes"), Index(k)], rest].concat();
+            if !finite_in(route.weight, 0.0, 1e9) {
+                self.issue(
+                    at(&[Field("weight")]),
+                    format!("weight {}: expected a finite number ≥ 0", route.weight),
+                );
+            } else {
+                total += route.weight;
+            }
+            if route.roads.is_empty() {
+                self.issue(at(&[Field("roads")]), "a route needs at least one road");
+            }
+            let mut prev = s.road.as_str();
+            for (m, name) in route.roads.iter().enumerate() {
+                let path = at(&[Field("roads"), Index(m)]);
+                if self.level.road(name).is_none() {
+                    let msg = format!("unknown road `{name}`; {}", self.road_names());
+                    self.issue(path, msg);
+                    break;
+                }
+                if m == 0 && name == &s.road {
+                    continue;
+                }
+                if !self.leads_onto(prev, name) {
+                    self.issue(path, format!("road `{prev}` does not lead onto `{name}`: each road of a route must be linked to the one before it (the first is the spawner's road `{}`)", s.road));
+                    break;
+                }
+                prev = name;
+            }
+        }
+        if !s.routes.is_empty() && total <= 0.0 {
+            self.issue(
+                [&base[..], &[Field("routes")]].concat(),
+                "the route weights sum to 0; at least one must be positive",
+            );
+        }
+        if let Some(dest) = &s.destination {
+            let path = [&base[..], &[Field("destination")]].concat();
+            if self.level.road(dest).is_none() {
+                let msg = format!("unknown road `{dest}`; {}", self.road_names());
+                self.issue(path, msg);
+            } else if !self.reachable(&s.road, dest) {
+                self.issue(path, format!("road `{dest}` cannot be reached from the spawner's road `{}` along the roads' links", s.road));
+            }
+        }
+        let mut last = 0.0;
+        for (k, step) in s.schedule.iter().enumerate() {
+            let at =
+                |f: &'static str| [&base[..], &[Field("schedule"), Index(k), Field(f)]].concat();
+            if !finite_in(step.from_s, last, MAX_DURATION_S) {
+                self.issue(at("from_s"), format!("from_s {}: expected a time in seconds, at or after the step before ({last})", step.from_s));
+            } else {
+                last = step.from_s;
+            }
+            let iv = step.interval_s;
+            if !(finite_in(iv.min, MIN_SPAWN_INTERVAL_S, 86_400.0)
+                && finite_in(iv.max, iv.min, 86_400.0))
+            {
+                self.issue(at("interval_s"), format!("interval_s (min: {}, max: {}): expected {MIN_SPAWN_INTERVAL_S} ≤ min ≤ max ≤ 86400 seconds", iv.min, iv.max));
+            }
+        }
+    }
+
+    /// Whether road `to` can be reached from road `from` along links.
+    fn reachable(&self, from: &str, to: &str) -> bool {
+        let mut seen = BTreeSet::from([from.to_owned()]);
+        let mut todo = vec![from.to_owned()];
+        while let Some(r) = todo.pop() {
+            if r == to {
+                return true;
+            }
+            for l in self
+                .level
+                .road(&r)
+                .map(|r| r.outgoing())
+                .unwrap_or_default()
+            {
+                if seen.insert(l.to.clone()) {
+                    todo.push(l.to);
+                }
+            }
+        }
+        false
     }
 
     fn destroyers(&mut self) {

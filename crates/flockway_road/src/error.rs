@@ -55,7 +55,9 @@ pub enum RoadError {
         got: f64,
     },
     /// A closed loop cannot also lead onto another road.
-    #[error("road `{road}` is a closed loop, so it cannot have a `next` road")]
+    #[error(
+        "road `{road}` is a closed loop, so it cannot lead onto other roads (`next` or `links`)"
+    )]
     ClosedWithNext {
         /// Road name.
         road: String,

@@ -29,10 +29,10 @@ pub use mesh::{
     RoadMeshes, STATION_STEP_M, Side,
 };
 pub use network::{
-    MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId, RoadNetwork, RoadNetworkError, RoadPlugin,
-    RoadShape, rebuild_roads,
+    LANE_REACH_HORIZON_M, Link, MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId, RoadNetwork,
+    RoadNetworkError, RoadPlugin, RoadShape, rebuild_roads,
 };
-pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, RoadSpec};
+pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, LinkSpec, RoadSpec};
 pub use validate::{
     MAX_BANK_DEG, MAX_COORD_M, MAX_LANES, MAX_POINT_SPACING_M, MAX_POINTS, MAX_WIDTH_M,
     MIN_POINT_SPACING_M,

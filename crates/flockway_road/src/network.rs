@@ -4,7 +4,8 @@ use crate::{RoadError, RoadGeometry, RoadMeshes, RoadProjection, RoadSpec};
 use bevy_ecs::prelude::*;
 use flockway_core::{Sim, SimPlugin, StepSet};
 use glam::DVec3;
-use std::collections::BTreeMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap};
 use std::sync::Arc;
 
 /// Largest gap allowed between a road's end and the start of the road it leads onto, in metres.
@@ -45,6 +46,51 @@ pub enum NetworkError {
         /// The missing name.
         next: String,
     },
+    /// A link names a lane that one of its roads does not have.
+    #[error(
+        "road `{road}` links its lane {from_lane} onto lane {to_lane} of `{next}`, but {which} has {lanes} lane(s), numbered 0 to {last}",
+        last = lanes.saturating_sub(1)
+    )]
+    LinkLane {
+        /// The road with the link.
+        road: String,
+        /// The road it leads onto.
+        next: String,
+        /// Lane here.
+        from_lane: u32,
+        /// Lane there.
+        to_lane: u32,
+        /// Which road lacks the lane (`this road` or the other's name in backticks).
+        which: String,
+        /// That road's lane count.
+        lanes: u32,
+    },
+    /// A road links onto the same road twice.
+    #[error(
+        "road `{road}` links onto `{next}` more than once; give all its lane pairs in one link"
+    )]
+    DuplicateLink {
+        /// The road with the links.
+        road: String,
+        /// The road it leads onto twice.
+        next: String,
+    },
+    /// A lane pair of a link does not meet: the lanes' centres are apart.
+    #[error(
+        "road `{road}` lane {from_lane} ends {gap_m:.2} m from the start of lane {to_lane} of `{next}`; linked lanes must meet within 1 m"
+    )]
+    LaneGap {
+        /// The road with the link.
+        road: String,
+        /// The road it leads onto.
+        next: String,
+        /// Lane here.
+        from_lane: u32,
+        /// Lane there.
+        to_lane: u32,
+        /// Distance between the lane centres, m.
+        gap_m: f64,
+    },
     /// `next` names a road whose start is not at this road's end.
     #[error(
         "road `{road}` ends {gap_m:.2} m from the start of `{next}`; a connection needs them within 1 m"
@@ -67,12 +113,33 @@ pub struct RoadNetwork {
     by_name: BTreeMap<String, RoadId>,
 }
 
+/// A link at a road's end onto the start of another road, lane by lane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Link {
+    /// The road it leads onto.
+    pub to: RoadId,
+    /// `(lane here, lane there)` pairs, sorted.
+    pub lanes: Vec<(u32, u32)>,
+}
+
+impl Link {
+    /// The lane of the other road that `lane` leads onto, if it leads onto one.
+    pub fn lane_to(&self, lane: u32) -> Option<u32> {
+        self.lanes.iter().find(|(a, _)| *a == lane).map(|(_, b)| *b)
+    }
+}
+
 #[derive(Debug, Clone)]
 struct Slot {
     geometry: Arc<RoadGeometry>,
     meshes: Arc<RoadMeshes>,
-    next: Option<RoadId>,
+    links: Vec<Link>,
+    /// Per lane of this road: the `(road, lane)` pairs that lead onto it.
+    incoming: Vec<Vec<(RoadId, u32)>>,
 }
+
+/// How far ahead, in metres, a route is read for which lanes lead on along it.
+pub const LANE_REACH_HORIZON_M: f64 = 3_000.0;
 
 impl RoadNetwork {
     /// Builds a network from specs (road `i` gets id `i`), checking names and connections.
@@ -105,40 +172,94 @@ impl RoadNetwork {
             .unwrap_or(0);
         let mut slots: Vec<Option<Slot>> = vec![None; len];
         for (id, geometry, meshes) in shapes {
+            let lanes = geometry.lanes() as usize;
             slots[id.0 as usize] = Some(Slot {
                 geometry,
                 meshes,
-                next: None,
+                links: Vec::new(),
+                incoming: vec![Vec::new(); lanes],
             });
         }
         let mut resolved = Vec::new();
         for (i, slot) in slots.iter().enumerate() {
             let Some(slot) = slot else { continue };
             let g = &slot.geometry;
-            let Some(name) = &g.spec().next else { continue };
-            let Some(&id) = by_name.get(name) else {
-                return Err(NetworkError::UnknownNext {
-                    road: g.name().to_owned(),
-                    next: name.clone(),
-                });
-            };
-            let start = slots[id.0 as usize]
-                .as_ref()
-                .map(|s| s.geometry.pos_at(0.0))
-                .unwrap_or(DVec3::INFINITY);
-            let gap_m = (start - g.pos_at(g.length_m())).length();
-            if gap_m > MAX_CONNECTION_GAP_M {
-                return Err(NetworkError::Gap {
-                    road: g.name().to_owned(),
-                    next: name.clone(),
-                    gap_m,
-                });
+            let mut links: Vec<Link> = Vec::new();
+            for spec in g.spec().outgoing() {
+                let Some(&id) = by_name.get(&spec.to) else {
+                    return Err(NetworkError::UnknownNext {
+                        road: g.name().to_owned(),
+                        next: spec.to.clone(),
+                    });
+                };
+                if links.iter().any(|l| l.to == id) {
+                    return Err(NetworkError::DuplicateLink {
+                        road: g.name().to_owned(),
+                        next: spec.to.clone(),
+                    });
+                }
+                let Some(g2) = slots[id.0 as usize].as_ref().map(|s| &s.geometry) else {
+                    continue;
+                };
+                let mut lanes = spec.lane_pairs(g.lanes(), g2.lanes());
+                lanes.sort_unstable();
+                lanes.dedup();
+                for &(a, b) in &lanes {
+                    let (which, n) = if a >= g.lanes() {
+                        ("this road".to_owned(), g.lanes())
+                    } else if b >= g2.lanes() {
+                        (format!("`{}`", g2.name()), g2.lanes())
+                    } else {
+                        continue;
+                    };
+                    return Err(NetworkError::LinkLane {
+                        road: g.name().to_owned(),
+                        next: spec.to.clone(),
+                        from_lane: a,
+                        to_lane: b,
+                        which,
+                        lanes: n,
+                    });
+                }
+                if spec.lanes.is_empty() {
+                    // By position: the centre lines meet (roads of different widths may link).
+                    let gap_m = (g2.pos_at(0.0) - g.pos_at(g.length_m())).length();
+                    if gap_m > MAX_CONNECTION_GAP_M {
+                        return Err(NetworkError::Gap {
+                            road: g.name().to_owned(),
+                            next: spec.to.clone(),
+                            gap_m,
+                        });
+                    }
+                } else {
+                    for &(a, b) in &lanes {
+                        let gap_m =
+                            (g2.lane_point(b, 0.0) - g.lane_point(a, g.length_m())).length();
+                        if gap_m > MAX_CONNECTION_GAP_M {
+                            return Err(NetworkError::LaneGap {
+                                road: g.name().to_owned(),
+                                next: spec.to.clone(),
+                                from_lane: a,
+                                to_lane: b,
+                                gap_m,
+                            });
+                        }
+                    }
+                }
+                links.push(Link { to: id, lanes });
             }
-            resolved.push((i, id));
+            resolved.push((i, links));
         }
-        for (i, id) in resolved {
+        for (i, links) in resolved {
+            for link in &links {
+                if let Some(to) = &mut slots[link.to.0 as usize] {
+                    for &(a, b) in &link.lanes {
+                        to.incoming[b as usize].push((RoadId(i as u32), a));
+                    }
+                }
+            }
             if let Some(slot) = &mut slots[i] {
-                slot.next = Some(id);
+                slot.links = links;
             }
         }
         Ok(RoadNetwork { slots, by_name })
@@ -181,9 +302,142 @@ impl RoadNetwork {
             .filter_map(|(i, s)| s.as_ref().map(|s| (RoadId(i as u32), &s.geometry)))
     }
 
-    /// The road traffic continues onto after the end of `id`.
+    /// The first road traffic continues onto after the end of `id` (its `next`, or its first
+    /// link).
     pub fn next(&self, id: RoadId) -> Option<RoadId> {
-        self.slot(id).and_then(|s| s.next)
+        self.slot(id).and_then(|s| s.links.first()).map(|l| l.to)
+    }
+
+    /// The links at the end of road `id`, in the order the level gives them.
+    pub fn links(&self, id: RoadId) -> &[Link] {
+        self.slot(id).map_or(&[], |s| s.links.as_slice())
+    }
+
+    /// The link from the end of `from` onto `to`, if there is one.
+    pub fn link(&self, from: RoadId, to: RoadId) -> Option<&Link> {
+        self.links(from).iter().find(|l| l.to == to)
+    }
+
+    /// Where lane `lane` of road `id` leads at the road's end: onto `prefer` if that lane links
+    /// there, otherwise along the first link that takes the lane. `None` if the lane ends.
+    pub fn lane_next(
+        &self,
+        id: RoadId,
+        lane: u32,
+        prefer: Option<RoadId>,
+    ) -> Option<(RoadId, u32)> {
+        let links = self.links(id);
+        prefer
+            .and_then(|p| links.iter().find(|l| l.to == p))
+            .and_then(|l| l.lane_to(lane).map(|b| (l.to, b)))
+            .or_else(|| {
+                links
+                    .iter()
+                    .find_map(|l| l.lane_to(lane).map(|b| (l.to, b)))
+            })
+    }
+
+    /// The `(road, lane)` pairs whose ends lead onto the start of lane `lane` of road `id`.
+    pub fn lane_prev(&self, id: RoadId, lane: u32) -> &[(RoadId, u32)] {
+        self.slot(id)
+            .and_then(|s| s.incoming.get(lane as usize))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    /// Time to drive the whole of road `id` at its speed limit, s.
+    pub fn free_flow_s(&self, id: RoadId) -> f64 {
+        self.get(id).map_or(f64::INFINITY, |g| {
+            g.length_m() / (g.speed_limit_kmh() / 3.6)
+        })
+    }
+
+    /// The quickest sequence of roads from `from` to `to` at free flow (each road driven whole
+    /// at its speed limit), both included; ties go to the lower road id. `None` if `to` cannot
+    /// be reached.
+    pub fn shortest_path(&self, from: RoadId, to: RoadId) -> Option<Vec<RoadId>> {
+        self.get(from)?;
+        self.get(to)?;
+        let n = self.slots.len();
+        let mut best = vec![f64::INFINITY; n];
+        let mut prev: Vec<Option<RoadId>> = vec![None; n];
+        // Costs are non-negative, so their bit patterns order like the numbers.
+        let mut heap = BinaryHeap::new();
+        best[from.0 as usize] = 0.0;
+        heap.push(Reverse((0.0f64.to_bits(), from)));
+        while let Some(Reverse((bits, road))) = heap.pop() {
+            let cost = f64::from_bits(bits);
+            if cost > best[road.0 as usize] {
+                continue;
+            }
+            if road == to {
+                break;
+            }
+            for link in self.links(road) {
+                let c = cost + self.free_flow_s(link.to);
+                let k = link.to.0 as usize;
+                if link.to == from {
+                    continue;
+                }
+                if c < best[k] || (c == best[k] && prev[k].is_some_and(|p| road < p)) {
+                    best[k] = c;
+                    prev[k] = Some(road);
+                    heap.push(Reverse((c.to_bits(), link.to)));
+                }
+            }
+        }
+        if !best[to.0 as usize].is_finite() {
+            return None;
+        }
+        let mut path = vec![to];
+        let mut at = to;
+        while at != from {
+            at = prev[at.0 as usize]?;
+            path.push(at);
+            if path.len() > n {
+                return None;
+            }
+        }
+        path.reverse();
+        Some(path)
+    }
+
+    /// For each lane of `route[0]`: how far from that road's start a vehicle in the lane can
+    /// drive along `route` without changing lanes, m (`INFINITY` when the lane leads on to the
+    /// route's last road, a loop, or beyond [`LANE_REACH_HORIZON_M`]). One entry per lane.
+    pub fn lane_reach(&self, route: &[RoadId]) -> Vec<f64> {
+        let Some(first) = route.first().and_then(|&r| self.get(r)) else {
+            return Vec::new();
+        };
+        // The roads within the horizon: the lanes of the last one reach without limit.
+        let mut k = 0;
+        let mut along = 0.0;
+        while k < route.len() {
+            let Some(g) = self.get(route[k]) else { break };
+            k += 1;
+            along += g.length_m();
+            if g.is_closed() || along >= LANE_REACH_HORIZON_M {
+                break;
+            }
+        }
+        let last = self.get(route[k.max(1) - 1]).map_or(0, |g| g.lanes());
+        let mut reach = vec![f64::INFINITY; last as usize];
+        for i in (0..k.saturating_sub(1)).rev() {
+            let Some(g) = self.get(route[i]) else {
+                break;
+            };
+            let len = g.length_m();
+            let mut here = vec![len; g.lanes() as usize];
+            if let Some(link) = self.link(route[i], route[i + 1]) {
+                for &(a, b) in &link.lanes {
+                    if let (Some(h), Some(r)) = (here.get_mut(a as usize), reach.get(b as usize)) {
+                        *h = h.max(len + r);
+                    }
+                }
+            }
+            reach = here;
+        }
+        reach.resize(first.lanes() as usize, f64::INFINITY);
+        reach
     }
 
     /// Moves `ds_m` metres along the direction of travel from arc position `s_m` on road `id`,
@@ -363,5 +617,127 @@ mod tests {
         );
         assert_eq!(net.id("b"), Some(RoadId(1)));
         assert_eq!(net.len(), 1);
+    }
+
+    /// A three-lane approach splitting into a one-lane right branch and a two-lane left one,
+    /// both joining a far road, and a slow shortcut: `a → r → far` and `a → l → far`.
+    fn split() -> Vec<RoadSpec> {
+        let w = crate::DEFAULT_LANE_WIDTH_M;
+        let mut a = RoadSpec::through("a", 3, 100.0, &[DVec3::ZERO, DVec3::new(400.0, 0.0, 0.0)]);
+        a.links = vec![
+            crate::LinkSpec {
+                to: "r".into(),
+                lanes: vec![(0, 0)],
+            },
+            crate::LinkSpec {
+                to: "l".into(),
+                lanes: vec![(1, 0), (2, 1)],
+            },
+        ];
+        // The right branch starts on lane 0's centre, the left one between lanes 1 and 2.
+        let mut r = RoadSpec::through(
+            "r",
+            1,
+            60.0,
+            &[
+                DVec3::new(400.0, -w, 0.0),
+                DVec3::new(600.0, -w - 60.0, 0.0),
+            ],
+        );
+        r.next = Some("far".into());
+        let mut l = RoadSpec::through(
+            "l",
+            2,
+            100.0,
+            &[
+                DVec3::new(400.0, 0.5 * w, 0.0),
+                DVec3::new(600.0, 0.5 * w + 60.0, 0.0),
+            ],
+        );
+        l.links = vec![crate::LinkSpec::to("far")];
+        let far = RoadSpec::through(
+            "far",
+            2,
+            100.0,
+            &[
+                DVec3::new(600.0, 0.5 * w + 60.0, 0.0),
+                DVec3::new(900.0, 0.5 * w + 60.0, 0.0),
+            ],
+        );
+        vec![a, r, l, far]
+    }
+
+    #[test]
+    fn a_split_leads_each_lane_onto_its_branch() {
+        let mut specs = split();
+        // `r` does not end where `far` starts: drop its link for this test.
+        specs[1].next = None;
+        let net = RoadNetwork::build(&specs).expect("valid split");
+        let (a, r, l) = (RoadId(0), RoadId(1), RoadId(2));
+        assert_eq!(net.links(a).len(), 2);
+        assert_eq!(net.lane_next(a, 0, None), Some((r, 0)));
+        assert_eq!(net.lane_next(a, 2, None), Some((l, 1)));
+        // A preferred branch the lane does not lead to is not taken.
+        assert_eq!(net.lane_next(a, 0, Some(l)), Some((r, 0)));
+        assert_eq!(net.lane_prev(l, 0), &[(a, 1)]);
+        assert_eq!(net.lane_prev(r, 0), &[(a, 0)]);
+        // Lanes reach as far as the route allows: only lane 0 carries on to `r`.
+        let reach = net.lane_reach(&[a, r]);
+        assert_eq!(reach[0], f64::INFINITY);
+        assert!((reach[1] - 400.0).abs() < 1e-6 && (reach[2] - 400.0).abs() < 1e-6);
+        let reach = net.lane_reach(&[a, l, RoadId(3)]);
+        assert!((reach[0] - 400.0).abs() < 1e-6);
+        assert_eq!(reach[1], f64::INFINITY);
+        // Without a next road every lane reaches on.
+        assert!(net.lane_reach(&[a]).iter().all(|r| r.is_infinite()));
+    }
+
+    #[test]
+    fn the_shortest_path_is_the_quickest_at_free_flow() {
+        let mut specs = split();
+        specs[1].points[1].pos = DVec3::new(600.0, 0.5 * crate::DEFAULT_LANE_WIDTH_M + 60.0, 0.0);
+        let net = RoadNetwork::build(&specs).expect("valid roads");
+        let (a, r, l, far) = (RoadId(0), RoadId(1), RoadId(2), RoadId(3));
+        // Both branches are about as long, and `l` is faster.
+        assert_eq!(net.shortest_path(a, far), Some(vec![a, l, far]));
+        specs[2].speed_limit_kmh = 30.0;
+        let net = RoadNetwork::build(&specs).expect("valid roads");
+        assert_eq!(net.shortest_path(a, far), Some(vec![a, r, far]));
+        assert_eq!(net.shortest_path(far, a), None);
+        assert_eq!(net.shortest_path(a, a), Some(vec![a]));
+    }
+
+    #[test]
+    fn links_are_checked_lane_by_lane() {
+        let mut specs = split();
+        specs[1].next = None;
+        specs[0].links[1].lanes = vec![(1, 0), (2, 2)];
+        assert!(matches!(
+            RoadNetwork::build(&specs),
+            Err(NetworkError::LinkLane {
+                to_lane: 2,
+                lanes: 2,
+                ..
+            })
+        ));
+        specs[0].links[1].lanes = vec![(0, 1), (2, 1)];
+        let e = RoadNetwork::build(&specs).expect_err("lane 0 is 4.5 m from lane 1 of l");
+        assert!(
+            matches!(
+                e,
+                NetworkError::LaneGap {
+                    from_lane: 0,
+                    to_lane: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        specs[0].links[1].lanes = vec![(1, 0)];
+        specs[0].links.push(crate::LinkSpec::to("l"));
+        assert!(matches!(
+            RoadNetwork::build(&specs),
+            Err(NetworkError::DuplicateLink { .. })
+        ));
     }
 }

@@ -65,9 +65,14 @@ pub struct RoadSpec {
     pub lane_width_m: f64,
     /// Speed limit in km/h.
     pub speed_limit_kmh: f64,
-    /// Name of the road that traffic continues onto at this road's end (open roads only).
+    /// Name of the road that traffic continues onto at this road's end (open roads only): the
+    /// same as one entry in `links` that maps its lanes by position.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub next: Option<String>,
+    /// Roads that traffic continues onto at this road's end, lane by lane (open roads only).
+    /// Several entries make a split; several roads linking onto one make a merge.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<LinkSpec>,
     /// Control points in driving order; at least 2 (3 for a closed loop).
     pub points: Vec<ControlPoint>,
 }
@@ -82,6 +87,7 @@ impl RoadSpec {
             lane_width_m: DEFAULT_LANE_WIDTH_M,
             speed_limit_kmh,
             next: None,
+            links: Vec::new(),
             points: points.iter().copied().map(ControlPoint::at).collect(),
         }
     }
@@ -106,6 +112,15 @@ impl RoadSpec {
             closed: true,
             ..RoadSpec::through(name, lanes, speed_limit_kmh, &points)
         }
+    }
+
+    /// Every link at this road's end: `next` (as a link by lane position) first, then `links`.
+    pub fn outgoing(&self) -> Vec<LinkSpec> {
+        self.next
+            .iter()
+            .map(|n| LinkSpec::to(n))
+            .chain(self.links.iter().cloned())
+            .collect()
     }
 
     /// Width of the road at control point `i`, in metres.
@@ -137,4 +152,37 @@ fn is_zero(x: &f64) -> bool {
 }
 fn is_default_lane_width(x: &f64) -> bool {
     *x == DEFAULT_LANE_WIDTH_M
+}
+
+/// Where traffic goes at a road's end: onto the start of road `to`, from each lane to a lane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkSpec {
+    /// Name of the road it leads onto.
+    pub to: String,
+    /// `(lane here, lane there)` pairs. Empty maps lanes by position: lane `i` onto lane `i`, and
+    /// any lane beyond the other road's onto its leftmost (lanes merge).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lanes: Vec<(u32, u32)>,
+}
+
+impl LinkSpec {
+    /// A link onto `to` mapping lanes by position.
+    pub fn to(to: &str) -> LinkSpec {
+        LinkSpec {
+            to: to.to_owned(),
+            lanes: Vec::new(),
+        }
+    }
+
+    /// The lane pairs of this link between a road of `from_lanes` and one of `to_lanes` lanes.
+    pub fn lane_pairs(&self, from_lanes: u32, to_lanes: u32) -> Vec<(u32, u32)> {
+        if self.lanes.is_empty() {
+            (0..from_lanes)
+                .map(|l| (l, l.min(to_lanes.saturating_sub(1))))
+                .collect()
+        } else {
+            self.lanes.clone()
+        }
+    }
 }

@@ -60,7 +60,7 @@ pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
             got: spec.speed_limit_kmh,
         });
     }
-    if spec.closed && spec.next.is_some() {
+    if spec.closed && (spec.next.is_some() || !spec.links.is_empty()) {
         return Err(RoadError::ClosedWithNext { road: name() });
     }
     for (i, p) in spec.points.iter().enumerate() {

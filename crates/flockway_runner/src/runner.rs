@@ -294,6 +294,7 @@ impl Runner {
                     gear: i32::from(r.gear),
                     rpm: f64::from(r.rpm),
                     model: r.model.to_string(),
+                    route: r.route.to_string(),
                 })
                 .collect();
             // Kept as the CSV writes them, so analysing the run or its CSV agrees.

@@ -3,6 +3,7 @@
 
 use flockway_analysis::{ExpectationResult, Summary, Trace, WaveSettings, measure_wave};
 use flockway_core::{RunStats, Sim, TICKS_PER_SECOND};
+use flockway_drivers::RouteStats;
 use flockway_level::{Expectation, Level, Metric};
 use flockway_road::RoadNetwork;
 use flockway_traffic::{TelemetrySettings, TrafficStats};
@@ -86,6 +87,23 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
     if let Some(v) = traffic.mean_travel_time_s() {
         put(Metric::MeanTravelTimeS.key(), v);
     }
+    if let Some(v) = traffic.delay.mean_s() {
+        put(Metric::MeanDelayS.key(), v);
+    }
+    for (profile, d) in &traffic.delay_by_profile {
+        if let Some(v) = d.mean_s() {
+            put(Metric::MeanDelayS.key_for(profile), v);
+        }
+    }
+    let routes = world.resource::<RouteStats>();
+    put(Metric::MissedExits.key(), routes.missed_exits as f64);
+    for profile in &level.driver_profiles {
+        let n = routes.missed_by_profile.get(&profile.name);
+        put(
+            Metric::MissedExits.key_for(&profile.name),
+            n.copied().unwrap_or(0) as f64,
+        );
+    }
     // Flow through each destroyer over the measured part of the run.
     let measured_s =
         (ticks.saturating_sub(settings.stats_from_tick)) as f64 / f64::from(TICKS_PER_SECOND);
@@ -139,6 +157,7 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
             .filter_map(|(k, v)| Some((k.strip_prefix(&flow_prefix)?.to_owned(), *v)))
             .collect(),
         level: name.to_owned(),
+        mean_delay_s: get(Metric::MeanDelayS),
         mean_speed_kmh: get(Metric::MeanSpeedKmh),
         mean_travel_time_s: get(Metric::MeanTravelTimeS),
         realtime_factor: if wall_seconds > 0.0 {
@@ -159,6 +178,7 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
         wave_detected: get(Metric::WaveDetected).map(|v| v != 0.0),
         wave_period_s: get(Metric::WavePeriodS),
         wave_speed_kmh: get(Metric::WaveSpeedKmh),
+        missed_exits: get(Metric::MissedExits),
         metrics,
     }
 }

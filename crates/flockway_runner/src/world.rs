@@ -6,8 +6,8 @@ use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
 use flockway_road::{Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
-    Destroyer, DestroyerPlace, SpawnChoice, Spawner, TelemetrySettings, TrafficPlugin, Trigger,
-    TriggerEffect, spawn_driven,
+    Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner, TelemetrySettings, TrafficPlugin,
+    Trigger, TriggerEffect, spawn_driven,
 };
 use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
 use std::collections::BTreeMap;
@@ -29,6 +29,47 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     }
     sim.prepare().map_err(RunError::Schedule)?;
     Ok(sim)
+}
+
+/// The routes a spawner's vehicles take: its routes resolved to road ids (the spawner's road
+/// first), or the quickest path to its destination.
+fn spawn_routes(
+    sp: &flockway_level::SpawnerSpec,
+    network: &RoadNetwork,
+) -> Result<Vec<SpawnRoute>, String> {
+    let id = |name: &str| {
+        network
+            .id(name)
+            .ok_or_else(|| format!("spawner `{}`: unknown road `{name}`", sp.name))
+    };
+    let start = id(&sp.road)?;
+    let mut routes = Vec::new();
+    for r in &sp.routes {
+        let mut roads = vec![start];
+        for name in &r.roads {
+            let road = id(name)?;
+            if roads.len() == 1 && road == start {
+                continue;
+            }
+            roads.push(road);
+        }
+        routes.push(SpawnRoute {
+            name: Arc::from(r.name.as_str()),
+            roads,
+            weight: r.weight,
+        });
+    }
+    if let Some(dest) = &sp.destination {
+        let roads = network
+            .shortest_path(start, id(dest)?)
+            .ok_or_else(|| format!("spawner `{}`: road `{dest}` cannot be reached", sp.name))?;
+        routes.push(SpawnRoute {
+            name: Arc::from(dest.as_str()),
+            roads,
+            weight: 1.0,
+        });
+    }
+    Ok(routes)
 }
 
 /// Puts a level's traffic into a world built by [`build_sim`]: telemetry settings, spawners,
@@ -96,6 +137,19 @@ pub fn populate(
             sp.active,
             sp.max_vehicles,
             streams.stream(StableId::new(IdKind::Spawner, i as u32)),
+        )
+        .with_routes(spawn_routes(sp, &network).map_err(fail)?)
+        .with_schedule(
+            sp.schedule
+                .iter()
+                .map(|step| {
+                    (
+                        ticks_of(step.from_s),
+                        step.interval_s.min,
+                        step.interval_s.max,
+                    )
+                })
+                .collect(),
         );
         world.spawn((spawner, StableId::new(IdKind::Spawner, i as u32)));
     }

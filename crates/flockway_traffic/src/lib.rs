@@ -11,11 +11,12 @@ mod stats;
 mod zones;
 
 pub use spawn::{
-    SpawnChoice, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners, spawn_driven,
+    SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
+    spawn_driven,
 };
 pub use stats::{
-    AT_LIMIT_SHARE, LimitShare, SpeedStats, TelemetrySample, TelemetrySamples, TelemetrySettings,
-    TrafficStats, sample_telemetry,
+    AT_LIMIT_SHARE, DelayStats, LimitShare, SpeedStats, TelemetrySample, TelemetrySamples,
+    TelemetrySettings, TrafficStats, sample_telemetry,
 };
 pub use zones::{
     Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,

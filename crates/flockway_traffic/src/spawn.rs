@@ -4,7 +4,7 @@ use crate::stats::TrafficStats;
 use crate::zones::Travel;
 use bevy_ecs::prelude::*;
 use flockway_core::{EntityRng, IdKind, RngStreams, SimClock, StableId, TICKS_PER_SECOND};
-use flockway_drivers::{DriverLabel, DriverSpec, LaneIndex};
+use flockway_drivers::{DriverLabel, DriverSpec, LaneIndex, LaneSignal, Route};
 use flockway_road::{RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{SpawnError, VehicleSpawn, VehicleType, spawn_vehicle};
 use std::sync::Arc;
@@ -42,8 +42,20 @@ pub struct SpawnChoice {
     pub driver: DriverSpec,
 }
 
+/// One route a spawner gives its vehicles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpawnRoute {
+    /// Name (the telemetry's `route` column).
+    pub name: Arc<str>,
+    /// Roads in driving order, the spawner's road first.
+    pub roads: Vec<RoadId>,
+    /// Relative probability.
+    pub weight: f64,
+}
+
 /// Spawns a vehicle every T seconds (T uniform in an interval, from its own random stream) on a
-/// road and lane, choosing a profile by weight; waits while the spot is occupied.
+/// road and lane, choosing a profile by weight (and a route by weight, if it has several);
+/// waits while the spot is occupied.
 #[derive(Component, Debug, Clone)]
 pub struct Spawner {
     /// Name (for the HUD and errors).
@@ -68,6 +80,10 @@ pub struct Spawner {
     pub max_vehicles: Option<u32>,
     /// How many it has spawned.
     pub spawned: u32,
+    /// The routes its vehicles take; empty: they follow their lanes' links.
+    pub routes: Vec<SpawnRoute>,
+    /// Demand steps: `(from tick, shortest interval s, longest interval s)`, in time order.
+    pub schedule: Vec<(u64, f64, f64)>,
     /// Ticks it has spent waiting for its spot to clear.
     pub waited_ticks: u64,
     next_due: Option<u64>,
@@ -101,14 +117,41 @@ impl Spawner {
             active,
             max_vehicles,
             spawned: 0,
+            routes: Vec::new(),
+            schedule: Vec::new(),
             waited_ticks: 0,
             next_due: None,
             rng,
         }
     }
 
-    fn draw_interval_ticks(&mut self) -> u64 {
-        let (lo, hi) = (self.interval_min_s.max(0.0), self.interval_max_s.max(0.0));
+    /// Gives its vehicles these routes.
+    pub fn with_routes(mut self, routes: Vec<SpawnRoute>) -> Spawner {
+        self.routes = routes;
+        self
+    }
+
+    /// Changes its interval at these ticks: `(from tick, shortest s, longest s)`.
+    pub fn with_schedule(mut self, mut schedule: Vec<(u64, f64, f64)>) -> Spawner {
+        schedule.sort_by_key(|step| step.0);
+        self.schedule = schedule;
+        self
+    }
+
+    /// The interval range at `tick`, s.
+    fn interval_at(&self, tick: u64) -> (f64, f64) {
+        self.schedule
+            .iter()
+            .rev()
+            .find(|step| step.0 <= tick)
+            .map_or((self.interval_min_s, self.interval_max_s), |step| {
+                (step.1, step.2)
+            })
+    }
+
+    fn draw_interval_ticks(&mut self, tick: u64) -> u64 {
+        let (lo, hi) = self.interval_at(tick);
+        let (lo, hi) = (lo.max(0.0), hi.max(0.0));
         let s = if hi > lo {
             self.rng.uniform(lo, hi)
         } else {
@@ -148,7 +191,7 @@ pub fn run_spawners(
         let due = match sp.next_due {
             Some(t) => t,
             None => {
-                let first = tick + sp.draw_interval_ticks();
+                let first = tick + sp.draw_interval_ticks(tick);
                 sp.next_due = Some(first);
                 first
             }
@@ -182,22 +225,39 @@ pub fn run_spawners(
             .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
         let c = sp.choices[choice].clone();
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
+        // A route is drawn only when there is a choice, so a spawner's stream stays as it was
+        // for levels without routes.
+        let route = match sp.routes.len() {
+            0 => None,
+            1 => Some(0),
+            _ => {
+                let weights: Vec<f64> = sp.routes.iter().map(|r| r.weight).collect();
+                sp.rng.weighted_index(&weights)
+            }
+        }
+        .map(|k| Route::along(sp.routes[k].name.clone(), sp.routes[k].roads.clone()));
         commands.queue(move |world: &mut World| {
             let spawn = VehicleSpawn::new(c.vehicle, road, s_m)
                 .lateral(lateral)
                 .speed(speed);
-            if let Err(e) = spawn_driven(world, spawn, &c.driver, lane, c.profile) {
-                tracing::warn!("spawner at {s_m} m: {e}");
+            match spawn_driven(world, spawn, &c.driver, lane, c.profile) {
+                Ok(e) => {
+                    if let Some(route) = route {
+                        world.entity_mut(e).insert(route);
+                    }
+                }
+                Err(e) => tracing::warn!("spawner at {s_m} m: {e}"),
             }
         });
         sp.spawned += 1;
-        let next = tick + sp.draw_interval_ticks();
+        let next = tick + sp.draw_interval_ticks(tick);
         sp.next_due = Some(next);
     }
 }
 
 /// Spawns a driven vehicle: the body, its driver (a human draws its desired speed from the
-/// vehicle's own stream), a fresh [`VehicleId`], its label and travel record. Counts it.
+/// vehicle's own stream), a fresh [`VehicleId`], its label, travel record, lane signal and a
+/// route that follows the road (insert a [`Route`] to give it another). Counts it.
 pub fn spawn_driven(
     world: &mut World,
     spawn: VehicleSpawn,
@@ -221,7 +281,10 @@ pub fn spawn_driven(
             spawned_tick: tick,
             road,
             s_m,
+            free_flow_s: 0.0,
         },
+        Route::follow_road(road),
+        LaneSignal::default(),
     ));
     world.resource_mut::<TrafficStats>().spawned += 1;
     Ok(entity)

@@ -3,7 +3,7 @@
 use crate::spawn::{SpawnerRate, VehicleId};
 use bevy_ecs::prelude::*;
 use flockway_core::SimClock;
-use flockway_drivers::DriverLabel;
+use flockway_drivers::{DriverLabel, Route};
 use flockway_road::RoadId;
 use flockway_vehicle::{Controls, Motion, RoadTrack, VehicleState};
 use glam::Vec3;
@@ -37,6 +37,8 @@ pub struct TelemetrySample {
     pub driver: Arc<str>,
     /// Driver model.
     pub model: Arc<str>,
+    /// Route name (empty: it follows the road).
+    pub route: Arc<str>,
     /// Road.
     pub road: RoadId,
     /// Lane.
@@ -83,6 +85,11 @@ pub struct TrafficStats {
     pub destroyed_by: BTreeMap<String, u64>,
     /// Travel times of vehicles removed after the warm-up, s.
     pub travel_times_s: Vec<f64>,
+    /// Their delays: travel time above the time the same distance takes at the speed limits in
+    /// force, s; the sum and count over all, and per profile.
+    pub delay: DelayStats,
+    /// The same per driver profile.
+    pub delay_by_profile: BTreeMap<String, DelayStats>,
     /// Speed samples after the warm-up: count, sum and sum of squares (km/h).
     pub speed_samples: u64,
     /// Sum of sampled speeds, km/h.
@@ -99,6 +106,28 @@ pub struct TrafficStats {
     pub final_at_limit: LimitShare,
     /// The same per driver profile.
     pub final_at_limit_by_profile: BTreeMap<String, LimitShare>,
+}
+
+/// Sum and count of vehicles' delays, s.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DelayStats {
+    /// Vehicles counted.
+    pub n: u64,
+    /// Sum of their delays, s.
+    pub sum_s: f64,
+}
+
+impl DelayStats {
+    /// Counts one vehicle's delay.
+    pub fn add(&mut self, delay_s: f64) {
+        self.n += 1;
+        self.sum_s += delay_s;
+    }
+
+    /// Mean delay, s.
+    pub fn mean_s(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.sum_s / self.n as f64)
+    }
 }
 
 /// Of the vehicles counted, how many reached their speed limit.
@@ -196,6 +225,7 @@ pub fn sample_telemetry(
         &Controls,
         &VehicleState,
         Option<&DriverLabel>,
+        Option<&Route>,
     )>,
 ) {
     let tick = clock.tick().0;
@@ -209,10 +239,11 @@ pub fn sample_telemetry(
     let mut rows: Vec<TelemetrySample> = vehicles
         .iter()
         .map(
-            |(id, track, motion, controls, state, label)| TelemetrySample {
+            |(id, track, motion, controls, state, label, route)| TelemetrySample {
                 vehicle_id: id.0,
                 driver: label.map_or_else(|| Arc::from("none"), |l| l.profile.clone()),
                 model: label.map_or_else(|| Arc::from("none"), |l| l.model.clone()),
+                route: route.map_or_else(|| Arc::from(""), |r| r.name.clone()),
                 road: track.road,
                 lane: track.lane,
                 s_m: track.s_m,

@@ -45,6 +45,8 @@ pub struct Travel {
     pub road: RoadId,
     /// Arc position last tick, m.
     pub s_m: f64,
+    /// Time the distance it drove so far takes at the speed limits in force, s.
+    pub free_flow_s: f64,
 }
 
 /// What a trigger does to vehicles in it.
@@ -248,9 +250,17 @@ pub fn run_destroyers(
             stats.destroyed += 1;
             if tick >= settings.stats_from_tick {
                 *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
-                stats
-                    .travel_times_s
-                    .push((tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND));
+                let time_s = (tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND);
+                stats.travel_times_s.push(time_s);
+                let delay_s = (time_s - travel.free_flow_s).max(0.0);
+                stats.delay.add(delay_s);
+                if let Some(l) = label {
+                    stats
+                        .delay_by_profile
+                        .entry(l.profile.to_string())
+                        .or_default()
+                        .add(delay_s);
+                }
                 let kmh = f64::from(motion.forward_mps) * 3.6;
                 stats.final_speed.add(kmh);
                 let limit_kmh = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh));
@@ -270,6 +280,22 @@ pub fn run_destroyers(
             }
             commands.entity(entity).despawn();
         } else {
+            // The distance driven since last tick, at the limit in force, adds to the free-flow
+            // time.
+            let moved = if travel.road == track.road {
+                network
+                    .get(track.road)
+                    .map_or(0.0, |g| g.delta_s(travel.s_m, track.s_m))
+            } else {
+                network
+                    .get(travel.road)
+                    .map_or(0.0, |g| (g.length_m() - travel.s_m).max(0.0))
+                    + track.s_m
+            };
+            let limit_mps = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh)) / 3.6;
+            if moved > 0.0 && limit_mps > 0.0 {
+                travel.free_flow_s += moved / limit_mps;
+            }
             travel.road = track.road;
             travel.s_m = track.s_m;
         }

@@ -298,6 +298,9 @@ pub struct RoadTrack {
     pub width_m: f32,
     /// Speed along the road direction, m/s (negative going backwards).
     pub speed_along_mps: f32,
+    /// The road it means to take at this road's end (its route's next road), if it has a
+    /// choice; otherwise it follows its lane's link.
+    pub next_road: Option<RoadId>,
     pub(crate) cursor: RoadCursor,
 }
 
@@ -316,6 +319,7 @@ impl RoadTrack {
             left: frame.left.as_vec3(),
             width_m: frame.width_m as f32,
             speed_along_mps: 0.0,
+            next_road: None,
             cursor: geometry.cursor_at(s_m),
         }
     }

@@ -177,7 +177,8 @@ pub fn sync_vehicles(
 }
 
 /// Updates a road track for a new position: follows the current road with its cursor, moves on
-/// to the next road past the end of an open one, and searches the network when off every road.
+/// past the end of an open road along its lane's link (to the track's `next_road` where the lane
+/// leads there), and searches the network when off every road.
 pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forward: Vec3) {
     let Some(geometry) = network.get(track.road) else {
         track.on_road = false;
@@ -186,7 +187,13 @@ pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forw
     let (mut proj, mut frame) = geometry.project_tracked_frame(pos, &mut track.cursor);
     if !geometry.is_closed()
         && proj.s_m >= geometry.length_m() - 1.0e-6
-        && let Some(next) = network.next(track.road)
+        && let Some(next) = network
+            .lane_next(track.road, track.lane, track.next_road)
+            .map(|(road, _)| road)
+            .or(track
+                .next_road
+                .filter(|r| network.link(track.road, *r).is_some()))
+            .or_else(|| network.next(track.road))
         && let Some(g2) = network.get(next)
     {
         let mut cursor = g2.cursor_at(0.0);
