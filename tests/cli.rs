@@ -216,7 +216,7 @@ fn runs_are_byte_identical_and_summaries_keep_their_contract() {
             level.display()
         );
         let header = String::from_utf8(csv_a.clone()).expect("utf-8");
-        assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm,model\n"));
+        assert!(header.starts_with("time_s,vehicle_id,driver,road,lane,s_m,x_m,y_m,z_m,speed_kmh,accel_mps2,throttle,steering,gear,rpm,model,route\n"));
         // It parses as CSV, has rows, and every sample time is a whole multiple of the period.
         let mut reader = csv::Reader::from_reader(csv_a.as_slice());
         let mut rows = 0;
