@@ -761,26 +761,22 @@ fn flock_decide(
         let urgency = wanted.map_or(1.0, |(_, left)| lane_change_urgency(left));
         let gap_s = driver.params.lane_change_gap_s * urgency;
         let cross_s = crossing_s(track, lanes, driver.params.max_lateral_mps);
-        let room = wanted.is_none_or(|(_, left)| left >= crossing_m(v, cross_s, length));
-        if room
-            && lane_gap_accepted(index, track, me, next, v, length, gap_s)
-            && !lane_claimed(index, track, next, step as i8, v, length, gap_s, lanes)
-        {
+        let change = LaneChange {
+            lane: next,
+            dir: step as i8,
+            lanes,
+            gap_s,
+            left_m: wanted.map(|(_, left)| left),
+            cross_s,
+        };
+        if change.accepted(index, track, me, v, length) {
             driver.lane = next;
         } else {
             signal_dir = step as i8;
         }
     }
-    // Still over its old lane while it moves across: it shows that it is crossing.
-    let crossing_dir = if driver.keep_lane && track.lane != driver.lane && signal_dir == 0 {
-        if driver.lane > track.lane { 2 } else { -2 }
-    } else {
-        signal_dir
-    };
-    if let Some(mut signal) = signal
-        && signal.0 != crossing_dir
-    {
-        signal.0 = crossing_dir;
+    if driver.keep_lane {
+        show_signal(signal, signal_dir, driver.lane, track.lane);
     }
     let lane = driver.lane.min(lanes - 1);
     let p = &driver.params;
@@ -933,6 +929,57 @@ fn crossing_s(track: &RoadTrack, lanes: u32, max_lateral_mps: f32) -> f32 {
     track.width_m / lanes.max(1) as f32 / (0.7 * max_lateral_mps.max(0.1))
 }
 
+/// A lane change one lane over that a driver wants to make now.
+struct LaneChange {
+    /// The lane it moves into.
+    lane: u32,
+    /// +1 left, -1 right.
+    dir: i8,
+    /// Lanes of the road.
+    lanes: u32,
+    /// The time gap it wants ahead and behind, s.
+    gap_s: f32,
+    /// What is left of its lane, m, when it must leave it (`None`: a change by choice).
+    left_m: Option<f64>,
+    /// How long the crossing takes, s.
+    cross_s: f32,
+}
+
+impl LaneChange {
+    /// Whether it may go now: room to finish before its lane ends, a gap in the target lane,
+    /// and nobody from the far side claiming the lane.
+    fn accepted(
+        &self,
+        index: &LaneIndex,
+        track: &RoadTrack,
+        me: Entity,
+        v: f32,
+        length_m: f32,
+    ) -> bool {
+        self.left_m
+            .is_none_or(|left| left >= crossing_m(v, self.cross_s, length_m))
+            && lane_gap_accepted(index, track, me, self.lane, v, length_m, self.gap_s)
+            && !lane_claimed(
+                index, track, self.lane, self.dir, v, length_m, self.gap_s, self.lanes,
+            )
+    }
+}
+
+/// Shows the others what the driver is doing: `waiting` (±1) for a gap, ±2 while it is still
+/// over its old lane (`on_track`) after moving to `lane`, 0 otherwise. Writes only on change.
+fn show_signal(signal: Option<Mut<LaneSignal>>, waiting: i8, lane: u32, on_track: u32) {
+    let shown = if waiting == 0 && on_track != lane {
+        if lane > on_track { 2 } else { -2 }
+    } else {
+        waiting
+    };
+    if let Some(mut signal) = signal
+        && signal.0 != shown
+    {
+        signal.0 = shown;
+    }
+}
+
 /// Whether a car on the far side of `lane` (moving the other way, `-dir`) claims it near this
 /// one: one already crossing into it always does; one waiting to does when this car moves left
 /// (`dir` +1), so two cars waiting for the same lane from both sides never both go, nor both wait.
@@ -1024,7 +1071,7 @@ fn courtesy_speed_mps(
     (decel_mps2, gap_s): (f32, f32),
     seen: &mut Vec<Seen>,
 ) -> f32 {
-    if lanes < 2 {
+    if lanes < 2 || !index.any_signal() {
         return f32::INFINITY;
     }
     seen.clear();
@@ -1150,27 +1197,21 @@ pub fn drive_idm(
         {
             let next = (i64::from(driver.lane.min(lanes - 1)) + i64::from(dir))
                 .clamp(0, i64::from(lanes) - 1) as u32;
-            let gap_s = driver.params.lane_change_gap_s * lane_change_urgency(left);
-            let cross_s = crossing_s(track, lanes, driver.params.max_lateral_mps);
-            if left >= crossing_m(v, cross_s, length)
-                && lane_gap_accepted(&index, track, me, next, v, length, gap_s)
-                && !lane_claimed(&index, track, next, dir, v, length, gap_s, lanes)
-            {
+            let change = LaneChange {
+                lane: next,
+                dir,
+                lanes,
+                gap_s: driver.params.lane_change_gap_s * lane_change_urgency(left),
+                left_m: Some(left),
+                cross_s: crossing_s(track, lanes, driver.params.max_lateral_mps),
+            };
+            if change.accepted(&index, track, me, v, length) {
                 driver.lane = next;
             } else {
                 signal_dir = dir;
             }
         }
-        let shown = if track.lane != driver.lane.min(lanes - 1) && signal_dir == 0 {
-            if driver.lane > track.lane { 2 } else { -2 }
-        } else {
-            signal_dir
-        };
-        if let Some(mut signal) = signal
-            && signal.0 != shown
-        {
-            signal.0 = shown;
-        }
+        show_signal(signal, signal_dir, driver.lane.min(lanes - 1), track.lane);
         let p = &driver.params;
         let lane = driver.lane.min(lanes - 1);
         let (v0, _) = desired_speed_mps(

@@ -68,6 +68,8 @@ const MAX_HOPS: usize = 8;
 pub struct LaneIndex {
     roads: BTreeMap<RoadId, RoadLanes>,
     vehicles: usize,
+    /// Vehicles signalling a lane change.
+    signalling: usize,
 }
 
 impl LaneIndex {
@@ -81,6 +83,7 @@ impl LaneIndex {
         for road in self.roads.values_mut() {
             road.lanes.iter_mut().for_each(Vec::clear);
         }
+        self.signalling = 0;
         self.roads.retain(|id, _| network.get(*id).is_some());
         for (id, g) in network.iter() {
             let road = self.roads.entry(id).or_default();
@@ -110,6 +113,7 @@ impl LaneIndex {
             let Some(lane) = road.lanes.get_mut(track.lane as usize) else {
                 continue;
             };
+            self.signalling += usize::from(signal != 0);
             lane.push(LaneEntry {
                 entity,
                 s_m: track.s_m,
@@ -143,6 +147,12 @@ impl LaneIndex {
             .get(&road)
             .and_then(|r| r.lanes.get(lane as usize))
             .map_or(&[], Vec::as_slice)
+    }
+
+    /// Whether any vehicle signals a lane change (so a driver can skip looking for one to make
+    /// room for).
+    pub fn any_signal(&self) -> bool {
+        self.signalling > 0
     }
 
     /// Number of lanes of a road in the index.
