@@ -34,7 +34,8 @@ pub use models::{
 pub use perception::{LaneEntry, LaneIndex, LaneSignal, Seen, rebuild_lane_index};
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
 pub use route::{
-    LANE_CHANGE_AHEAD_M, LANE_CHANGE_AHEAD_S, LANE_END_MARGIN_M, Route, RouteStats, follow_routes,
+    LANE_CHANGE_AHEAD_M, LANE_CHANGE_AHEAD_S, LANE_CHANGE_LEAST_GAP, LANE_END_MARGIN_M, LaneAsk,
+    Route, RouteStats, follow_routes,
 };
 
 use bevy_ecs::prelude::*;

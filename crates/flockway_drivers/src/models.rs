@@ -4,7 +4,7 @@ use crate::ahead::{ReadsRoad, RoadAhead, RoadAheadParams};
 use crate::control::{DriveTarget, PidGains};
 use crate::perception::LaneSignal;
 use crate::perception::{LaneIndex, Seen};
-use crate::route::{LANE_CHANGE_AHEAD_M, LANE_END_MARGIN_M, Route};
+use crate::route::{LANE_CHANGE_LEAST_GAP, LANE_END_MARGIN_M, Route};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
@@ -745,28 +745,30 @@ fn flock_decide(
     }
 
     // The route asks for a lane in good time before its lane ends or leads elsewhere.
-    let wanted = route.and_then(|r| r.lane_change(driver.lane, track.s_m, v));
+    // The window opens by the limit's speed as well, so slowing while waiting does not close it.
+    let window_mps = v.max(desired.0.kmh / 3.6);
+    let wanted = route.and_then(|r| r.lane_change(driver.lane, track.s_m, window_mps));
     if driver.keep_lane
-        && let Some((dir, _)) = wanted
+        && let Some(ask) = wanted
     {
         driver.target_lane =
-            (i64::from(driver.lane) + i64::from(dir)).clamp(0, i64::from(lanes) - 1) as u32;
+            (i64::from(driver.lane) + i64::from(ask.dir)).clamp(0, i64::from(lanes) - 1) as u32;
     }
     // A lane change waits for room in the target lane: a time gap ahead and behind.
     let target_lane = driver.target_lane.min(lanes - 1);
     let mut signal_dir = 0;
+    let mut gap_s = driver.params.lane_change_gap_s;
     if driver.keep_lane && target_lane != driver.lane {
         let step = if target_lane > driver.lane { 1 } else { -1 };
         let next = (driver.lane as i64 + step) as u32;
-        let urgency = wanted.map_or(1.0, |(_, left)| lane_change_urgency(left));
-        let gap_s = driver.params.lane_change_gap_s * urgency;
+        gap_s *= wanted.map_or(1.0, |ask| ask.urgency());
         let cross_s = crossing_s(track, lanes, driver.params.max_lateral_mps);
         let change = LaneChange {
             lane: next,
             dir: step as i8,
             lanes,
             gap_s,
-            left_m: wanted.map(|(_, left)| left),
+            left_m: wanted.map(|ask| ask.left_m),
             cross_s,
         };
         if change.accepted(index, track, me, v, length) {
@@ -869,17 +871,18 @@ fn flock_decide(
         }
     }
     if signal_dir != 0 {
-        // Waiting to move over: fall in behind the car ahead in the target lane.
+        // Waiting to move over: line up with a gap in the target lane.
         let next = (i64::from(lane) + i64::from(signal_dir)) as u32;
-        decided.speed_mps = decided.speed_mps.min(merge_speed_mps(
-            index,
-            track,
-            me,
-            next,
-            v,
-            length,
-            p.lane_change_gap_s,
-        ));
+        // Free: nothing in its own lane holds it below the speed it wants.
+        let free = decided.speed_mps >= v_target - 0.5;
+        match merge_speed(index, track, me, next, v, length, gap_s, free) {
+            MergeSpeed::Cap(c) => decided.speed_mps = decided.speed_mps.min(c),
+            MergeSpeed::Pull(pull) => {
+                decided.speed_mps = decided
+                    .speed_mps
+                    .max(pull.min(v_target + MERGE_PULL_MPS).min(cap));
+            }
+        }
     }
     *target = match human {
         // The reaction delay is on the response to traffic (the speed); lane keeping is a
@@ -915,12 +918,6 @@ fn flock_decide(
 
 /// Braking towards the end of a lane that ends, m/s²: firm but not an emergency.
 pub const LANE_END_DECEL_MPS2: f32 = 2.5;
-
-/// How much of its usual lane-change gap a driver insists on with `left_m` metres of its lane
-/// left: all of it far from the end, down to 0.7 of it close to it.
-fn lane_change_urgency(left_m: f64) -> f32 {
-    (left_m / LANE_CHANGE_AHEAD_M).clamp(0.7, 1.0) as f32
-}
 
 /// Time a car takes to move over one lane, s: the pull towards the new lane's centre eases as
 /// it nears it, and the car turns in with a lag, so it crosses at about 0.7 of its largest
@@ -1060,7 +1057,8 @@ const COURTESY_RANGE_M: f64 = 80.0;
 
 /// The speed that makes room for the nearest car ahead in a lane either side that signals into
 /// `lane`: its speed, plus closing the bumper gap beyond what the merging car needs behind it
-/// (half the lane-change time gap `gap_s` at this speed, and 3 m) over 1.5 s, braking at most
+/// (the least of the lane-change time gap `gap_s` it would accept, [`LANE_CHANGE_LEAST_GAP`] of
+/// it, at this speed, and 3 m) over 1.5 s, braking at most
 /// `decel_mps2` below `v`. `INFINITY` when nobody signals.
 fn courtesy_speed_mps(
     index: &LaneIndex,
@@ -1114,15 +1112,45 @@ fn courtesy_speed_mps(
         return f32::INFINITY;
     };
     let bumper = bumper(m);
-    let needed = 0.5 * gap_s * v.max(0.0) + 3.0;
+    let needed = LANE_CHANGE_LEAST_GAP * gap_s * v.max(0.0) + 3.0;
     (m.entry.speed_mps + (bumper - needed) / 1.5).max(v - decel_mps2)
 }
 
-/// The speed at which a car waiting to change into `lane` falls in behind the nearest car ahead
-/// of it there, with the bumper gap its gap acceptance wants ahead (half the time gap `gap_s`
-/// at its speed, and 3 m), closed over 2 s, slowing by at most 2.5 m/s per second. `INFINITY`
-/// with nobody ahead within 100 m.
-fn merge_speed_mps(
+/// How much faster than it would like a car waiting to change lane may go to pull ahead of a
+/// car alongside in the target lane, m/s.
+const MERGE_PULL_MPS: f32 = 2.5;
+
+/// How far below its speed a car waiting to change lane sets its target at most, m/s: the speed
+/// controllers (about 0.5 of full braking per m/s of error) then slow it at about 2.5 m/s², not
+/// in an emergency stop that would catch out the driver behind.
+const MERGE_SLOW_MPS: f32 = 0.5;
+
+/// What a car waiting to change lane does with its speed to line up with a gap.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum MergeSpeed {
+    /// Go no faster than this: fall in behind a car in the target lane.
+    Cap(f32),
+    /// Speed up to this (if nothing in its own lane holds it back): pull ahead of a car alongside.
+    Pull(f32),
+}
+
+/// How a car of `length_m` at `v` waiting to change into `lane` lines up with a gap there, as
+/// its gap acceptance (time gap `gap_s`) will judge it, never setting its target more than
+/// [`MERGE_SLOW_MPS`] below its speed nor speeding up while something in its own lane holds it
+/// back (`free` false):
+/// - a gap between the cars ahead and behind there that is big enough: it moves to where the
+///   gap leaves as much to spare ahead of it as behind, at the gap's speed;
+/// - a car alongside or just behind that leaves too little room behind: it pulls ahead of it
+///   when that is the shorter way (always when it is wholly ahead of it already: the other's
+///   courtesy makes room for that) and the car ahead leaves room; it drops back behind it
+///   otherwise;
+/// - else it falls in behind the car ahead there, with half its time gap and 3 m between
+///   bumpers, closed over 2 s.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the query's coordinates and the driver's"
+)]
+fn merge_speed(
     index: &LaneIndex,
     track: &RoadTrack,
     me: Entity,
@@ -1130,14 +1158,53 @@ fn merge_speed_mps(
     v: f32,
     length_m: f32,
     gap_s: f32,
-) -> f32 {
-    index
-        .leader(track.road, lane, track.s_m, me, 100.0, track.next_road)
-        .map_or(f32::INFINITY, |l| {
-            let bumper = l.gap_m as f32 - 0.5 * (length_m + l.entry.length_m);
-            let wanted = 0.5 * gap_s * v.max(0.0) + 3.0;
-            (l.entry.speed_mps + (bumper - wanted) / 2.0).max(v - LANE_END_DECEL_MPS2)
-        })
+    free: bool,
+) -> MergeSpeed {
+    let leader = index.leader(track.road, lane, track.s_m, me, 100.0, track.next_road);
+    let follower = index.follower(track.road, lane, track.s_m, me, 60.0);
+    let floor = v - MERGE_SLOW_MPS;
+    let towards = |speed: f32| {
+        if speed < v {
+            MergeSpeed::Cap(speed.max(floor))
+        } else if free {
+            MergeSpeed::Pull(speed)
+        } else {
+            MergeSpeed::Cap(f32::INFINITY)
+        }
+    };
+    // What gap acceptance wants ahead and behind (centre to centre), with 1 m to spare.
+    let need_ahead = |l: &Seen| (1.5 * v - l.entry.speed_mps).max(0.0) * gap_s + length_m + 3.0;
+    let need_behind = |f: &Seen| f.entry.speed_mps.max(0.0) * gap_s + length_m + 3.0;
+    if let (Some(l), Some(f)) = (&leader, &follower) {
+        let spare_ahead = l.gap_m as f32 - need_ahead(l);
+        let spare_behind = -f.gap_m as f32 - need_behind(f);
+        if spare_ahead + spare_behind >= 0.0 {
+            let forward = 0.5 * (spare_ahead - spare_behind);
+            return towards(0.5 * (l.entry.speed_mps + f.entry.speed_mps) + forward / 2.0);
+        }
+    }
+    if let Some(f) = &follower {
+        let ahead_of_it = -f.gap_m as f32;
+        let short = need_behind(f) - ahead_of_it;
+        if short > 0.0 {
+            let behind_it = ahead_of_it + 0.5 * gap_s * v.max(0.0) + length_m + 3.0;
+            let room = leader.as_ref().map_or(f32::INFINITY, |l| {
+                let bumper = l.gap_m as f32 - 0.5 * (length_m + l.entry.length_m);
+                bumper - (0.5 * gap_s * v.max(0.0) + 3.0)
+            });
+            let wholly_ahead = ahead_of_it > 0.5 * (length_m + f.entry.length_m);
+            return if free && room > short && (wholly_ahead || short < behind_it) {
+                MergeSpeed::Pull(f.entry.speed_mps.max(v) + short / 2.0)
+            } else {
+                MergeSpeed::Cap((f.entry.speed_mps - LANE_END_DECEL_MPS2).max(floor))
+            };
+        }
+    }
+    leader.map_or(MergeSpeed::Cap(f32::INFINITY), |l| {
+        let bumper = l.gap_m as f32 - 0.5 * (length_m + l.entry.length_m);
+        let wanted = 0.5 * gap_s * v.max(0.0) + 3.0;
+        MergeSpeed::Cap((l.entry.speed_mps + (bumper - wanted) / 2.0).max(floor))
+    })
 }
 
 /// The IDM acceleration, m/s², for speed `v`, desired speed `v0`, and a leader at bumper gap
@@ -1192,23 +1259,26 @@ pub fn drive_idm(
         }
         // Lane changes only when its route asks, once the gap allows.
         let mut signal_dir = 0;
-        if let Some((dir, left)) =
-            route.and_then(|r| r.lane_change(driver.lane.min(lanes - 1), track.s_m, v))
+        let mut gap_s = driver.params.lane_change_gap_s;
+        let window_mps = v.max(desired.0.kmh / 3.6);
+        if let Some(ask) =
+            route.and_then(|r| r.lane_change(driver.lane.min(lanes - 1), track.s_m, window_mps))
         {
-            let next = (i64::from(driver.lane.min(lanes - 1)) + i64::from(dir))
+            let next = (i64::from(driver.lane.min(lanes - 1)) + i64::from(ask.dir))
                 .clamp(0, i64::from(lanes) - 1) as u32;
+            gap_s *= ask.urgency();
             let change = LaneChange {
                 lane: next,
-                dir,
+                dir: ask.dir,
                 lanes,
-                gap_s: driver.params.lane_change_gap_s * lane_change_urgency(left),
-                left_m: Some(left),
+                gap_s,
+                left_m: Some(ask.left_m),
                 cross_s: crossing_s(track, lanes, driver.params.max_lateral_mps),
             };
             if change.accepted(&index, track, me, v, length) {
                 driver.lane = next;
             } else {
-                signal_dir = dir;
+                signal_dir = ask.dir;
             }
         }
         show_signal(signal, signal_dir, driver.lane.min(lanes - 1), track.lane);
@@ -1266,9 +1336,15 @@ pub fn drive_idm(
         }
         if signal_dir != 0 {
             let next = (i64::from(lane) + i64::from(signal_dir)) as u32;
-            let fall_in = merge_speed_mps(&index, track, me, next, v, length, p.lane_change_gap_s);
-            if fall_in < v {
-                a = a.min((fall_in - v) / p.accel_horizon_s.max(0.1));
+            let horizon = p.accel_horizon_s.max(0.1);
+            // Free: nothing in its own lane holds it back.
+            match merge_speed(&index, track, me, next, v, length, gap_s, a > -0.1) {
+                MergeSpeed::Cap(c) if c < v => a = a.min((c - v) / horizon),
+                MergeSpeed::Pull(pull) => {
+                    let pull = pull.min(v0 + MERGE_PULL_MPS);
+                    a = a.max(((pull - v) / horizon).min(p.max_accel_mps2));
+                }
+                _ => {}
             }
         }
         let speed = (v + a * p.accel_horizon_s).max(0.0);
@@ -1398,5 +1474,67 @@ mod tests {
         // Tick `delay` returns what was decided `delay` ticks before.
         assert_eq!(h.react(t(100.0)).speed_mps, 1.0);
         assert_eq!(h.react(t(101.0)).speed_mps, 2.0);
+    }
+    use crate::perception::fixtures::split_with;
+    use flockway_road::RoadId;
+
+    const APPROACH: RoadId = RoadId(0);
+
+    #[test]
+    fn a_lane_change_waits_for_its_time_gap_ahead_and_behind_in_the_target_lane() {
+        // Me in lane 0 at 500 m, 25 m/s; the target lane 1 holds a car ahead and one behind.
+        let accepted = |ahead: f64, behind: f64, gap_s: f32| {
+            let (_, index, cars) = split_with(&[
+                (APPROACH, 0, 500.0, 25.0),
+                (APPROACH, 1, 500.0 + ahead, 25.0),
+                (APPROACH, 1, 500.0 - behind, 25.0),
+            ]);
+            let (me, track) = &cars[0];
+            lane_gap_accepted(&index, track, *me, 1, 25.0, 4.6, gap_s)
+        };
+        // Ahead: 0.5 s at its speed (closing speed 0) and 6.6 m; behind: 1 s at 25 m/s and 6.6 m.
+        assert!(accepted(20.0, 32.0, 1.0));
+        assert!(!accepted(18.0, 32.0, 1.0));
+        assert!(!accepted(20.0, 31.0, 1.0));
+        // Near its lane's end a driver insists on less.
+        assert!(accepted(16.0, 25.0, LANE_CHANGE_LEAST_GAP));
+        // A car alongside is never a gap.
+        assert!(!accepted(2.0, 200.0, LANE_CHANGE_LEAST_GAP));
+    }
+
+    #[test]
+    fn a_car_waiting_to_change_lane_lines_up_with_a_gap() {
+        let merge = |cars_there: &[(f64, f32)], free: bool| {
+            let mut cars = vec![(APPROACH, 0, 500.0, 25.0)];
+            cars.extend(cars_there.iter().map(|&(s, v)| (APPROACH, 1, s, v)));
+            let (_, index, cars) = split_with(&cars);
+            let (me, track) = &cars[0];
+            merge_speed(&index, track, *me, 1, 25.0, 4.6, 1.0, free)
+        };
+        // A gap big enough, but this car sits too far forward in it: it eases back, never by
+        // more than its gentle step.
+        match merge(&[(530.0, 25.0), (480.0, 25.0)], true) {
+            MergeSpeed::Cap(c) => assert!((c - (25.0 - MERGE_SLOW_MPS)).abs() < 1e-3, "{c}"),
+            other => panic!("{other:?}"),
+        }
+        // Too far back in a big gap: it moves up, if nothing holds it back.
+        assert!(matches!(
+            merge(&[(560.0, 25.0), (460.0, 25.0)], true),
+            MergeSpeed::Pull(p) if p > 25.0
+        ));
+        assert_eq!(
+            merge(&[(560.0, 25.0), (460.0, 25.0)], false),
+            MergeSpeed::Cap(f32::INFINITY)
+        );
+        // A car just behind, nobody ahead: pull ahead of it.
+        assert!(matches!(merge(&[(490.0, 25.0)], true), MergeSpeed::Pull(p) if p > 25.0));
+        // A car alongside with the way ahead blocked: drop back behind it.
+        assert!(matches!(
+            merge(&[(499.0, 25.0), (515.0, 25.0)], true),
+            MergeSpeed::Cap(c) if c < 25.0
+        ));
+        // Only a car ahead: fall in behind it.
+        assert!(matches!(merge(&[(510.0, 25.0)], true), MergeSpeed::Cap(c) if c < 25.0));
+        assert_eq!(merge(&[], true), MergeSpeed::Cap(f32::INFINITY));
     }
 }

@@ -425,8 +425,73 @@ pub fn rebuild_lane_index(
     );
 }
 
+/// Placements for the driver tests.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use super::*;
+    use flockway_road::RoadSpec;
+    use glam::DVec3;
+
+    /// A three-lane `approach` (900 m) splitting into `south` (from lane 0) and the two-lane
+    /// `north` (from lanes 1 and 2), and an index over 4.6 m vehicles at
+    /// `(road, lane, s, speed along the road)`.
+    pub(crate) fn split_with(
+        cars: &[(RoadId, u32, f64, f32)],
+    ) -> (RoadNetwork, LaneIndex, Vec<(Entity, RoadTrack)>) {
+        use flockway_road::LinkSpec;
+        let mut a = RoadSpec::through(
+            "approach",
+            3,
+            100.0,
+            &[DVec3::ZERO, DVec3::new(900.0, 0.0, 0.0)],
+        );
+        a.links = vec![
+            LinkSpec {
+                to: "south".into(),
+                lanes: vec![(0, 0)],
+            },
+            LinkSpec {
+                to: "north".into(),
+                lanes: vec![(1, 0), (2, 1)],
+            },
+        ];
+        let south = RoadSpec::through(
+            "south",
+            1,
+            100.0,
+            &[
+                DVec3::new(900.0, -3.5, 0.0),
+                DVec3::new(1_200.0, -40.0, 0.0),
+            ],
+        );
+        let north = RoadSpec::through(
+            "north",
+            2,
+            100.0,
+            &[DVec3::new(900.0, 1.75, 0.0), DVec3::new(1_200.0, 40.0, 0.0)],
+        );
+        let network = RoadNetwork::build(&[a, south, north]).expect("a valid split");
+        let mut world = World::new();
+        let tracks: Vec<(Entity, RoadTrack)> = cars
+            .iter()
+            .map(|&(road, lane, s, speed)| {
+                let g = network.get(road).expect("road");
+                let lateral = flockway_road::lane_offset(g.frame_at(s).width_m, g.lanes(), lane);
+                let mut track = RoadTrack::new(road, g, s, lateral);
+                track.speed_along_mps = speed;
+                assert_eq!(track.lane, lane);
+                (world.spawn_empty().id(), track)
+            })
+            .collect();
+        let mut index = LaneIndex::default();
+        index.rebuild(&network, tracks.iter().map(|(e, t)| (*e, t, 4.6, 0)));
+        (network, index, tracks)
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::fixtures::split_with;
     use super::*;
     use flockway_road::RoadSpec;
     use glam::DVec3;
@@ -633,5 +698,60 @@ mod tests {
                     .any(|(r, _, e)| *r == RoadId(1) && e.entity == l.entry.entity)
             );
         }
+    }
+    #[test]
+    fn a_leader_is_found_across_a_split_on_the_route_not_on_the_other_branch() {
+        let (approach, south, north) = (RoadId(0), RoadId(1), RoadId(2));
+        let (_, index, cars) = split_with(&[
+            (approach, 1, 880.0, 20.0),
+            (south, 0, 10.0, 20.0),
+            (north, 0, 30.0, 20.0),
+            (north, 1, 5.0, 20.0),
+        ]);
+        let me = cars[0].0;
+        // Lane 1 leads onto north lane 0: the car there, 50 m on, not the nearer one on south.
+        let l = index
+            .leader(approach, 1, 880.0, me, 200.0, Some(north))
+            .expect("a leader on north");
+        assert_eq!(l.entry.entity, cars[2].0);
+        assert!((l.gap_m - 50.0).abs() < 0.5, "{l:?}");
+        // Lane 0 leads only onto south, whatever road is preferred.
+        let l = index
+            .leader(approach, 0, 880.0, me, 200.0, Some(north))
+            .expect("a leader on south");
+        assert_eq!(l.entry.entity, cars[1].0);
+        // Lane 2 leads onto north lane 1.
+        let l = index
+            .leader(approach, 2, 880.0, me, 200.0, Some(north))
+            .expect("a leader on north lane 1");
+        assert_eq!(l.entry.entity, cars[3].0);
+        // Out of range: nobody.
+        assert!(
+            index
+                .leader(approach, 1, 880.0, me, 40.0, Some(north))
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn a_follower_is_found_back_through_the_lane_that_leads_in() {
+        let (approach, south, north) = (RoadId(0), RoadId(1), RoadId(2));
+        let (_, index, cars) = split_with(&[
+            (north, 0, 5.0, 20.0),
+            (approach, 1, 870.0, 20.0),
+            (approach, 0, 895.0, 20.0),
+            (approach, 2, 890.0, 20.0),
+        ]);
+        // North lane 0 is reached from approach lane 1 only.
+        let f = index
+            .follower(north, 0, 5.0, cars[0].0, 100.0)
+            .expect("a follower on approach lane 1");
+        assert_eq!(f.entry.entity, cars[1].0);
+        assert!((f.gap_m + 35.0).abs() < 0.5, "{f:?}");
+        // South lane 0 from approach lane 0; north lane 1 from approach lane 2.
+        let f = index.follower(south, 0, 0.0, Entity::PLACEHOLDER, 100.0);
+        assert_eq!(f.map(|f| f.entry.entity), Some(cars[2].0));
+        let f = index.follower(north, 1, 0.0, Entity::PLACEHOLDER, 100.0);
+        assert_eq!(f.map(|f| f.entry.entity), Some(cars[3].0));
     }
 }

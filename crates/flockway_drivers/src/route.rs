@@ -13,10 +13,36 @@ use std::sync::Arc;
 pub const LANE_CHANGE_AHEAD_M: f64 = 200.0;
 /// Time per lane to cross, at the current speed, within which a vehicle starts changing lanes
 /// for its route, s.
-pub const LANE_CHANGE_AHEAD_S: f64 = 12.0;
+pub const LANE_CHANGE_AHEAD_S: f64 = 20.0;
 /// How far short of a lane's end a vehicle that could not leave the lane stops, m (front bumper
 /// to the end): room to pull out of it from a standstill.
 pub const LANE_END_MARGIN_M: f64 = 6.0;
+
+/// The least share of its usual lane-change time gap a driver accepts, close to its lane's end;
+/// what a courteous driver leaves a car merging in ahead of it.
+pub const LANE_CHANGE_LEAST_GAP: f32 = 0.7;
+
+/// A lane change a route asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LaneAsk {
+    /// +1 left, -1 right.
+    pub dir: i8,
+    /// Metres left in the current lane before it stops leading on along the route.
+    pub left_m: f64,
+    /// Lanes still to cross.
+    pub lanes: u32,
+}
+
+impl LaneAsk {
+    /// How much of its usual lane-change gap a driver insists on: all of it while more than
+    /// [`LANE_CHANGE_AHEAD_M`] per lane still to cross is left, down to
+    /// [`LANE_CHANGE_LEAST_GAP`] of it close to the end.
+    pub fn urgency(&self) -> f32 {
+        let least = f64::from(LANE_CHANGE_LEAST_GAP);
+        (self.left_m / (f64::from(self.lanes.max(1)) * LANE_CHANGE_AHEAD_M)).clamp(least, 1.0)
+            as f32
+    }
+}
 
 /// A vehicle's route: the roads it drives, in order, and where it is along them.
 #[derive(Component, Debug, Clone)]
@@ -127,10 +153,9 @@ impl Route {
         missed
     }
 
-    /// The lane change the route asks for in `lane` at arc position `s_m` and speed `v_mps`:
-    /// `(direction, metres left in this lane)`, direction +1 left or -1 right; `None` if the lane
-    /// leads on far enough or no lane leads further.
-    pub fn lane_change(&self, lane: u32, s_m: f64, v_mps: f32) -> Option<(i8, f64)> {
+    /// The lane change the route asks for in `lane` at arc position `s_m` and speed `v_mps`;
+    /// `None` if the lane leads on far enough or no lane leads further.
+    pub fn lane_change(&self, lane: u32, s_m: f64, v_mps: f32) -> Option<LaneAsk> {
         let here = self.reach_m(lane);
         if here.is_infinite() {
             return None;
@@ -139,11 +164,15 @@ impl Route {
         let target = (0..self.reach.len() as u32)
             .filter(|&l| self.reach_m(l) > here)
             .min_by_key(|&l| (l.abs_diff(lane), l > lane))?;
-        let lanes = f64::from(target.abs_diff(lane));
+        let lanes = target.abs_diff(lane);
         let left = here - s_m;
-        let start =
-            lanes * LANE_CHANGE_AHEAD_M.max(LANE_CHANGE_AHEAD_S * f64::from(v_mps.max(0.0)));
-        (left < start).then_some((if target > lane { 1 } else { -1 }, left))
+        let start = f64::from(lanes)
+            * LANE_CHANGE_AHEAD_M.max(LANE_CHANGE_AHEAD_S * f64::from(v_mps.max(0.0)));
+        (left < start).then_some(LaneAsk {
+            dir: if target > lane { 1 } else { -1 },
+            left_m: left,
+            lanes,
+        })
     }
 
     /// Where lane `lane` of the current road ends with no link (from the road's start, m;
@@ -278,18 +307,31 @@ mod tests {
         let mut right = Route::along("right".into(), vec![a, r]);
         right.update(&net, a);
         assert_eq!(right.next_road(), Some(r));
-        // Far from the split nothing is asked; two lanes to cross at 100 km/h start at 667 m.
-        assert_eq!(right.lane_change(2, 100.0, 27.8), None);
-        let (dir, left) = right
-            .lane_change(2, 200.0, 27.8)
+        // Far from the split nothing is asked: two lanes to cross at 60 km/h start 667 m (20 s
+        // per lane) before it; at 100 km/h, 1 112 m.
+        assert_eq!(right.lane_change(2, 100.0, 16.7), None);
+        assert!(right.lane_change(2, 100.0, 27.8).is_some());
+        let ask = right
+            .lane_change(2, 200.0, 16.7)
             .expect("time to move right");
-        assert_eq!(dir, -1);
-        assert!((left - 600.0).abs() < 1.0);
+        assert_eq!((ask.dir, ask.lanes), (-1, 2));
+        assert!((ask.left_m - 600.0).abs() < 1.0);
+        // It insists on its whole gap until 200 m per lane to cross is left, then less.
+        assert_eq!(ask.urgency(), 1.0);
+        let late = right.lane_change(2, 760.0, 27.8).expect("late");
+        assert!((late.urgency() - 0.7).abs() < 1e-6);
+        let one = right.lane_change(1, 760.0, 27.8).expect("one lane to go");
+        assert_eq!(one.lanes, 1);
+        assert!((one.urgency() - 0.7).abs() < 1e-6);
+        assert!((right.lane_change(1, 650.0, 27.8).expect("one").urgency() - 0.75).abs() < 1e-3);
         assert_eq!(right.lane_change(0, 700.0, 27.8), None);
         // Bound left: lane 0 must move over, lanes 1 and 2 are fine.
         let mut left_route = Route::along("left".into(), vec![a, l]);
         left_route.update(&net, a);
-        assert_eq!(left_route.lane_change(0, 700.0, 20.0).map(|c| c.0), Some(1));
+        assert_eq!(
+            left_route.lane_change(0, 700.0, 20.0).map(|c| c.dir),
+            Some(1)
+        );
         assert_eq!(left_route.lane_change(1, 700.0, 20.0), None);
         // At a split no lane ends: a car in the wrong lane goes on (and misses its exit).
         assert!(
@@ -319,7 +361,7 @@ mod tests {
             Route::along("on".into(), vec![RoadId(0), RoadId(1)]),
         ] {
             route.update(&net, RoadId(0));
-            assert_eq!(route.lane_change(0, 100.0, 20.0).map(|c| c.0), Some(1));
+            assert_eq!(route.lane_change(0, 100.0, 20.0).map(|c| c.dir), Some(1));
             assert_eq!(route.lane_change(1, 100.0, 20.0), None);
             // The cap stops it 6 m short of the end with its front bumper.
             assert!(route.lane_end_cap_mps(0, 241.7, 4.6, 2.0) < 1e-3);

@@ -973,4 +973,118 @@ mod tests {
             "{err}"
         );
     }
+    /// A three-lane road `a` ending at x = 100 and two roads starting there: `b` (one lane, at
+    /// the right lane's end) and `c` (two lanes, at the left lanes' ends), with `LINKS` as
+    /// `a`'s links and `EXTRA` appended.
+    const NET: &str = r#"(
+    version: 1,
+    seed: 1,
+    duration_s: 10.0,
+    roads: [
+        (name: "a", lanes: 3, lane_width_m: 3.5, speed_limit_kmh: 60.0, links: LINKS,
+            points: [(pos: (0.0, 0.0, 0.0)), (pos: (100.0, 0.0, 0.0))]),
+        (name: "b", lanes: 1, lane_width_m: 3.5, speed_limit_kmh: 60.0,
+            points: [(pos: (100.0, -3.5, 0.0)), (pos: (200.0, -3.5, 0.0))]),
+        (name: "c", lanes: 2, lane_width_m: 3.5, speed_limit_kmh: 60.0,
+            points: [(pos: (100.0, 1.75, 0.0)), (pos: (200.0, 1.75, 0.0))]),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "auto", model: FlockLanes, vehicle: "sedan")],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 90.0)), (name: "c", place: OnRoad(road: "c", s_m: 90.0))],
+    EXTRA
+)"#;
+
+    fn net(links: &str, extra: &str) -> String {
+        NET.replace("LINKS", links).replace("EXTRA", extra)
+    }
+
+    fn net_problems(links: &str, extra: &str) -> Vec<String> {
+        match parse_level(&net(links, extra), Path::new("t.ron")) {
+            Ok(_) => Vec::new(),
+            Err(e) => e.diagnostics().iter().map(|d| d.to_string()).collect(),
+        }
+    }
+
+    const SPLIT: &str = r#"[(to: "b", lanes: [(0, 0)]), (to: "c", lanes: [(1, 0), (2, 1)])]"#;
+
+    #[test]
+    fn a_split_with_routes_is_consistent() {
+        let routes = r#"spawners: [(name: "s", road: "a", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 1.0)],
+            routes: [(name: "b", roads: ["a", "b"], weight: 0.3), (name: "c", roads: ["a", "c"], weight: 0.7)])],"#;
+        assert_eq!(net_problems(SPLIT, routes), Vec::<String>::new());
+        let level = parse_level(&net(SPLIT, routes), Path::new("t.ron")).expect("valid");
+        assert!(super::warnings(&level).is_empty());
+    }
+
+    #[test]
+    fn each_network_error_is_reported_where_it_is() {
+        let cases = [
+            (
+                r#"[(to: "b", lanes: [(0, 1)])]"#,
+                "",
+                "6:",
+                "lane 1 is out of range: road `b` has 1 lane(s)",
+            ),
+            (
+                r#"[(to: "b", lanes: [(3, 0)])]"#,
+                "",
+                "6:",
+                "lane 3 is out of range: road `a` has 3 lane(s)",
+            ),
+            (
+                r#"[(to: "b", lanes: [(2, 0)])]"#,
+                "",
+                "6:",
+                "lane 2 of `a` ends 7.00 m from the start of lane 0 of `b`",
+            ),
+            (
+                r#"[(to: "b", lanes: [(0, 0)]), (to: "b", lanes: [(1, 0)])]"#,
+                "",
+                "6:",
+                "road `a` already leads onto `b`",
+            ),
+            (
+                r#"[(to: "d", lanes: [(0, 0)])]"#,
+                "",
+                "6:",
+                "unknown road `d`; the level's roads are `a`, `b`, `c`",
+            ),
+            (
+                SPLIT,
+                r#"spawners: [(name: "s", road: "a", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 1.0)], routes: [(name: "x", roads: ["a", "c", "b"], weight: 1.0)])],"#,
+                "16:",
+                "road `c` does not lead onto `b`",
+            ),
+            (
+                SPLIT,
+                r#"spawners: [(name: "s", road: "b", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 1.0)], destination: "c")],"#,
+                "16:",
+                "road `c` cannot be reached from the spawner's road `b`",
+            ),
+        ];
+        for (links, extra, line, needle) in cases {
+            let found = net_problems(links, extra);
+            assert!(
+                found
+                    .iter()
+                    .any(|p| p.starts_with(line) && p.contains(needle)),
+                "links `{links}` / `{extra}` should report `{needle}` at line {line}, got {found:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_road_leading_nowhere_without_a_destroyer_is_a_warning_not_an_error() {
+        // Road `c`'s destroyer removed: its end leads nowhere (pointed at its last point).
+        let src =
+            net(SPLIT, "").replace(r#", (name: "c", place: OnRoad(road: "c", s_m: 90.0))"#, "");
+        let level = parse_level(&src, Path::new("t.ron")).expect("valid, with a warning");
+        let warned = crate::level_warnings(&level, &src, Path::new("t.ron"));
+        assert_eq!(warned.len(), 1, "{warned:?}");
+        assert!(
+            warned[0].starts_with("t.ron:11:")
+                && warned[0].contains("road `c` leads nowhere and has no destroyer"),
+            "{warned:?}"
+        );
+    }
 }
