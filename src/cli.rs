@@ -141,6 +141,10 @@ pub enum Command {
         /// Seed instead of the level's.
         #[arg(long, value_name = "N")]
         seed: Option<u64>,
+        /// Only this part of the level in view: the ground box from (X0, Y0) to (X1, Y1), in
+        /// the level's metres (e.g. `1100,-60,1600,20` for the merge of on_ramp.ron).
+        #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_region, allow_hyphen_values = true)]
+        region: Option<[f64; 4]>,
     },
     /// Write one self-contained HTML report of a run: summary, expectations and their results,
     /// the stop-and-go wave, and every plot embedded.
@@ -248,6 +252,28 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
+/// Parses `X0,Y0,X1,Y1`: a ground box in metres, X1 > X0 and Y1 > Y0, at least 1 m each way.
+pub fn parse_region(text: &str) -> Result<[f64; 4], String> {
+    let bad = || format!("expected X0,Y0,X1,Y1 in metres, e.g. 1100,-60,1600,20, found `{text}`");
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad())?;
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(bad());
+    };
+    if !v.iter().all(|x| x.is_finite() && x.abs() <= 1e7) {
+        return Err(bad());
+    }
+    if x1 < x0 + 1.0 || y1 < y0 + 1.0 {
+        return Err(format!(
+            "{text}: the box needs X1 > X0 and Y1 > Y0, at least 1 m each way"
+        ));
+    }
+    Ok([x0, y0, x1, y1])
+}
+
 /// Parses `WIDTHxHEIGHT` (each 200–8000 pixels).
 pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let bad = || format!("expected WIDTHxHEIGHT in pixels, e.g. 1600x900, found `{text}`");
@@ -258,4 +284,39 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
         return Err(format!("{w}x{h}: each side must be 200 to 8000 pixels"));
     }
     Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_region_is_a_ground_box_with_its_corners_in_order() {
+        assert_eq!(
+            parse_region("1100,-30,1500,20"),
+            Ok([1100.0, -30.0, 1500.0, 20.0])
+        );
+        assert_eq!(parse_region(" 0 , 0 , 1 , 1 "), Ok([0.0, 0.0, 1.0, 1.0]));
+        for bad in [
+            "",
+            "1,2,3",
+            "1,2,3,4,5",
+            "a,0,1,1",
+            "0,0,inf,1",
+            "NaN,0,1,1",
+        ] {
+            let e = parse_region(bad).expect_err(bad);
+            assert!(e.contains("expected X0,Y0,X1,Y1"), "{bad}: {e}");
+        }
+        let e = parse_region("10,0,5,5").expect_err("backwards");
+        assert!(e.contains("X1 > X0"), "{e}");
+        assert!(parse_region("0,0,0.5,10").is_err());
+    }
+
+    #[test]
+    fn a_size_is_two_sides_in_pixels() {
+        assert_eq!(parse_size("1600x900"), Ok((1600, 900)));
+        assert!(parse_size("100x900").is_err());
+        assert!(parse_size("1600").is_err());
+    }
 }

@@ -49,6 +49,7 @@ fn main() -> ExitCode {
             size,
             camera,
             seed,
-        } => commands::window::render(&level, &output, at, size, camera, seed),
+            region,
+        } => commands::window::render(&level, &output, at, size, camera, seed, region),
     }
 }

@@ -50,6 +50,7 @@ pub fn render(
     size: (u32, u32),
     camera: CameraArg,
     seed: Option<u64>,
+    region: Option<[f64; 4]>,
 ) -> ExitCode {
     use flockway::app::{Snapshot, render_level};
     let level = match flockway::level::load_level(path) {
@@ -62,6 +63,7 @@ pub fn render(
         size,
         view: camera.into(),
         seed,
+        region,
         assets: flockway::run::find_assets_dir(Some(path)),
     };
     match render_level(level, &name, &snapshot, out) {
@@ -83,6 +85,14 @@ pub fn render(
 
 /// Without the window there is no renderer.
 #[cfg(not(feature = "window"))]
-pub fn render(_: &Path, _: &Path, _: f64, _: (u32, u32), _: CameraArg, _: Option<u64>) -> ExitCode {
+pub fn render(
+    _: &Path,
+    _: &Path,
+    _: f64,
+    _: (u32, u32),
+    _: CameraArg,
+    _: Option<u64>,
+    _: Option<[f64; 4]>,
+) -> ExitCode {
     fail("this build has no renderer (built without the `window` feature); use `flockway run`")
 }

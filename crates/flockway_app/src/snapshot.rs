@@ -7,6 +7,7 @@ use crate::scene::{StaticScene, VehicleFrame};
 use flockway_level::Level;
 use flockway_road::RoadNetwork;
 use flockway_runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 /// The view of a rendered picture.
@@ -30,6 +31,9 @@ pub struct Snapshot {
     pub view: View,
     /// Seed instead of the level's.
     pub seed: Option<u64>,
+    /// Only this part of the level in view: the ground box `[x0, y0, x1, y1]`, m (`None`: all of
+    /// it).
+    pub region: Option<[f64; 4]>,
     /// The `assets/` directory of the level's vehicle and driver files.
     pub assets: PathBuf,
 }
@@ -92,9 +96,16 @@ pub fn render_level(
     renderer.set_static(&gpu.device, &scene);
     renderer.set_vehicles(&gpu.device, &gpu.queue, &vehicles.instances);
     let (w, h) = snapshot.size;
+    let (min, max) = match snapshot.region {
+        Some([x0, y0, x1, y1]) => (
+            Vec3::new(x0 as f32, y0 as f32, scene.min.z),
+            Vec3::new(x1 as f32, y1 as f32, scene.max.z),
+        ),
+        None => (scene.min, scene.max),
+    };
     let camera = match snapshot.view {
-        View::Top => Camera::top_fit(scene.min, scene.max, w as f32 / h as f32),
-        View::Orbit => Camera::orbit_fit(scene.min, scene.max),
+        View::Top => Camera::top_fit(min, max, w as f32 / h as f32),
+        View::Orbit => Camera::orbit_fit(min, max),
     };
     render_image(&gpu, &renderer, &camera, snapshot.size)?.save_png(out)?;
     Ok(Rendered {
