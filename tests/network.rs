@@ -1,33 +1,10 @@
 //! Road networks, checked on exported data: the on-ramp merge runs free at low demand and breaks
 //! down into a queue at the top, and at a split every vehicle takes the branch its route says.
 
-use flockway::level::{Level, load_level};
-use flockway::run::{RunOptions, Runner, find_assets_dir};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+mod common;
 
-fn shipped(name: &str) -> (Level, PathBuf) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("levels")
-        .join(name);
-    (load_level(&path).expect("a shipped level"), path)
-}
-
-/// Runs `level` whole with `seed`; the summary's metrics, and the CSV if asked for.
-fn run(level: Level, path: &Path, seed: u64, csv: Option<PathBuf>) -> BTreeMap<String, f64> {
-    let options = RunOptions {
-        seed: Some(seed),
-        csv,
-        assets: Some(find_assets_dir(Some(path))),
-        ..RunOptions::default()
-    };
-    let name = level.name.clone();
-    Runner::new(level, &name, &options)
-        .expect("the level builds")
-        .finish()
-        .expect("the run completes")
-        .metrics
-}
+use common::{run, shipped};
+use std::path::Path;
 
 /// Mean speed, km/h, of the telemetry rows that `keep(time_s, road, s_m)` selects, and how many.
 fn mean_speed_kmh(csv_path: &Path, keep: impl Fn(f64, &str, f64) -> bool) -> (f64, usize) {
@@ -53,7 +30,7 @@ fn the_on_ramp_flows_near_the_limit_at_low_demand_and_queues_upstream_at_the_top
     let (level, path) = shipped("on_ramp.ron");
     let dir = tempfile::tempdir().expect("tempdir");
     let csv_path = dir.path().join("on_ramp.csv");
-    let m = run(level, &path, 31_337, Some(csv_path.clone()));
+    let m = run(level, &path, 31_337, None, Some(csv_path.clone()));
     assert_eq!(m["collisions"], 0.0, "{m:#?}");
     assert_eq!(m["missed_exits"], 0.0, "{m:#?}");
     // Low demand (1 800 + 360 veh/h, before the first step at 150 s): through the acceleration
@@ -89,7 +66,7 @@ fn at_the_split_each_branch_gets_its_routes_share_and_no_autonomous_car_misses_i
     let (level, path) = shipped("exit_split.ron");
     let stats_from = level.telemetry.stats_from_s;
     let counted_s = level.duration_s - stats_from;
-    let m = run(level, &path, 27_182, None);
+    let m = run(level, &path, 27_182, None, None);
     assert_eq!(m["missed_exits.autonomous"], 0.0, "{m:#?}");
     assert_eq!(m["collisions_guardrail"], 0.0, "{m:#?}");
     // Vehicles through each branch while counted; the share bound for the south branch is a

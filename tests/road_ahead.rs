@@ -1,47 +1,18 @@
 //! Drivers read the road ahead: whatever the limit says, autonomous cars take bends within their
 //! comfort and slippery stretches within their grip, and stay on the road.
 
-use flockway::level::{Level, TriggerEffectSpec, TriggerSpec, load_level};
+mod common;
+
+use common::{run, shipped};
+use flockway::level::{TriggerEffectSpec, TriggerSpec};
 use flockway::road::{RoadGeometry, lane_offset};
-use flockway::run::{RunOptions, Runner, find_assets_dir};
-use std::path::{Path, PathBuf};
-
-fn shipped(name: &str) -> (Level, PathBuf) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("levels")
-        .join(name);
-    (load_level(&path).expect("a shipped level"), path)
-}
-
-/// Runs `level` for `seconds` with `seed`; the summary's metrics, and the CSV if asked for.
-fn run(
-    level: Level,
-    path: &Path,
-    seed: u64,
-    seconds: f64,
-    csv: Option<PathBuf>,
-) -> std::collections::BTreeMap<String, f64> {
-    let options = RunOptions {
-        seconds: Some(seconds),
-        seed: Some(seed),
-        csv,
-        assets: Some(find_assets_dir(Some(path))),
-        ..RunOptions::default()
-    };
-    let name = level.name.clone();
-    Runner::new(level, &name, &options)
-        .expect("the level builds")
-        .finish()
-        .expect("the run completes")
-        .metrics
-}
 
 #[test]
 fn the_dense_road_with_a_250_kmh_limit_keeps_every_autonomous_car_on_the_road() {
     let (mut level, path) = shipped("dense_road.ron");
     level.roads[0].speed_limit_kmh = 250.0;
     // Before drivers read the road ahead, about half the cars hit the guardrail in the bend.
-    let m = run(level, &path, 20_261, 90.0, None);
+    let m = run(level, &path, 20_261, Some(90.0), None);
     assert_eq!(m["collisions_guardrail.autonomous"], 0.0, "{m:#?}");
     assert_eq!(m["collisions_vehicle"], 0.0, "{m:#?}");
     // They do use the limit where the road allows: faster than the 60 km/h level on average.
@@ -60,7 +31,7 @@ fn a_wet_switchback_gets_no_autonomous_car_into_the_guardrail() {
         lanes: None,
         effect: TriggerEffectSpec::Friction { scale: 0.35 },
     });
-    let m = run(level, &path, 90_210, 200.0, None);
+    let m = run(level, &path, 90_210, Some(200.0), None);
     assert_eq!(m["collisions_guardrail.autonomous"], 0.0, "{m:#?}");
     assert!(m["vehicles_destroyed"] > 5.0, "traffic got through: {m:#?}");
 }
@@ -71,7 +42,7 @@ fn autonomous_cars_take_each_hairpin_within_their_comfortable_lateral_accelerati
     let road = RoadGeometry::new(&level.roads[0]).expect("the road builds");
     let dir = tempfile::tempdir().expect("tempdir");
     let csv_path = dir.path().join("hairpin.csv");
-    let m = run(level, &path, 4_242, 180.0, Some(csv_path.clone()));
+    let m = run(level, &path, 4_242, Some(180.0), Some(csv_path.clone()));
     assert_eq!(m["collisions_guardrail.autonomous"], 0.0, "{m:#?}");
     let mut reader = csv::Reader::from_path(&csv_path).expect("the CSV");
     let headers = reader.headers().expect("headers").clone();
