@@ -532,3 +532,160 @@ fn the_editor_driven_by_real_input_events_saves_the_level_it_shows() {
         String::from_utf8_lossy(&run.stderr)
     );
 }
+
+/// With `FLOCKWAY_SHOTS` set to a directory, saves the screen there as `name` (ImageMagick's
+/// `import`), for the docs.
+fn shoot(x: &Xvfb, name: &str) {
+    if let Some(shots) = std::env::var_os("FLOCKWAY_SHOTS") {
+        let _ = Command::new("import")
+            .args(["-window", "root"])
+            .arg(Path::new(&shots).join(name))
+            .env("DISPLAY", &x.1)
+            .status();
+    }
+}
+
+/// Presses the left button at `from`, moves in small steps to `to` and lets go, as a hand would.
+fn drag(x: &Xvfb, from: (f32, f32), to: (f32, f32)) {
+    let at = |p: (f32, f32)| [format!("{}", p.0.round()), format!("{}", p.1.round())];
+    let [fx, fy] = at(from);
+    x.xdotool(&["mousemove", &fx, &fy, "mousedown", "1"]);
+    for k in 1..=8 {
+        let t = k as f32 / 8.0;
+        let [mx, my] = at((from.0 + t * (to.0 - from.0), from.1 + t * (to.1 - from.1)));
+        x.xdotool(&["mousemove", &mx, &my]);
+    }
+    x.xdotool(&["mouseup", "1"]);
+}
+
+#[test]
+fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let mut editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+    let screen = |wx: f32, wy: f32| {
+        let p = camera
+            .to_screen(Vec3::new(wx, wy, 0.0), size)
+            .expect("on screen");
+        assert!(
+            p.x > 0.0 && p.y > 0.0 && p.x < 1000.0 && p.y < size.y,
+            "{p}"
+        );
+        (p.x, p.y)
+    };
+    let spawner_tool = widget_centre(new_app(), "Spawner");
+    let destroyer_tool = widget_centre(new_app(), "Destroyer");
+    let play_button = widget_centre(new_app(), "Play");
+    let mut playing = AppState::new(
+        Editor::with_level(flockway::level::Template::Ring.level("r"), None),
+        std::fs::canonicalize("assets").expect("assets"),
+    );
+    playing.play();
+    let max_speed = widget_centre(playing, "max");
+
+    // A straight road of 340 m, and a ramp ending beside it.
+    x.xdotool(&["key", "r"]);
+    for (wx, wy) in [(-170.0, 40.0), (0.0, 40.0), (170.0, 40.0)] {
+        x.click(screen(wx, wy));
+    }
+    x.xdotool(&["key", "Return"]);
+    for (wx, wy) in [(-160.0, -90.0), (-110.0, -50.0), (-90.0, -15.0)] {
+        x.click(screen(wx, wy));
+    }
+    x.xdotool(&["key", "Return"]);
+    // With the Select tool, the ramp's last point dragged onto the road, 80 m from its start.
+    x.xdotool(&["key", "v"]);
+    drag(&x, screen(-90.0, -15.0), screen(-90.0, 38.5));
+    shoot(&x, "editor_join.png");
+    // Spawners near both starts, a destroyer near the far end.
+    x.click(spawner_tool);
+    x.click(screen(-160.0, 40.0));
+    x.click(screen(-152.0, -82.0));
+    x.click(destroyer_tool);
+    // (Between the control points of the road's last piece, which would take the click.)
+    x.click(screen(128.0, 40.0));
+    x.click(play_button);
+    x.click(max_speed);
+    let streamed = dir
+        .path()
+        .join(format!("flockway-play-{}.csv", editor.id()));
+    let started = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(&streamed).unwrap_or_default();
+        let last = text
+            .lines()
+            .last()
+            .and_then(|l| l.split(',').next())
+            .and_then(|t| t.parse::<f64>().ok())
+            .unwrap_or(0.0);
+        if last >= 61.0 {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(240),
+            "play reached only {last} s of simulated time"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    shoot(&x, "editor_on_ramp.png");
+    x.xdotool(&["mousemove", "500", "780"]);
+    x.xdotool(&["key", "Escape"]);
+    x.xdotool(&["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let saved = dir.path().join("level.ron");
+    let exported = dir.path().join("untitled_run.csv");
+    let saved_exists = saved.exists();
+    let _ = editor.kill();
+    let output = editor.wait_with_output().expect("editor output");
+    let _ = std::fs::remove_file(&streamed);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
+
+    // The road was cut into itself, a merge stretch and the rest; the ramp leads onto the
+    // merge stretch's acceleration lanes.
+    let level = load_level(&saved).expect("the saved level loads");
+    let names: Vec<&str> = level.roads.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["road 1", "road 1 merge", "road 1 on", "road 2"],
+        "{stderr}"
+    );
+    let ramp = &level.roads[3];
+    assert_eq!(
+        ramp.outgoing().first().map(|l| l.to.as_str()),
+        Some("road 1 merge"),
+        "{}",
+        std::fs::read_to_string(&saved).unwrap_or_default()
+    );
+    assert_eq!(level.roads[1].lanes, level.roads[0].lanes + ramp.lanes);
+    assert_eq!(level.spawners.len(), 2);
+    assert_eq!(level.spawners[1].road, "road 2");
+    match &level.destroyers[0].place {
+        flockway::level::DestroyerPlaceSpec::OnRoad { road, .. } => assert_eq!(road, "road 1 on"),
+        other => panic!("{other:?}"),
+    }
+
+    // Cars from the ramp went through the merge stretch onto the rest of the road.
+    let csv = std::fs::read_to_string(&exported).expect("exported csv");
+    let mut roads: std::collections::BTreeMap<u32, Vec<String>> = Default::default();
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let seen = roads.entry(f[1].parse().expect("id")).or_default();
+        if seen.last().map(String::as_str) != Some(f[3]) {
+            seen.push(f[3].to_owned());
+        }
+    }
+    let merged = roads
+        .values()
+        .filter(|r| *r == &["road 2", "road 1 merge", "road 1 on"])
+        .count();
+    let through = roads
+        .values()
+        .filter(|r| *r == &["road 1", "road 1 merge", "road 1 on"])
+        .count();
+    assert!(
+        merged >= 3 && through >= 3,
+        "{merged} ramp cars and {through} main-road cars drove through: {roads:?}"
+    );
+}

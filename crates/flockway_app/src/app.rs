@@ -10,7 +10,7 @@ use flockway_level::{
     TriggerEffectSpec, TriggerSpec, mixed_shares, reference_profiles, reference_vehicle_types,
     validate,
 };
-use flockway_road::{RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
+use flockway_road::{NetworkError, RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
 use flockway_runner::{RunError, level_name, load_driver_profiles};
 use glam::{DVec3, Vec2, Vec3};
 use std::collections::BTreeMap;
@@ -66,6 +66,23 @@ enum Drag {
     Point(usize, usize),
     /// A marker along its road.
     Marker(MarkerKind, usize),
+}
+
+/// What a road's end dropped onto another road does.
+#[derive(Debug, Clone, PartialEq)]
+enum Join {
+    /// Links onto the other road's start.
+    End {
+        /// The other road.
+        onto: String,
+    },
+    /// Joins its side as an on-ramp.
+    Side {
+        /// The other road.
+        onto: String,
+        /// Where along it, metres.
+        s_m: f64,
+    },
 }
 
 /// Pixels within which a click takes a control point.
@@ -169,6 +186,8 @@ pub struct AppState {
     network: RoadNetwork,
     scene_version: u64,
     drag: Option<Drag>,
+    /// Where the pointer last was while dragging, and the window's size, pixels.
+    drag_px: Option<(Vec2, Vec2)>,
     edited_level: Option<Level>,
     asset_listing: BTreeMap<String, Vec<String>>,
     profile_checks: BTreeMap<String, Option<String>>,
@@ -213,6 +232,7 @@ impl AppState {
             network: RoadNetwork::default(),
             scene_version: 0,
             drag: None,
+            drag_px: None,
             edited_level: None,
             asset_listing: BTreeMap::new(),
             profile_checks: BTreeMap::new(),
@@ -231,23 +251,10 @@ impl AppState {
         let ok: Vec<RoadSpec> = level
             .roads
             .iter()
-            .filter(|r| {
-                let mut alone = (*r).clone();
-                alone.next = None;
-                RoadGeometry::new(&alone).is_ok()
-            })
+            .filter(|r| RoadGeometry::new(r).is_ok())
             .cloned()
             .collect();
-        self.network = RoadNetwork::build(&ok).unwrap_or_else(|_| {
-            let alone: Vec<RoadSpec> = ok
-                .into_iter()
-                .map(|mut r| {
-                    r.next = None;
-                    r
-                })
-                .collect();
-            RoadNetwork::build(&alone).unwrap_or_default()
-        });
+        self.network = network_as_drawn(ok);
         self.scene_version += 1;
     }
 
@@ -281,6 +288,7 @@ impl AppState {
         let mut scene = StaticScene::build(self.network(), level);
         scene.add_grid();
         if self.play.is_none() {
+            scene.add_links(self.network());
             add_handles(&mut scene, level, self.selection);
         }
         scene
@@ -572,7 +580,9 @@ impl AppState {
             let Some(road) = level.roads.iter().position(|r| r.name == geom.name()) else {
                 continue;
             };
-            let d = proj.lateral_m.abs();
+            // The distance to the centre line, not just across it: beyond an open road's end
+            // the projection stops at the end, and a road carried on by another is not there.
+            let d = proj.distance_m;
             if d <= half && best.as_ref().is_none_or(|(bd, _)| d < *bd) {
                 let pick = RoadPick {
                     road,
@@ -775,6 +785,7 @@ impl AppState {
 
     /// The pointer moved to `px` with the left button down.
     pub fn drag_to(&mut self, px: Vec2, size: Vec2) {
+        self.drag_px = Some((px, size));
         match self.drag {
             Some(Drag::Point(r, i)) => {
                 // The point may have gone (deleted mid-drag): then the drag ends.
@@ -818,10 +829,119 @@ impl AppState {
         }
     }
 
-    /// The left button went up.
+    /// The left button went up: a road's end dragged onto another road joins it there.
     pub fn release(&mut self) {
+        let join = match (self.drag, self.drag_px) {
+            (Some(Drag::Point(r, i)), Some((px, size))) => self.join_target(r, i, px, size),
+            _ => None,
+        };
         self.drag = None;
+        self.drag_px = None;
         self.editor.end_drag();
+        if let Some((r, join)) = join {
+            let (command, done) = match join {
+                Join::End { onto } => (
+                    Command::JoinEnd {
+                        road: r,
+                        onto: onto.clone(),
+                    },
+                    format!("Linked onto `{onto}`: its lanes are in the inspector."),
+                ),
+                Join::Side { onto, s_m } => (
+                    Command::JoinSide {
+                        road: r,
+                        onto: onto.clone(),
+                        s_m,
+                    },
+                    format!(
+                        "Joined `{onto}` from the side at {s_m:.0} m: its lanes run on as \
+                         acceleration lanes in `{onto} merge` and end into the road."
+                    ),
+                ),
+            };
+            let name = self.editor.level().roads.get(r).map(|d| d.name.clone());
+            if self.edit(command, false) {
+                // A side join puts the cut road's pieces before it: find it by name.
+                let level = self.editor.level();
+                let at = level
+                    .roads
+                    .iter()
+                    .position(|d| Some(&d.name) == name.as_ref());
+                self.selection = at.map_or(Selection::None, Selection::Road);
+                self.status = done;
+            }
+        }
+    }
+
+    /// What releasing the pointer at `px` would join point `i` of road `r` to: when it is the
+    /// end of an open road and the pointer is over another road's start (within the road's
+    /// half width or [`PICK_PX`]) or its side. Roads it already leads onto are not offered.
+    fn join_target(&self, r: usize, i: usize, px: Vec2, size: Vec2) -> Option<(usize, Join)> {
+        let level = self.editor.level();
+        let road = level.roads.get(r)?;
+        if road.closed || road.points.len() < 2 || i + 1 != road.points.len() {
+            return None;
+        }
+        let ground = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
+        let linked = road.outgoing();
+        let mut best: Option<(f64, Join)> = None;
+        for (_, g) in self.network.iter() {
+            let name = g.name();
+            if name == road.name || g.is_closed() || linked.iter().any(|l| l.to == name) {
+                continue;
+            }
+            let start = g.frame_at(0.0);
+            let start_px = self.camera.to_screen(start.pos.as_vec3(), size);
+            let near_start = (ground - start.pos).length() <= 0.5 * start.width_m
+                || start_px.is_some_and(|s| s.distance(px) <= PICK_PX);
+            let proj = g.project(ground);
+            let d = (ground - start.pos).length().min(proj.distance_m);
+            let join = if near_start {
+                Join::End {
+                    onto: name.to_owned(),
+                }
+            } else if proj.distance_m <= 0.5 * g.frame_at(proj.s_m).width_m + 1.0
+                && proj.s_m > 0.0
+                && proj.s_m < g.length_m()
+            {
+                Join::Side {
+                    onto: name.to_owned(),
+                    s_m: (proj.s_m * 100.0).round() / 100.0,
+                }
+            } else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|(bd, _)| d < *bd) {
+                best = Some((d, join));
+            }
+        }
+        best.map(|(_, j)| (r, j))
+    }
+
+    /// The hint shown while a road's end is dragged over another road: what releasing it does.
+    pub fn join_hint(&self) -> Option<(Vec3, String)> {
+        let (Some(Drag::Point(r, i)), Some((px, size))) = (self.drag, self.drag_px) else {
+            return None;
+        };
+        let (_, join) = self.join_target(r, i, px, size)?;
+        let at = self
+            .editor
+            .level()
+            .roads
+            .get(r)?
+            .points
+            .get(i)?
+            .pos
+            .as_vec3();
+        Some((
+            at,
+            match join {
+                Join::End { onto } => format!("release to link onto `{onto}`"),
+                Join::Side { onto, s_m } => {
+                    format!("release to join `{onto}` from the side at {s_m:.0} m (on-ramp)")
+                }
+            },
+        ))
     }
 
     /// Deletes what is selected.
@@ -1157,6 +1277,37 @@ impl AppState {
 }
 
 /// Control points as small posts: yellow, the selected one white.
+/// The network of roads as drawn: a link that cannot be built (its road's end dragged away from
+/// where it leads, a road still being drawn) is left out, with the other links of its road, so
+/// everything else still shows and picks.
+fn network_as_drawn(mut roads: Vec<RoadSpec>) -> RoadNetwork {
+    for _ in 0..=roads.len() {
+        let failing = match RoadNetwork::build(&roads) {
+            Ok(network) => return network,
+            Err(
+                NetworkError::UnknownNext { road, .. }
+                | NetworkError::LinkLane { road, .. }
+                | NetworkError::DuplicateLink { road, .. }
+                | NetworkError::LaneGap { road, .. }
+                | NetworkError::Gap { road, .. },
+            ) => Some(road),
+            Err(_) => None,
+        };
+        match failing.and_then(|name| roads.iter_mut().find(|r| r.name == name)) {
+            Some(r) if r.next.is_some() || !r.links.is_empty() => {
+                r.next = None;
+                r.links.clear();
+            }
+            _ => break,
+        }
+    }
+    roads.iter_mut().for_each(|r| {
+        r.next = None;
+        r.links.clear();
+    });
+    RoadNetwork::build(&roads).unwrap_or_default()
+}
+
 fn add_handles(scene: &mut StaticScene, level: &Level, selection: Selection) {
     for (r, road) in level.roads.iter().enumerate() {
         for (i, p) in road.points.iter().enumerate() {
@@ -1241,6 +1392,120 @@ mod tests {
         assert!(((after.to_m - after.from_m) - (before.to_m - before.from_m)).abs() < 1e-9);
         app.undo();
         assert_eq!(app.editor.level().triggers[0], before, "one undo step");
+    }
+
+    /// An app on a level of two straight roads: `main` (two lanes, 0 to 800 m along x) and
+    /// `ramp` (one lane, ending beside it), viewed from above at `size`.
+    fn two_roads(size: Vec2) -> AppState {
+        let mut level = Level::new(1, 60.0);
+        level.roads = vec![
+            RoadSpec::through(
+                "main",
+                2,
+                100.0,
+                &[
+                    DVec3::ZERO,
+                    DVec3::new(400.0, 0.0, 0.0),
+                    DVec3::new(800.0, 0.0, 0.0),
+                ],
+            ),
+            RoadSpec::through(
+                "ramp",
+                1,
+                80.0,
+                &[
+                    DVec3::new(0.0, -120.0, 0.0),
+                    DVec3::new(150.0, -90.0, 0.0),
+                    DVec3::new(250.0, -60.0, 0.0),
+                ],
+            ),
+        ];
+        let mut app = AppState::new(
+            Editor::with_level(level, None),
+            PathBuf::from("../../assets"),
+        );
+        app.fit_view(size.x / size.y);
+        app
+    }
+
+    /// Drags the ramp's end point to `to` (world metres) in small moves and releases it.
+    fn drag_ramp_end(app: &mut AppState, to: Vec3, size: Vec2) {
+        let end = app.editor.level().roads[1].points[2].pos.as_vec3();
+        let px = app.camera.to_screen(end, size).expect("on screen");
+        app.press(px, size);
+        assert_eq!(app.selection, Selection::Point(1, 2));
+        for k in 1..=8 {
+            let at = end.lerp(to, k as f32 / 8.0);
+            app.drag_to(app.camera.to_screen(at, size).expect("on screen"), size);
+        }
+    }
+
+    #[test]
+    fn a_road_end_dragged_onto_a_start_links_and_onto_a_side_joins_as_an_on_ramp() {
+        let size = Vec2::new(1600.0, 900.0);
+        // Onto the start of `main`: a link, the end on its start, one undo step for the join.
+        let mut app = two_roads(size);
+        drag_ramp_end(&mut app, Vec3::new(1.0, 2.0, 0.0), size);
+        let (_, hint) = app.join_hint().expect("a hint while over the start");
+        assert!(hint.contains("link onto `main`"), "{hint}");
+        app.release();
+        let ramp = &app.editor.level().roads[1];
+        assert_eq!(ramp.outgoing()[0].to, "main");
+        assert!(
+            app.network
+                .link(
+                    app.network.id("ramp").expect("ramp"),
+                    app.network.id("main").expect("main")
+                )
+                .is_some()
+        );
+        assert!(app.status.contains("Linked onto `main`"), "{}", app.status);
+        app.undo();
+        assert!(
+            app.editor.level().roads[1].outgoing().is_empty(),
+            "undo unlinks"
+        );
+
+        // Onto its side at 300 m: an on-ramp with a 250 m acceleration lane.
+        let mut app = two_roads(size);
+        drag_ramp_end(&mut app, Vec3::new(300.0, -3.0, 0.0), size);
+        let (_, hint) = app.join_hint().expect("a hint while over the side");
+        assert!(hint.contains("from the side"), "{hint}");
+        app.release();
+        let names: Vec<&str> = app
+            .editor
+            .level()
+            .roads
+            .iter()
+            .map(|r| r.name.as_str())
+            .collect();
+        assert_eq!(names, ["main", "main merge", "main on", "ramp"]);
+        assert_eq!(app.selection, Selection::Road(3), "the ramp stays selected");
+        let net = &app.network;
+        let merge = net.id("main merge").expect("merge");
+        assert_eq!(
+            net.lane_next(net.id("ramp").expect("ramp"), 0, None),
+            Some((merge, 0))
+        );
+        let g = net.get(merge).expect("merge");
+        assert!((g.length_m() - 250.0).abs() < 1.0 && g.lanes() == 3);
+        assert!(flockway_level::validate(app.editor.level()).is_empty());
+        // A click beyond the first piece's end is on the piece that carries the road on.
+        let px = app
+            .camera
+            .to_screen(Vec3::new(700.0, 0.0, 0.0), size)
+            .expect("on screen");
+        let pick = app.pick_road(px, size).expect("a road");
+        assert_eq!(app.editor.level().roads[pick.road].name, "main on");
+        assert!((pick.s_m - 150.0).abs() < 1.0, "{pick:?}");
+
+        // Released away from any road: the point just moved.
+        let mut app = two_roads(size);
+        drag_ramp_end(&mut app, Vec3::new(300.0, -60.0, 0.0), size);
+        assert!(app.join_hint().is_none());
+        app.release();
+        assert!(app.editor.level().roads[1].outgoing().is_empty());
+        assert_eq!(app.editor.level().roads.len(), 2);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use flockway_level::{
     LevelError, SpawnerSpec, TelemetrySpec, Template, TriggerSpec, VehicleTypeSpec,
     level_to_string, parse_level, validate, write_atomic,
 };
-use flockway_road::{ControlPoint, RoadSpec};
+use flockway_road::{ControlPoint, LinkSpec, RoadSpec};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -84,6 +84,31 @@ pub enum Command {
         road: usize,
         /// The road it leads onto, by name.
         next: Option<String>,
+    },
+    /// Replaces the roads a road's end leads onto, lane by lane (its `next` folds into them).
+    SetLinks {
+        /// The road.
+        road: usize,
+        /// Its links, in order.
+        links: Vec<LinkSpec>,
+    },
+    /// Links a road's end onto another road's start, moving the end onto it (see
+    /// [`crate::joins::join_end`]).
+    JoinEnd {
+        /// The road whose end joins.
+        road: usize,
+        /// The road it leads onto, by name.
+        onto: String,
+    },
+    /// Joins a road's end onto another road's side as an on-ramp with acceleration lanes (see
+    /// [`crate::joins::join_side`]).
+    JoinSide {
+        /// The road whose end joins.
+        road: usize,
+        /// The road it joins, by name.
+        onto: String,
+        /// Where along that road, metres.
+        s_m: f64,
     },
     /// Replaces a control point's properties (width, bank, guardrails, elevation in `pos.z`).
     SetPoint {
@@ -188,6 +213,9 @@ impl Command {
             Command::DeleteRoad { .. } => "delete road",
             Command::SetClosed { .. } => "close/open loop",
             Command::Connect { .. } => "connect roads",
+            Command::SetLinks { .. } => "edit links",
+            Command::JoinEnd { .. } => "join roads",
+            Command::JoinSide { .. } => "join from the side",
             Command::SetPoint { .. } => "edit point",
             Command::SetRoad { .. } => "edit road",
             Command::AddSpawner(_) => "add spawner",
@@ -226,6 +254,8 @@ impl Command {
             | Command::DeleteRoad { .. }
             | Command::SetClosed { .. }
             | Command::Connect { .. }
+            | Command::JoinEnd { .. }
+            | Command::JoinSide { .. }
             | Command::SetPoint { .. }
             | Command::DeleteMarker { .. }
             | Command::DeleteVehicleType(_)
@@ -637,15 +667,35 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
                 if r.next.as_deref() == Some(&name) {
                     r.next = None;
                 }
+                r.links.retain(|l| l.to != name);
             }
             level.spawners.retain(|s| s.road != name);
+            for s in &mut level.spawners {
+                s.routes.retain(|r| !r.roads.contains(&name));
+                if s.destination.as_deref() == Some(name.as_str()) {
+                    s.destination = None;
+                }
+            }
             level.triggers.retain(|t| t.road != name);
             level.vehicles.retain(|v| v.road != name);
-            level.destroyers.retain(
-                |d| !matches!(&d.place, DestroyerPlaceSpec::OnRoad { road, .. } if *road == name),
-            );
+            let on_road = |d: &DestroyerSpec| matches!(&d.place, DestroyerPlaceSpec::OnRoad { road, .. } if *road == name);
+            let gone: Vec<String> = level
+                .destroyers
+                .iter()
+                .filter(|d| on_road(d))
+                .map(|d| d.name.clone())
+                .collect();
+            level.destroyers.retain(|d| !on_road(d));
+            // Expectations on the road, or on a destroyer that stood on it, go with them.
             level.expect.retain(|e| {
-                e.qualifier.as_deref() != Some(name.as_str()) || e.metric != "road_length_m"
+                let qualifier = flockway_level::metric_info(&e.metric).map(|m| m.qualifier);
+                match (qualifier, e.qualifier.as_deref()) {
+                    (Some(flockway_level::Qualifier::Road), Some(q)) => q != name,
+                    (Some(flockway_level::Qualifier::Destroyer), Some(q)) => {
+                        !gone.iter().any(|g| g == q)
+                    }
+                    _ => true,
+                }
             });
         }
         Command::SetClosed { road, closed } => {
@@ -673,6 +723,44 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             if next.is_some() {
                 spec.closed = false;
             }
+        }
+        Command::SetLinks { road, links } => {
+            let from = road_mut(level, *road)?.clone();
+            for l in links {
+                let Some(to) = level.road(&l.to) else {
+                    return Err(EditError::NoSuchThing(format!(
+                        "there is no road named `{}`",
+                        l.to
+                    )));
+                };
+                if l.to == from.name {
+                    return Err(EditError::BadValue(
+                        "a road cannot lead onto itself: close it into a loop instead".to_owned(),
+                    ));
+                }
+                if let Some((a, b)) = l
+                    .lanes
+                    .iter()
+                    .find(|(a, b)| *a >= from.lanes || *b >= to.lanes)
+                {
+                    return Err(EditError::BadValue(format!(
+                        "lane {a} onto lane {b}: `{}` has {} lane(s), `{}` has {}",
+                        from.name, from.lanes, to.name, to.lanes
+                    )));
+                }
+            }
+            let spec = road_mut(level, *road)?;
+            spec.next = None;
+            spec.links = links.clone();
+            if !links.is_empty() {
+                spec.closed = false;
+            }
+        }
+        Command::JoinEnd { road, onto } => {
+            crate::joins::join_end(level, *road, onto).map_err(EditError::BadValue)?;
+        }
+        Command::JoinSide { road, onto, s_m } => {
+            crate::joins::join_side(level, *road, onto, *s_m).map_err(EditError::BadValue)?;
         }
         Command::SetPoint { road, index, point } => {
             finite(point.pos)?;
@@ -923,8 +1011,17 @@ fn rename_road(level: &mut Level, old: &str, new: &str) {
         if let Some(n) = &mut r.next {
             fix(n);
         }
+        r.links.iter_mut().for_each(|l| fix(&mut l.to));
     }
     level.spawners.iter_mut().for_each(|s| fix(&mut s.road));
+    for s in &mut level.spawners {
+        s.routes
+            .iter_mut()
+            .for_each(|r| r.roads.iter_mut().for_each(fix));
+        if let Some(d) = &mut s.destination {
+            fix(d);
+        }
+    }
     level.triggers.iter_mut().for_each(|t| fix(&mut t.road));
     level.vehicles.iter_mut().for_each(|v| fix(&mut v.road));
     for d in &mut level.destroyers {
@@ -1170,6 +1267,83 @@ mod tests {
         e.save().expect("save");
         assert!(!auto.exists());
         assert!(recover(Some(&path)).is_none());
+    }
+
+    #[test]
+    fn network_edits_follow_renames_and_deletions_and_undo_exactly() {
+        let mut e = Editor::with_level(
+            flockway_level::load_level(Path::new("../../levels/exit_split.ron"))
+                .expect("shipped level"),
+            None,
+        );
+        let original = e.level().clone();
+        let road = |e: &Editor, name: &str| {
+            e.level()
+                .roads
+                .iter()
+                .position(|r| r.name == name)
+                .expect(name)
+        };
+        let (approach, south) = (road(&e, "approach"), road(&e, "south"));
+        // A rename follows the road into links, routes and markers.
+        let spec = e.level().roads[south].clone();
+        e.apply(Command::SetRoad {
+            road: south,
+            name: "exit".to_owned(),
+            lanes: spec.lanes,
+            lane_width_m: spec.lane_width_m,
+            speed_limit_kmh: spec.speed_limit_kmh,
+        })
+        .expect("renames");
+        let level = e.level();
+        assert!(level.roads[approach].links.iter().any(|l| l.to == "exit"));
+        assert!(
+            level
+                .spawners
+                .iter()
+                .all(|s| s.routes[0].roads == ["approach", "exit"]),
+            "{:?}",
+            level.spawners[0].routes
+        );
+        assert!(validate(level).is_empty(), "the renamed level is valid");
+        // Lane pairs are checked against both roads' lanes.
+        let mut links = level.roads[approach].links.clone();
+        links[0].lanes = vec![(0, 3)];
+        let err = e
+            .apply(Command::SetLinks {
+                road: approach,
+                links,
+            })
+            .expect_err("lane 3 of a one-lane road");
+        assert!(err.to_string().contains("lane 0 onto lane 3"), "{err}");
+        // Removing a link that routes use is refused with the route's problem.
+        let north_only: Vec<LinkSpec> = e.level().roads[approach]
+            .links
+            .iter()
+            .filter(|l| l.to == "north")
+            .cloned()
+            .collect();
+        let err = e
+            .apply(Command::SetLinks {
+                road: approach,
+                links: north_only,
+            })
+            .expect_err("routes use the exit");
+        assert!(err.to_string().contains("exit"), "{err}");
+        // Deleting the exit road takes the links and routes onto it.
+        e.apply(Command::DeleteRoad { road: south })
+            .expect("deletes");
+        let level = e.level();
+        assert!(
+            level
+                .roads
+                .iter()
+                .all(|r| r.links.iter().all(|l| l.to != "exit"))
+        );
+        assert!(level.spawners.iter().all(|s| s.routes.len() == 1));
+        assert!(validate(level).is_empty(), "{:?}", validate(level));
+        assert!(e.undo() && e.undo());
+        assert_eq!(e.level(), &original);
     }
 
     #[test]

@@ -6,6 +6,7 @@ mod app;
 mod camera;
 mod editor;
 mod focus;
+mod joins;
 mod play;
 mod render;
 mod scene;
@@ -18,14 +19,15 @@ pub use app::{
 };
 pub use camera::{Camera, ORBIT_FOV_RAD};
 pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
+pub use joins::{ACCELERATION_LANE_M, join_end, join_side};
 pub use play::{FRAME_BUDGET, HudStats, PlaySession, PlaySpeed};
 pub use render::{
     DEPTH_FORMAT, Gpu, Image, MSAA_SAMPLES, OFFSCREEN_FORMAT, RenderError, SKY, SceneRenderer,
     Targets, render_image,
 };
 pub use scene::{
-    COM_HEIGHT_SHARE, CarVertex, EMPTY_VIEW_M, StaticScene, VehicleFrame, VehicleInstance, Vertex,
-    box_faces, car_mesh, palette,
+    COM_HEIGHT_SHARE, CarVertex, ColourBy, EMPTY_VIEW_M, StaticScene, VehicleFrame,
+    VehicleInstance, Vertex, box_faces, car_mesh, palette,
 };
 pub use snapshot::{Rendered, Snapshot, SnapshotError, View, render_level};
 pub use ui::{PANEL_WIDTH, ui};

@@ -2,9 +2,11 @@
 //! as real time passes (1×, 2×, 5× or as fast as the frame budget allows), with the poses of
 //! the last two steps kept for smooth drawing between them.
 
-use crate::scene::VehicleFrame;
+use crate::scene::{ColourBy, VehicleFrame, palette};
 use flockway_core::{DT_S, RunStats};
+use flockway_drivers::Route;
 use flockway_level::Level;
+use flockway_road::{RoadId, RoadNetwork};
 use flockway_runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
 use flockway_traffic::{Spawner, SpawnerRate, TrafficStats};
 use flockway_vehicle::Motion;
@@ -78,6 +80,7 @@ pub struct PlaySession {
     pub speed: PlaySpeed,
     /// Whether time stands still.
     pub paused: bool,
+    colour_by: ColourBy,
     csv_path: PathBuf,
     /// `(sim seconds, mean, slowest and fastest speed km/h, vehicles)` once per simulated half
     /// second, for the chart.
@@ -117,11 +120,57 @@ impl PlaySession {
             accumulator_s: 0.0,
             speed: PlaySpeed::X1,
             paused: false,
+            colour_by: ColourBy::Driver,
             csv_path: csv.to_owned(),
             history: Vec::new(),
             rtf_window: (0.0, Duration::ZERO),
             realtime_factor: 0.0,
         })
+    }
+
+    /// What the cars' paint tells.
+    pub fn colour_by(&self) -> ColourBy {
+        self.colour_by
+    }
+
+    /// Paints the cars by driver or by destination, from the frame shown now on.
+    pub fn set_colour_by(&mut self, by: ColourBy) {
+        self.colour_by = by;
+        let world = self.runner.sim_mut().world_mut();
+        self.next.capture_by(world, by);
+        let colours: std::collections::BTreeMap<_, _> = self
+            .next
+            .ids
+            .iter()
+            .zip(&self.next.instances)
+            .map(|(e, i)| (*e, i.colour))
+            .collect();
+        for (e, i) in self.prev.ids.iter().zip(&mut self.prev.instances) {
+            if let Some(c) = colours.get(e) {
+                i.colour = *c;
+            }
+        }
+    }
+
+    /// The roads vehicles on the roads are bound for, with how many are bound for each and
+    /// their paint (`None`: vehicles with no destination), for the legend.
+    pub fn destinations(&mut self) -> Vec<(Option<String>, usize, [f32; 4])> {
+        let world = self.runner.sim_mut().world_mut();
+        let mut counts: std::collections::BTreeMap<Option<RoadId>, usize> = Default::default();
+        let mut query = world.query::<&Route>();
+        for route in query.iter(world) {
+            *counts.entry(route.destination()).or_default() += 1;
+        }
+        let network = world.resource::<RoadNetwork>();
+        counts
+            .into_iter()
+            .map(|(road, n)| {
+                let name = road
+                    .and_then(|r| network.get(r))
+                    .map(|g| g.name().to_owned());
+                (name, n, palette::destination(road))
+            })
+            .collect()
     }
 
     /// The runner (for tools that inspect the world).
@@ -156,9 +205,11 @@ impl PlaySession {
                 if chunk > 1 {
                     self.runner.step(chunk - 1)?;
                 }
-                self.prev.capture(self.runner.sim_mut().world_mut());
+                self.prev
+                    .capture_by(self.runner.sim_mut().world_mut(), self.colour_by);
                 self.runner.step(1)?;
-                self.next.capture(self.runner.sim_mut().world_mut());
+                self.next
+                    .capture_by(self.runner.sim_mut().world_mut(), self.colour_by);
             } else {
                 self.runner.step(chunk)?;
             }
@@ -312,5 +363,50 @@ impl PlaySession {
     /// The file the telemetry streams to.
     pub fn csv_path(&self) -> &Path {
         &self.csv_path
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_level::load_level;
+
+    #[test]
+    fn cars_painted_by_destination_show_where_each_is_bound() {
+        let level = load_level(Path::new("../../levels/exit_split.ron")).expect("shipped level");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut p = PlaySession::start(
+            level,
+            "exit_split",
+            Path::new("../../assets"),
+            &dir.path().join("t.csv"),
+        )
+        .expect("play starts");
+        p.step_ticks(60 * 120).expect("steps");
+        let by_driver = p.next.instances.clone();
+        p.set_colour_by(ColourBy::Destination);
+        let legend = p.destinations();
+        let mut bound: Vec<&str> = legend.iter().filter_map(|(r, ..)| r.as_deref()).collect();
+        bound.sort_unstable();
+        assert_eq!(bound, ["north", "south"], "{legend:?}");
+        let world = p.runner.sim_mut().world_mut();
+        for (e, i) in p.next.ids.iter().zip(&p.next.instances) {
+            let dest = world.get::<Route>(*e).and_then(Route::destination);
+            assert_eq!(i.colour, palette::destination(dest));
+        }
+        // The two destinations have paints of their own, and the poses did not change.
+        assert_ne!(legend[0].2, legend[1].2);
+        for (a, b) in by_driver.iter().zip(&p.next.instances) {
+            assert_eq!(a.translation, b.translation);
+        }
+        p.step_ticks(10).expect("steps");
+        assert!(
+            p.next
+                .instances
+                .iter()
+                .all(|i| legend.iter().any(|(_, _, c)| *c == i.colour)
+                    || i.colour == palette::destination(None)),
+            "new frames keep the destination paint"
+        );
     }
 }

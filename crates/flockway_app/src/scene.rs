@@ -2,9 +2,9 @@
 //! guardrails, markers) and one instance per vehicle.
 
 use bevy_ecs::prelude::*;
-use flockway_drivers::{FlockDriver, HumanDriver};
+use flockway_drivers::{FlockDriver, HumanDriver, Route};
 use flockway_level::{DestroyerPlaceSpec, Level, TriggerEffectSpec};
-use flockway_road::{Mesh, RoadGeometry, RoadNetwork, lane_offset};
+use flockway_road::{Mesh, RoadGeometry, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{Motion, VehicleModel};
 use glam::{DVec3, Quat, Vec3};
 
@@ -60,6 +60,29 @@ pub mod palette {
     pub const GRID_MAJOR: [f32; 4] = [0.27, 0.4, 0.22, 1.0];
     /// Destroyer gates.
     pub const DESTROYER: [f32; 4] = [0.8, 0.1, 0.6, 1.0];
+    /// Cars bound for no particular road (they follow their lanes' links).
+    pub const NO_DESTINATION: [f32; 4] = [0.45, 0.45, 0.45, 1.0];
+    /// Cars by destination: distinct paints, by the destination road's id.
+    pub const DESTINATIONS: [[f32; 4]; 8] = [
+        [0.9, 0.45, 0.02, 1.0],
+        [0.05, 0.55, 0.9, 1.0],
+        [0.75, 0.05, 0.65, 1.0],
+        [0.1, 0.7, 0.2, 1.0],
+        [0.95, 0.85, 0.05, 1.0],
+        [0.55, 0.25, 0.9, 1.0],
+        [0.05, 0.8, 0.75, 1.0],
+        [0.9, 0.1, 0.15, 1.0],
+    ];
+
+    /// The paint of a car bound for `road` (grey for none).
+    pub fn destination(road: Option<super::RoadId>) -> [f32; 4] {
+        road.map_or(NO_DESTINATION, |r| {
+            DESTINATIONS[r.0 as usize % DESTINATIONS.len()]
+        })
+    }
+
+    /// Link arrows in the editor: which lane leads onto which.
+    pub const LINK: [f32; 4] = [0.15, 0.8, 0.95, 1.0];
     /// Speed-limit trigger stretches (translucent).
     pub const SPEED_TRIGGER: [f32; 4] = [1.0, 0.55, 0.0, 0.35];
     /// Friction trigger stretches (translucent).
@@ -224,7 +247,6 @@ impl StaticScene {
             10.0
         };
         let z = self.min.z - 0.03;
-        let at = self.translucent_from as usize;
         let mut opaque = StaticScene::default();
         let count = |a: f32, b: f32| ((b - a) / step).round() as i64;
         for k in 0..=count(lo.x, hi.x) {
@@ -267,12 +289,71 @@ impl StaticScene {
                 c,
             );
         }
-        // Opaque: spliced in before the translucent trigger stretches.
+        self.splice_opaque(opaque);
+    }
+
+    /// Adds `opaque`'s triangles before the translucent trigger stretches.
+    fn splice_opaque(&mut self, opaque: StaticScene) {
+        let at = self.translucent_from as usize;
         let base = self.vertices.len() as u32;
         self.vertices.extend(opaque.vertices);
         let indices: Vec<u32> = opaque.indices.iter().map(|i| base + i).collect();
         self.translucent_from += indices.len() as u32;
         self.indices.splice(at..at, indices);
+    }
+
+    /// An arrow on the road surface for every lane pair of every link, from the last metres of
+    /// a lane across the joint onto the first metres of the lane it leads onto; the editor
+    /// draws them, so which lane goes where can be seen.
+    pub fn add_links(&mut self, network: &RoadNetwork) {
+        let mut arrows = StaticScene::default();
+        for (id, from) in network.iter() {
+            for link in network.links(id) {
+                let Some(to) = network.get(link.to) else {
+                    continue;
+                };
+                for &(a, b) in &link.lanes {
+                    let len = from.length_m();
+                    let path = [
+                        (from, a, (len - 9.0).max(0.5 * len)),
+                        (from, a, len),
+                        (to, b, 7.0f64.min(0.5 * to.length_m())),
+                    ]
+                    .map(|(g, lane, s)| {
+                        let f = g.frame_at(s);
+                        (f.offset(g.lane_offset_m(lane, s)) + f.up * 0.08).as_vec3()
+                    });
+                    arrows.arrow(&path, 0.35, 1.6, palette::LINK);
+                }
+            }
+        }
+        self.splice_opaque(arrows);
+    }
+
+    /// A flat arrow along `path` (lying on the ground), `width` wide with a head `head` long.
+    fn arrow(&mut self, path: &[Vec3], width: f32, head: f32, colour: [f32; 4]) {
+        let n = path.len();
+        if n < 2 {
+            return;
+        }
+        let tip = path[n - 1];
+        let dir = (tip - path[n - 2])
+            .truncate()
+            .normalize_or(glam::Vec2::X)
+            .extend(0.0);
+        let neck = tip - dir * head;
+        let side = |d: Vec3| Vec3::Z.cross(d).normalize_or(Vec3::Y);
+        for k in 0..n - 1 {
+            let (p, q) = (path[k], if k == n - 2 { neck } else { path[k + 1] });
+            let d = q - p;
+            if d.truncate().length() < 1e-3 {
+                continue;
+            }
+            let l = side(d) * (0.5 * width);
+            self.quad([p - l, q - l, q + l, p + l], Vec3::Z, colour);
+        }
+        let l = side(dir) * (1.6 * width);
+        self.triangle([neck - l, tip, neck + l], Vec3::Z, colour);
     }
 
     fn triangle(&mut self, corners: [Vec3; 3], normal: Vec3, colour: [f32; 4]) {
@@ -481,23 +562,42 @@ pub struct VehicleFrame {
     pub instances: Vec<VehicleInstance>,
 }
 
+/// What a vehicle's paint tells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ColourBy {
+    /// Its driver: autonomous blue, human-like red, others amber.
+    #[default]
+    Driver,
+    /// The road it is bound for ([`palette::destination`]); grey for none.
+    Destination,
+}
+
 impl VehicleFrame {
-    /// Collects every vehicle's instance from a simulation world.
+    /// Collects every vehicle's instance from a simulation world, coloured by driver.
     pub fn capture(&mut self, world: &mut World) {
+        self.capture_by(world, ColourBy::Driver);
+    }
+
+    /// Collects every vehicle's instance from a simulation world, coloured as `by` says.
+    pub fn capture_by(&mut self, world: &mut World, by: ColourBy) {
         let mut query = world.query::<(
             Entity,
             &Motion,
             &VehicleModel,
             Option<&HumanDriver>,
             Option<&FlockDriver>,
+            Option<&Route>,
         )>();
         let mut rows: Vec<_> = query
             .iter(world)
-            .map(|(e, m, model, human, flock)| {
+            .map(|(e, m, model, human, flock, route)| {
                 let c = &model.0.params.chassis;
-                let colour = match (human, flock) {
-                    (Some(_), _) => palette::HUMAN,
-                    (None, Some(_)) => palette::AUTONOMOUS,
+                let colour = match (by, human, flock) {
+                    (ColourBy::Destination, ..) => {
+                        palette::destination(route.and_then(Route::destination))
+                    }
+                    (_, Some(_), _) => palette::HUMAN,
+                    (_, None, Some(_)) => palette::AUTONOMOUS,
                     _ => palette::OTHER,
                 };
                 (

@@ -257,18 +257,18 @@ fn shortcut(app: &mut AppState, key: Key, m: Modifiers, aspect: f32) {
 
 /// "click to add the next point, Enter to finish" beside the road being drawn.
 fn draw_hint(painter: &egui::Painter, app: &AppState, size: Vec2, ppp: f32) {
-    let Some((at, text)) = app.drawing_hint() else {
+    let Some((at, text)) = app
+        .join_hint()
+        .or_else(|| app.drawing_hint().map(|(at, t)| (at, t.to_owned())))
+    else {
         return;
     };
     let Some(s) = app.camera.to_screen(at, size) else {
         return;
     };
     let pos = Pos2::new(s.x / ppp + 14.0, s.y / ppp - 8.0);
-    let galley = painter.layout_no_wrap(
-        text.to_owned(),
-        egui::FontId::proportional(14.0),
-        egui::Color32::WHITE,
-    );
+    let galley =
+        painter.layout_no_wrap(text, egui::FontId::proportional(14.0), egui::Color32::WHITE);
     let bg = Rect::from_min_size(pos, galley.size()).expand(4.0);
     painter.rect_filled(bg, 4.0, egui::Color32::from_black_alpha(170));
     painter.galley(pos, galley, egui::Color32::WHITE);

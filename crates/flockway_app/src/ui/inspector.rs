@@ -5,9 +5,10 @@ use super::widgets::{choice, count, error, lane, number, row, text};
 use crate::app::{AppState, Selection, Tool};
 use crate::editor::{Command, MarkerKind};
 use flockway_level::{
-    DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, SpawnerSpec, TriggerEffectSpec,
-    TriggerSpec,
+    DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, RouteSpec, SpawnerSpec,
+    TriggerEffectSpec, TriggerSpec,
 };
+use flockway_road::{LinkSpec, RoadSpec};
 use glam::DVec3;
 
 /// The inspector of whatever is selected.
@@ -122,17 +123,10 @@ fn road(ui: &mut egui::Ui, app: &mut AppState, level: &Level, r: usize) {
     if ui.checkbox(&mut closed, "closed loop").changed() {
         app.apply(Command::SetClosed { road: r, closed });
     }
-    let mut next = road.next.clone();
-    egui::ComboBox::from_label("leads onto")
-        .selected_text(next.clone().unwrap_or_else(|| "nothing".to_owned()))
-        .show_ui(ui, |ui| {
-            ui.selectable_value(&mut next, None, "nothing");
-            for other in level.roads.iter().filter(|o| o.name != road.name) {
-                ui.selectable_value(&mut next, Some(other.name.clone()), &other.name);
-            }
-        });
-    if next != road.next {
-        app.apply(Command::Connect { road: r, next });
+    if !road.closed
+        && let Some(links) = links(ui, level, road)
+    {
+        app.apply(Command::SetLinks { road: r, links });
     }
     if let Selection::Point(_, i) = app.selection
         && let Some(point) = road.points.get(i)
@@ -191,6 +185,115 @@ fn road(ui: &mut egui::Ui, app: &mut AppState, level: &Level, r: usize) {
     }
 }
 
+/// Where a road's end leads: each link with its lane pairs as a grid of checkboxes (a row per
+/// lane here, a column per lane there), a button to remove it, and a choice to add one. Returns
+/// the edited links.
+fn links(ui: &mut egui::Ui, level: &Level, road: &RoadSpec) -> Option<Vec<LinkSpec>> {
+    ui.separator();
+    ui.label(egui::RichText::new("leads onto").strong());
+    let mut links = road.outgoing();
+    let mut changed = false;
+    let mut remove = None;
+    if links.is_empty() {
+        ui.weak(
+            "nothing: drag this road's last point onto another road's start to link it, or \
+             onto its side to join as an on-ramp",
+        );
+    }
+    for (k, link) in links.iter_mut().enumerate() {
+        let Some(to) = level.road(&link.to) else {
+            error(ui, &format!("`{}` does not exist", link.to));
+            continue;
+        };
+        ui.horizontal(|ui| {
+            ui.label(format!("onto `{}`", link.to));
+            if ui
+                .small_button("x")
+                .on_hover_text("remove this link")
+                .clicked()
+            {
+                remove = Some(k);
+            }
+        });
+        let mut by_position = link.lanes.is_empty();
+        if ui
+            .checkbox(&mut by_position, "lanes by position")
+            .on_hover_text("lane i onto lane i; lanes beyond the other road's onto its leftmost")
+            .changed()
+        {
+            link.lanes = if by_position {
+                Vec::new()
+            } else {
+                link.lane_pairs(road.lanes, to.lanes)
+            };
+            changed = true;
+        }
+        let pairs = link.lane_pairs(road.lanes, to.lanes);
+        egui::Grid::new(("link lanes", k))
+            .num_columns(1 + to.lanes as usize)
+            .show(ui, |ui| {
+                ui.weak("here \\ there");
+                for b in 0..to.lanes {
+                    ui.weak(format!("{b}"));
+                }
+                ui.end_row();
+                // Leftmost lane first, as seen driving.
+                for a in (0..road.lanes).rev() {
+                    ui.weak(format!("lane {a}"));
+                    for b in 0..to.lanes {
+                        let mut on = pairs.contains(&(a, b));
+                        let what = format!("lane {a} here onto lane {b} of `{}`", to.name);
+                        let tick = ui
+                            .add_enabled(!by_position, egui::Checkbox::without_text(&mut on))
+                            .on_hover_text(&what);
+                        tick.widget_info(|| {
+                            egui::WidgetInfo::selected(
+                                egui::WidgetType::CheckBox,
+                                !by_position,
+                                on,
+                                &what,
+                            )
+                        });
+                        if tick.changed() {
+                            link.lanes.retain(|&(x, _)| x != a);
+                            if on {
+                                link.lanes.push((a, b));
+                            }
+                            link.lanes.sort_unstable();
+                            changed = true;
+                        }
+                    }
+                    ui.end_row();
+                }
+            });
+    }
+    if let Some(k) = remove {
+        links.remove(k);
+        changed = true;
+    }
+    let candidates: Vec<&RoadSpec> = level
+        .roads
+        .iter()
+        .filter(|o| o.name != road.name && !o.closed && o.points.len() >= 2)
+        .filter(|o| !links.iter().any(|l| l.to == o.name))
+        .collect();
+    if !candidates.is_empty() {
+        let mut pick: Option<String> = None;
+        egui::ComboBox::new(("add link", &road.name), "add a link")
+            .selected_text("onto…")
+            .show_ui(ui, |ui| {
+                for o in &candidates {
+                    ui.selectable_value(&mut pick, Some(o.name.clone()), &o.name);
+                }
+            });
+        if let Some(to) = pick {
+            links.push(LinkSpec::to(&to));
+            changed = true;
+        }
+    }
+    changed.then_some(links)
+}
+
 /// Road and arc position of a marker. Returns the edited pair when either changed.
 fn place(
     ui: &mut egui::Ui,
@@ -230,6 +333,10 @@ fn spawner(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, s: &S
         });
         if let Some((road, at)) = place(ui, app, level, "spawner", &s.road, s.s_m) {
             sp.lane = sp.lane.min(lanes_of(level, &road) - 1);
+            if road != sp.road {
+                // Routes start on the spawner's road: on another road they are drawn again.
+                sp.routes.clear();
+            }
             (sp.road, sp.s_m) = (road, at);
             changed = true;
         }
@@ -288,12 +395,144 @@ fn spawner(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, s: &S
     }
     ui.label(egui::RichText::new("driver profiles").strong());
     changed |= shares(ui, level, &mut sp.profiles, i);
+    ui.label(egui::RichText::new("where its vehicles go").strong());
+    changed |= routes(ui, level, &mut sp, i);
     if changed {
         app.edit_live(Command::SetSpawner(i, sp));
     }
     if ui.button("Delete spawner").clicked() {
         app.delete_selected();
     }
+}
+
+/// Where a spawner's vehicles go: along their lanes' links, to a destination by the quickest
+/// path, or along routes chosen by weight (each a chain of linked roads, extended by choosing
+/// among the roads the last one leads onto).
+fn routes(ui: &mut egui::Ui, level: &Level, sp: &mut SpawnerSpec, i: usize) -> bool {
+    #[derive(PartialEq, Clone, Copy)]
+    enum Mode {
+        Links,
+        Destination,
+        Routes,
+    }
+    let was = if !sp.routes.is_empty() {
+        Mode::Routes
+    } else if sp.destination.is_some() {
+        Mode::Destination
+    } else {
+        Mode::Links
+    };
+    let mut mode = was;
+    ui.horizontal(|ui| {
+        ui.radio_value(&mut mode, Mode::Links, "follow the links")
+            .on_hover_text("at a split, the first link that takes the lane");
+        ui.radio_value(&mut mode, Mode::Destination, "to a road")
+            .on_hover_text("the quickest path at free flow");
+        ui.radio_value(&mut mode, Mode::Routes, "routes");
+    });
+    let names = road_names(level);
+    let mut changed = mode != was;
+    if changed {
+        sp.routes.clear();
+        sp.destination = None;
+        match mode {
+            Mode::Destination => {
+                sp.destination = names.iter().find(|n| **n != sp.road).cloned();
+            }
+            Mode::Routes => sp.routes.push(RouteSpec {
+                name: "route 1".to_owned(),
+                roads: vec![sp.road.clone()],
+                weight: 1.0,
+            }),
+            Mode::Links => {}
+        }
+    }
+    if let Some(dest) = &mut sp.destination {
+        egui::Grid::new(("destination", i)).show(ui, |ui| {
+            changed |= row(ui, "road", |ui, by| {
+                choice(ui, by, ("destination road", i), dest, &names)
+            });
+        });
+    }
+    let total: f64 = sp.routes.iter().map(|r| r.weight.max(0.0)).sum();
+    let mut remove = None;
+    for (k, route) in sp.routes.iter_mut().enumerate() {
+        ui.push_id(("route", i, k), |ui| {
+            ui.horizontal(|ui| {
+                let by = ui.label(format!("{}.", k + 1)).id;
+                if let Some(n) = text(ui, by, ("route name", i, k), &route.name) {
+                    route.name = n.trim().to_owned();
+                    changed = true;
+                }
+                changed |= number(ui, by, &mut route.weight, 0.0..=1000.0, 0.01, "");
+                let pct = if total > 0.0 {
+                    100.0 * route.weight.max(0.0) / total
+                } else {
+                    0.0
+                };
+                ui.weak(format!("{pct:.0} %"));
+                if ui
+                    .small_button("x")
+                    .on_hover_text("remove the route")
+                    .clicked()
+                {
+                    remove = Some(k);
+                }
+            });
+            ui.horizontal_wrapped(|ui| {
+                ui.weak(route.roads.join(", then "));
+                let last = route
+                    .roads
+                    .last()
+                    .cloned()
+                    .unwrap_or_else(|| sp.road.clone());
+                let onward: Vec<String> = level
+                    .road(&last)
+                    .map(|r| r.outgoing().into_iter().map(|l| l.to).collect())
+                    .unwrap_or_default();
+                if !onward.is_empty() {
+                    let mut pick: Option<String> = None;
+                    egui::ComboBox::new(("route next", i, k), "next road")
+                        .selected_text("then…")
+                        .show_ui(ui, |ui| {
+                            for n in &onward {
+                                ui.selectable_value(&mut pick, Some(n.clone()), n);
+                            }
+                        });
+                    if let Some(n) = pick {
+                        route.roads.push(n);
+                        changed = true;
+                    }
+                }
+                if route.roads.len() > 1
+                    && ui
+                        .small_button("−")
+                        .on_hover_text("drop the last road")
+                        .clicked()
+                {
+                    route.roads.pop();
+                    changed = true;
+                }
+            });
+        });
+    }
+    if let Some(k) = remove {
+        sp.routes.remove(k);
+        changed = true;
+    }
+    if mode == Mode::Routes && ui.button("Add route").clicked() {
+        let n = (sp.routes.len() + 1..)
+            .map(|n| format!("route {n}"))
+            .find(|n| !sp.routes.iter().any(|r| &r.name == n))
+            .unwrap_or_default();
+        sp.routes.push(RouteSpec {
+            name: n,
+            roads: vec![sp.road.clone()],
+            weight: 1.0,
+        });
+        changed = true;
+    }
+    changed
 }
 
 /// A spawner's profile shares: profile and weight per row, with each one's percentage.

@@ -9,6 +9,7 @@ mod widgets;
 
 use crate::app::{AppState, Pending, Selection, SideTab, Tool};
 use crate::play::PlaySpeed;
+use crate::scene::ColourBy;
 use flockway_drivers::DriverLabel;
 use flockway_vehicle::{Controls, Motion, VehicleState};
 use std::path::PathBuf;
@@ -192,6 +193,11 @@ fn play_controls(ui: &mut egui::Ui, app: &mut AppState) {
     }
 }
 
+/// A linear RGB paint as the sRGB colour egui draws.
+fn linear_to_colour32(c: [f32; 4]) -> egui::Color32 {
+    egui::Rgba::from_rgb(c[0], c[1], c[2]).into()
+}
+
 fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
     play_controls(ui, app);
     let Some(p) = &mut app.play else { return };
@@ -217,6 +223,30 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
             ),
         );
     });
+    ui.separator();
+    let mut by = p.colour_by();
+    ui.horizontal(|ui| {
+        ui.label("paint cars by");
+        ui.radio_value(&mut by, ColourBy::Driver, "driver");
+        ui.radio_value(&mut by, ColourBy::Destination, "destination");
+    });
+    if by != p.colour_by() {
+        p.set_colour_by(by);
+    }
+    if by == ColourBy::Destination {
+        for (road, n, colour) in p.destinations() {
+            ui.horizontal(|ui| {
+                let (rect, _) =
+                    ui.allocate_exact_size(egui::vec2(14.0, 14.0), egui::Sense::hover());
+                ui.painter()
+                    .rect_filled(rect, 3.0, linear_to_colour32(colour));
+                ui.label(match road {
+                    Some(r) => format!("to `{r}`: {n}"),
+                    None => format!("no destination (follow the links): {n}"),
+                });
+            });
+        }
+    }
     let spawners = p.spawners();
     if !spawners.is_empty() {
         ui.separator();

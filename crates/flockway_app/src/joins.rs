@@ -1,0 +1,520 @@
+//! Joining roads in the editor: a road's end dropped onto another road's start links the two
+//! lane by lane; dropped onto another road's side, it becomes an on-ramp whose lanes run on as
+//! acceleration lanes beside the road and end into its rightmost lane.
+//!
+//! Both edits only change the level's specs (points, links, markers, routes), so the level file
+//! they give is one a user could have written by hand, and `flockway run` loads it unchanged.
+
+use flockway_level::{DestroyerPlaceSpec, Level};
+use flockway_road::{ControlPoint, LinkSpec, RoadFrame, RoadGeometry, RoadSpec};
+use glam::DVec3;
+
+/// Length of the acceleration lane a side join builds, metres (where the road allows it).
+pub const ACCELERATION_LANE_M: f64 = 250.0;
+/// Shortest acceleration lane a side join accepts, metres.
+pub const MIN_ACCELERATION_LANE_M: f64 = 60.0;
+/// Length of the taper at the end of the acceleration lane with no guardrail, metres: a car
+/// that could not merge stops at the lane's end, not against the rail's end.
+const TAPER_M: f64 = 60.0;
+/// Closest a side join may come to the road's start, metres.
+const MIN_UPSTREAM_M: f64 = 10.0;
+/// Control points closer than this to a cut are left out (the cut point replaces them), metres.
+const NEAR_CUT_M: f64 = 2.0;
+
+/// Why a join cannot be made, in words for the status line.
+pub type JoinError = String;
+
+fn geometry(spec: &RoadSpec) -> Result<RoadGeometry, JoinError> {
+    RoadGeometry::new(spec).map_err(|e| format!("road `{}` cannot be built: {e}", spec.name))
+}
+
+fn index_of(level: &Level, name: &str) -> Result<usize, JoinError> {
+    level
+        .roads
+        .iter()
+        .position(|r| r.name == name)
+        .ok_or_else(|| format!("there is no road named `{name}`"))
+}
+
+/// Checks that `road` may lead onto `onto`: two different open roads, not linked yet.
+fn check_pair(level: &Level, road: usize, onto: &str) -> Result<(), JoinError> {
+    let from = level
+        .roads
+        .get(road)
+        .ok_or_else(|| format!("there is no road {road}"))?;
+    let to = &level.roads[index_of(level, onto)?];
+    if from.name == to.name {
+        return Err("a road cannot lead onto itself: close it into a loop instead".to_owned());
+    }
+    if from.closed || to.closed {
+        return Err("a loop has no end or start to join: open it first".to_owned());
+    }
+    if from.outgoing().iter().any(|l| l.to == to.name) {
+        return Err(format!(
+            "`{}` already leads onto `{}`: its lanes are in the inspector",
+            from.name, to.name
+        ));
+    }
+    Ok(())
+}
+
+/// A control point at a cut: where the road is, heading as it heads, with its bank and width.
+fn cut_point(frame: &RoadFrame, template: &ControlPoint, lateral_m: f64) -> ControlPoint {
+    ControlPoint {
+        pos: round_mm(frame.offset(lateral_m)),
+        width_m: None,
+        bank_deg: round_mm_f(frame.bank_rad.to_degrees()),
+        tangent: Some(round_unit(frame.tangent)),
+        ..template.clone()
+    }
+}
+
+fn round_mm_f(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
+}
+
+fn round_mm(p: DVec3) -> DVec3 {
+    DVec3::new(round_mm_f(p.x), round_mm_f(p.y), round_mm_f(p.z))
+}
+
+fn round_unit(t: DVec3) -> DVec3 {
+    let r = DVec3::new(
+        (t.x * 1e6).round() / 1e6,
+        (t.y * 1e6).round() / 1e6,
+        (t.z * 1e6).round() / 1e6,
+    );
+    if r.length() > 0.0 { r } else { t }
+}
+
+/// Links `road`'s end onto `onto`'s start, lanes by position from the right: the end point
+/// moves onto the start, so the rightmost lanes line up, and heads the way `onto` starts.
+pub fn join_end(level: &mut Level, road: usize, onto: &str) -> Result<(), JoinError> {
+    check_pair(level, road, onto)?;
+    let to = &level.roads[index_of(level, onto)?];
+    let start = geometry(to)?.frame_at(0.0);
+    let from = &level.roads[road];
+    let lane_w = to.width_at_point(0) / f64::from(to.lanes.max(1));
+    let own_w = from.lane_width_m * f64::from(from.lanes);
+    // Right edges together: lane i continues on lane i.
+    let lateral = -0.5 * to.width_at_point(0) + 0.5 * own_w.min(lane_w * f64::from(to.lanes));
+    let to_lanes = to.lanes;
+    let spec = &mut level.roads[road];
+    let last = spec
+        .points
+        .last_mut()
+        .ok_or_else(|| "a road with no points has no end".to_owned())?;
+    last.pos = round_mm(start.offset(lateral));
+    last.tangent = Some(round_unit(start.tangent));
+    let link = if lateral.abs() < 1e-9 {
+        LinkSpec::to(onto)
+    } else {
+        // Centre lines apart: lane by lane, lane i onto lane i; lanes beyond the other road's
+        // end (the lanes beside them take their traffic).
+        LinkSpec {
+            to: onto.to_owned(),
+            lanes: (0..spec.lanes.min(to_lanes)).map(|i| (i, i)).collect(),
+        }
+    };
+    if spec.next.is_none() && spec.links.is_empty() && link.lanes.is_empty() {
+        spec.next = Some(onto.to_owned());
+    } else {
+        spec.links.push(link);
+    }
+    spec.closed = false;
+    Ok(())
+}
+
+/// A piece of road `spec` (geometry `g`) between arc positions `a` and `b`, its centre line
+/// moved `shift_m` to the left and `extra_m` wider where the original sets its width.
+fn piece(
+    spec: &RoadSpec,
+    g: &RoadGeometry,
+    (a, b): (f64, f64),
+    shift_m: f64,
+    extra_m: f64,
+) -> Vec<ControlPoint> {
+    let template = |s: f64| {
+        // The properties of the point that starts the segment holding `s`.
+        let i = (0..spec.points.len())
+            .rev()
+            .find(|&i| g.point_s(i).is_some_and(|p| p <= s + 1e-9))
+            .unwrap_or(0);
+        spec.points[i].clone()
+    };
+    let widen = |p: &ControlPoint| p.width_m.map(|w| w + extra_m);
+    let mut points = vec![cut_point(&g.frame_at(a), &template(a), shift_m)];
+    if let Some(w) = template(a).width_m {
+        points[0].width_m = Some(w + extra_m);
+    }
+    for (i, p) in spec.points.iter().enumerate() {
+        let Some(s) = g.point_s(i) else { continue };
+        if s > a + NEAR_CUT_M && s < b - NEAR_CUT_M {
+            let f = g.frame_at(s);
+            points.push(ControlPoint {
+                pos: round_mm(f.offset(shift_m)),
+                width_m: widen(p),
+                ..p.clone()
+            });
+        }
+    }
+    let mut end = cut_point(&g.frame_at(b), &template(b), shift_m);
+    end.width_m = template(b).width_m.map(|w| w + extra_m);
+    points.push(end);
+    points
+}
+
+/// A name not yet taken in the level, from `base`.
+fn unique_name(level: &Level, base: &str) -> String {
+    if level.road(base).is_none() {
+        return base.to_owned();
+    }
+    (2..)
+        .map(|n| format!("{base} {n}"))
+        .find(|n| level.road(n).is_none())
+        .unwrap_or_default()
+}
+
+/// Joins `road`'s end onto the side of `onto` at arc position `s_m`, as an on-ramp: `onto` is cut
+/// there into itself (up to the join), a merge stretch where `road`'s lanes run on as
+/// acceleration lanes on the right for [`ACCELERATION_LANE_M`] (less where the road is shorter)
+/// and end, and the rest of `onto`. Markers beyond the cut move onto the piece they stand on;
+/// routes through `onto` go through the new pieces. Returns the two new roads' names.
+pub fn join_side(
+    level: &mut Level,
+    road: usize,
+    onto: &str,
+    s_m: f64,
+) -> Result<(String, String), JoinError> {
+    check_pair(level, road, onto)?;
+    let m = index_of(level, onto)?;
+    let main = level.roads[m].clone();
+    let g = geometry(&main)?;
+    let len = g.length_m();
+    let accel = ACCELERATION_LANE_M.min(len - s_m - TAPER_M - 20.0);
+    if !s_m.is_finite() || s_m < MIN_UPSTREAM_M || accel < MIN_ACCELERATION_LANE_M {
+        return Err(format!(
+            "`{onto}` is {len:.0} m long: a road joins its side between {MIN_UPSTREAM_M:.0} m \
+             from its start and {:.0} m before its end (room for an acceleration lane)",
+            MIN_ACCELERATION_LANE_M + TAPER_M + 20.0
+        ));
+    }
+    let (cut1, cut2) = (round_mm_f(s_m), round_mm_f(s_m + accel));
+    let ramp_lanes = level.roads[road].lanes;
+    let lane_w = main.lane_width_m;
+    let added_m = f64::from(ramp_lanes) * lane_w;
+    let merge_name = unique_name(level, &format!("{onto} merge"));
+    let mut on = level.clone();
+    on.roads.push(RoadSpec::through(&merge_name, 1, 1.0, &[]));
+    let rest_name = unique_name(&on, &format!("{onto} on"));
+
+    // The three pieces.
+    let mut up = main.clone();
+    up.points = piece(&main, &g, (0.0, cut1), 0.0, 0.0);
+    up.next = None;
+    up.links = vec![LinkSpec {
+        to: merge_name.clone(),
+        lanes: (0..main.lanes).map(|i| (i, i + ramp_lanes)).collect(),
+    }];
+    let mut merge = main.clone();
+    merge.name = merge_name.clone();
+    merge.lanes = main.lanes + ramp_lanes;
+    merge.points = piece(&main, &g, (cut1, cut2), -0.5 * added_m, added_m);
+    for p in &mut merge.points {
+        p.guardrail_right = true;
+    }
+    merge.next = None;
+    merge.links = vec![LinkSpec {
+        to: rest_name.clone(),
+        lanes: (0..main.lanes).map(|i| (i + ramp_lanes, i)).collect(),
+    }];
+    let mut rest = main.clone();
+    rest.name = rest_name.clone();
+    let taper_end = (cut2 + TAPER_M).min(len - 1.0);
+    rest.points = piece(&main, &g, (cut2, len), 0.0, 0.0);
+    // The taper: no rail on the right until the acceleration lane's width has gone.
+    if taper_end < len - NEAR_CUT_M {
+        let f = g.frame_at(taper_end);
+        let at = rest
+            .points
+            .iter()
+            .position(|p| g.project(p.pos).s_m > taper_end)
+            .unwrap_or(rest.points.len() - 1);
+        if (g.project(rest.points[at - 1].pos).s_m - taper_end).abs() > NEAR_CUT_M {
+            let mut p = rest.points[at - 1].clone();
+            p.pos = round_mm(f.pos);
+            p.tangent = None;
+            rest.points.insert(at, p);
+        }
+    }
+    rest.points[0].guardrail_right = false;
+
+    // The ramp's end on the acceleration lanes' start, heading along the road.
+    let start = g.frame_at(cut1);
+    let ramp = &mut level.roads[road];
+    let ramp_centre = -0.5 * start.width_m - 0.5 * added_m;
+    let last = ramp
+        .points
+        .last_mut()
+        .ok_or_else(|| "a road with no points has no end".to_owned())?;
+    last.pos = round_mm(start.offset(ramp_centre));
+    last.tangent = Some(round_unit(start.tangent));
+    last.guardrail_left = false;
+    ramp.links.push(LinkSpec {
+        to: merge_name.clone(),
+        lanes: (0..ramp_lanes).map(|i| (i, i)).collect(),
+    });
+    // Beside the road just before the join, the two roads' rails would stand in each other's way.
+    let n = ramp.points.len();
+    if n >= 2 {
+        ramp.points[n - 2].guardrail_left = false;
+    }
+    if let Some(p) = up.points.iter_mut().rev().nth(1) {
+        p.guardrail_right = false;
+    }
+
+    // What lay beyond the cut follows its piece; routes go through the pieces.
+    let place = |s: f64| -> (String, f64, u32) {
+        if s < cut1 {
+            (onto.to_owned(), s, 0)
+        } else if s < cut2 {
+            (merge_name.clone(), s - cut1, ramp_lanes)
+        } else {
+            (rest_name.clone(), s - cut2, 0)
+        }
+    };
+    let piece_end = |name: &str| {
+        if name == onto {
+            cut1
+        } else if name == merge_name {
+            cut2 - cut1
+        } else {
+            len - cut2
+        }
+    };
+    for s in level.spawners.iter_mut().filter(|s| s.road == onto) {
+        let (r, at, lanes) = place(s.s_m);
+        (s.road, s.s_m, s.lane) = (r, round_mm_f(at), s.lane + lanes);
+    }
+    for d in &mut level.destroyers {
+        if let DestroyerPlaceSpec::OnRoad { road: r, s_m } = &mut d.place
+            && r == onto
+        {
+            let (to, at, _) = place(*s_m);
+            (*r, *s_m) = (to, round_mm_f(at));
+        }
+    }
+    for t in level.triggers.iter_mut().filter(|t| t.road == onto) {
+        let (r, from, lanes) = place(t.from_m);
+        let shift = t.from_m - from;
+        t.to_m = round_mm_f((t.to_m - shift).min(piece_end(&r)));
+        (t.road, t.from_m) = (r, round_mm_f(from));
+        if let Some(ls) = &mut t.lanes {
+            ls.iter_mut().for_each(|l| *l += lanes);
+        }
+    }
+    for v in level.vehicles.iter_mut().filter(|v| v.road == onto) {
+        let (r, from, lanes) = place(v.from_m);
+        let shift = v.from_m - from;
+        v.to_m = Some(round_mm_f(
+            (v.to_m.unwrap_or(len) - shift).min(piece_end(&r)),
+        ));
+        (v.road, v.from_m, v.lane) = (r, round_mm_f(from), v.lane + lanes);
+    }
+    for s in &mut level.spawners {
+        for route in &mut s.routes {
+            if let Some(k) = route.roads.iter().position(|r| r == onto) {
+                route
+                    .roads
+                    .splice(k + 1..k + 1, [merge_name.clone(), rest_name.clone()]);
+            }
+            // A spawner moved onto a later piece starts its routes there.
+            if let Some(k) = route.roads.iter().position(|r| *r == s.road) {
+                route.roads.drain(..k);
+            }
+        }
+        if s.destination.as_deref() == Some(onto) {
+            s.destination = Some(rest_name.clone());
+        }
+    }
+    let at = level.roads.iter().position(|r| r.name == onto).unwrap_or(m);
+    level.roads[at] = up;
+    level.roads.insert(at + 1, merge);
+    level.roads.insert(at + 2, rest);
+    Ok((merge_name, rest_name))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_level::{
+        RouteSpec, SpawnerSpec, level_to_string, mixed_shares, parse_level, reference_profiles,
+        reference_vehicle_types, validate, warnings,
+    };
+    use flockway_road::RoadNetwork;
+    use std::path::Path;
+
+    fn level_with(roads: Vec<RoadSpec>) -> Level {
+        let mut level = Level::new(1, 60.0);
+        level.roads = roads;
+        level.vehicle_types = reference_vehicle_types();
+        level.driver_profiles = reference_profiles();
+        level
+    }
+
+    fn straight(name: &str, lanes: u32, a: DVec3, b: DVec3) -> RoadSpec {
+        RoadSpec::through(name, lanes, 100.0, &[a, 0.5 * (a + b), b])
+    }
+
+    #[test]
+    fn an_end_dropped_on_a_start_links_lanes_and_lines_them_up() {
+        let mut level = level_with(vec![
+            straight("a", 2, DVec3::ZERO, DVec3::new(200.0, 3.0, 0.0)),
+            straight(
+                "b",
+                3,
+                DVec3::new(210.0, 0.0, 0.0),
+                DVec3::new(400.0, 0.0, 0.0),
+            ),
+        ]);
+        join_end(&mut level, 0, "b").expect("joins");
+        let a = &level.roads[0];
+        assert_eq!(
+            a.links,
+            [LinkSpec {
+                to: "b".to_owned(),
+                lanes: vec![(0, 0), (1, 1)]
+            }]
+        );
+        // Right edges together: a (two 3 m lanes) centred 1.5 m right of b's (three) centre.
+        let end = a.points.last().expect("points").pos;
+        assert!(
+            (end - DVec3::new(210.0, -1.5, 0.0)).length() < 1e-3,
+            "{end}"
+        );
+        let net = RoadNetwork::build(&level.roads).expect("a network");
+        let (ia, ib) = (net.id("a").expect("a"), net.id("b").expect("b"));
+        assert_eq!(net.lane_next(ia, 1, None), Some((ib, 1)));
+        // Lane 1 of `a` ends where lane 1 of `b` starts.
+        let (ga, gb) = (net.get(ia).expect("a"), net.get(ib).expect("b"));
+        let gap = ga.lane_point(1, ga.length_m()) - gb.lane_point(1, 0.0);
+        assert!(gap.length() < 1e-3, "{gap}");
+        assert!(join_end(&mut level, 0, "b").is_err(), "linked twice");
+        assert!(join_end(&mut level, 0, "a").is_err(), "onto itself");
+        // A second link makes a split.
+        level.roads.push(straight(
+            "c",
+            1,
+            DVec3::new(210.0, -30.0, 0.0),
+            DVec3::new(300.0, -90.0, 0.0),
+        ));
+        join_end(&mut level, 0, "c").expect("a split");
+        assert_eq!(level.roads[0].outgoing().len(), 2);
+    }
+
+    #[test]
+    fn an_end_dropped_on_a_side_builds_an_on_ramp_that_loads_and_routes() {
+        let mut level = level_with(vec![
+            straight("main", 2, DVec3::ZERO, DVec3::new(1000.0, 0.0, 0.0)),
+            straight(
+                "ramp",
+                1,
+                DVec3::new(200.0, -80.0, 0.0),
+                DVec3::new(380.0, -10.0, 0.0),
+            ),
+        ]);
+        level.roads[0].points[1].width_m = None;
+        level.spawners.push(SpawnerSpec {
+            name: "late".to_owned(),
+            road: "main".to_owned(),
+            lane: 1,
+            s_m: 500.0,
+            interval_s: flockway_level::Range { min: 2.0, max: 3.0 },
+            profiles: mixed_shares(&level),
+            speed_kmh: None,
+            active: true,
+            max_vehicles: None,
+            routes: vec![RouteSpec {
+                name: "through".to_owned(),
+                roads: vec!["main".to_owned()],
+                weight: 1.0,
+            }],
+            destination: None,
+            schedule: Vec::new(),
+        });
+        level.destroyers.push(flockway_level::DestroyerSpec {
+            name: "end".to_owned(),
+            place: DestroyerPlaceSpec::OnRoad {
+                road: "main".to_owned(),
+                s_m: 950.0,
+            },
+        });
+        let (merge, rest) = join_side(&mut level, 1, "main", 400.0).expect("joins");
+        assert_eq!((merge.as_str(), rest.as_str()), ("main merge", "main on"));
+        let net = RoadNetwork::build(&level.roads).expect("a network");
+        let id = |n: &str| net.id(n).expect(n);
+        let (main, ramp, m, r) = (id("main"), id("ramp"), id(&merge), id(&rest));
+        assert!((net.get(main).expect("main").length_m() - 400.0).abs() < 0.5);
+        assert!((net.get(m).expect("merge").length_m() - ACCELERATION_LANE_M).abs() < 0.5);
+        assert_eq!(net.get(m).expect("merge").lanes(), 3);
+        // The motorway's lanes run straight through; the ramp's lane becomes lane 0 and ends.
+        assert_eq!(net.lane_next(main, 0, None), Some((m, 1)));
+        assert_eq!(net.lane_next(ramp, 0, None), Some((m, 0)));
+        assert_eq!(net.lane_next(m, 2, None), Some((r, 1)));
+        assert_eq!(net.lane_next(m, 0, None), None);
+        for (from, lane, to, to_lane) in [(main, 0, m, 1), (ramp, 0, m, 0), (m, 1, r, 0)] {
+            let (a, b) = (net.get(from).expect("from"), net.get(to).expect("to"));
+            let gap = a.lane_point(lane, a.length_m()) - b.lane_point(to_lane, 0.0);
+            assert!(
+                gap.length() < 0.01,
+                "{from:?}/{lane} → {to:?}/{to_lane}: {gap}"
+            );
+        }
+        // Markers and routes beyond the cut follow.
+        assert_eq!(level.spawners[0].road, merge);
+        assert_eq!(level.spawners[0].lane, 2);
+        assert!((level.spawners[0].s_m - 100.0).abs() < 1e-6);
+        assert_eq!(
+            level.spawners[0].routes[0].roads,
+            [merge.clone(), rest.clone()]
+        );
+        match &level.destroyers[0].place {
+            DestroyerPlaceSpec::OnRoad { road, s_m } => {
+                assert_eq!(road, &rest);
+                assert!((s_m - 300.0).abs() < 1e-6);
+            }
+            other => panic!("{other:?}"),
+        }
+        // The level is one `flockway run` takes, and reads back the same.
+        let issues: Vec<String> = validate(&level)
+            .into_iter()
+            .chain(warnings(&level))
+            .map(|i| i.describe(&level))
+            .collect();
+        // The ramp's start leads from nothing, which is fine; nothing else may be wrong.
+        assert!(issues.is_empty(), "{issues:?}");
+        let text = level_to_string(&level).expect("writes");
+        assert_eq!(
+            parse_level(&text, Path::new("joined.ron")).expect("reads"),
+            level
+        );
+    }
+
+    #[test]
+    fn a_side_join_too_near_an_end_is_refused_with_the_room_it_needs() {
+        let mut level = level_with(vec![
+            straight("main", 2, DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)),
+            straight(
+                "ramp",
+                1,
+                DVec3::new(0.0, -50.0, 0.0),
+                DVec3::new(200.0, -10.0, 0.0),
+            ),
+        ]);
+        let before = level.clone();
+        let e = join_side(&mut level, 1, "main", 250.0).expect_err("no room");
+        assert!(e.contains("before its end"), "{e}");
+        assert_eq!(level, before);
+        assert!(join_side(&mut level, 1, "main", 5.0).is_err());
+        assert!(join_side(&mut level, 1, "ramp", 50.0).is_err());
+    }
+}
