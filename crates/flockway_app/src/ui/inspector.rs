@@ -248,7 +248,7 @@ fn links(ui: &mut egui::Ui, level: &Level, road: &RoadSpec) -> Option<Vec<LinkSp
                             .on_hover_text(&what);
                         tick.widget_info(|| {
                             egui::WidgetInfo::selected(
-                                egui::WidgetType::CheckBox,
+                                egui::Role::CheckBox,
                                 !by_position,
                                 on,
                                 &what,
