@@ -125,8 +125,13 @@ impl RoadSurface {
     }
 }
 
-/// One way of driving's envelopes: `[road][lane][bin]`, the square of the allowed speed.
-type Envelopes = Vec<Vec<Arc<[f32]>>>;
+/// One lane's envelopes, the square of the allowed speed per bin: one per road the lane leads
+/// onto at its end (the first, its default, where it goes without a route), or one alone for a
+/// lane that leads nowhere.
+type LaneEnvelopes = Vec<(Option<RoadId>, Arc<[f32]>)>;
+
+/// One way of driving's envelopes: `[road][lane]`.
+type Envelopes = Vec<Vec<LaneEnvelopes>>;
 
 /// The speed envelopes of every way of driving on the road now (see the module docs).
 #[derive(Resource, Debug, Default)]
@@ -139,8 +144,17 @@ pub struct RoadAhead {
 
 impl RoadAhead {
     /// The highest speed, m/s, from which `reads` can take the road ahead of `s_m` in `lane` of
-    /// `road`; infinite where nothing ahead asks it to slow (or before its envelope exists).
-    pub fn speed_cap_mps(&self, reads: &ReadsRoad, road: RoadId, lane: u32, s_m: f64) -> f32 {
+    /// `road`, going on onto `next` at its end (its route's next road; `None`: where the lane
+    /// leads without a route); infinite where nothing ahead asks it to slow (or before its
+    /// envelope exists).
+    pub fn speed_cap_mps(
+        &self,
+        reads: &ReadsRoad,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        next: Option<RoadId>,
+    ) -> f32 {
         let Some(style) = reads.style else {
             return f32::INFINITY;
         };
@@ -151,7 +165,14 @@ impl RoadAhead {
         else {
             return f32::INFINITY;
         };
-        let Some(env) = lanes.get(lane as usize).or(lanes.last()) else {
+        let Some(branches) = lanes.get(lane as usize).or(lanes.last()) else {
+            return f32::INFINITY;
+        };
+        let Some((_, env)) = branches
+            .iter()
+            .find(|(to, _)| next.is_some() && *to == next)
+            .or(branches.first())
+        else {
             return f32::INFINITY;
         };
         let s_m = match self.loops.get(road.0 as usize) {
@@ -211,15 +232,40 @@ pub fn update_road_ahead(
     }
 }
 
-/// Every road's and lane's envelope for one way of driving, carried back from the road each one
-/// leads onto (around a loop and along a chain of roads: repeated until nothing changes).
+/// Every road's and lane's envelopes for one way of driving, carried back from the lanes each
+/// one leads onto (around a loop and along a chain of roads: repeated until nothing changes).
+/// Where a lane leads onto several roads, each branch has its own; a road's start is as slow as
+/// its slowest branch needs.
 fn envelopes(reads: &ReadsRoad, network: &RoadNetwork, surface: &RoadSurface) -> Envelopes {
     let n = network.len();
-    // Per road and lane: the allowed v² where it starts and, from those, where it ends.
-    let mut out: Envelopes = vec![Vec::new(); n];
-    let lanes_of = |id: RoadId| network.get(id).map_or(0, |g| g.lanes());
-    let mut tails: Vec<Vec<f32>> = (0..n)
-        .map(|i| vec![f32::INFINITY; lanes_of(RoadId(i as u32)) as usize])
+    // Per road and lane, where it leads: the loop itself, or each link that takes the lane.
+    let branches: Vec<Vec<Vec<(RoadId, u32)>>> = network
+        .iter()
+        .map(|(id, g)| {
+            (0..g.lanes())
+                .map(|lane| {
+                    if g.is_closed() {
+                        vec![(id, lane)]
+                    } else {
+                        network
+                            .links(id)
+                            .iter()
+                            .filter_map(|l| l.lane_to(lane).map(|b| (l.to, b)))
+                            .collect()
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    // Per road, lane and branch: the allowed v² where that branch's lane starts.
+    let mut tails: Vec<Vec<Vec<f32>>> = branches
+        .iter()
+        .map(|lanes| {
+            lanes
+                .iter()
+                .map(|b| vec![f32::INFINITY; b.len().max(1)])
+                .collect()
+        })
         .collect();
     let limits: Vec<Vec<(Vec<f32>, Vec<f32>)>> = network
         .iter()
@@ -229,34 +275,44 @@ fn envelopes(reads: &ReadsRoad, network: &RoadNetwork, surface: &RoadSurface) ->
                 .collect()
         })
         .collect();
+    let mut out: Envelopes = vec![Vec::new(); n];
     for _ in 0..=n + 1 {
         for (i, lanes) in limits.iter().enumerate() {
             out[i] = lanes
                 .iter()
-                .zip(&tails[i])
-                .map(|((cap, brake), &tail)| backward_pass(cap, brake, tail))
+                .enumerate()
+                .map(|(lane, (cap, brake))| {
+                    let to = &branches[i][lane];
+                    tails[i][lane]
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &tail)| (to.get(k).map(|b| b.0), backward_pass(cap, brake, tail)))
+                        .collect()
+                })
                 .collect();
         }
         let mut changed = false;
-        for (id, g) in network.iter() {
-            let i = id.0 as usize;
-            let next = if g.is_closed() {
-                Some(id)
-            } else {
-                network.next(id)
-            };
-            let Some(next) = next else { continue };
-            let heads = &out[next.0 as usize];
-            for (lane, tail) in tails[i].iter_mut().enumerate() {
-                let head = heads
-                    .get(lane)
-                    .or(heads.last())
-                    .and_then(|e| e.first())
-                    .copied()
-                    .unwrap_or(f32::INFINITY);
-                if head != *tail {
-                    *tail = head;
-                    changed = true;
+        for (i, lanes) in branches.iter().enumerate() {
+            for (lane, to) in lanes.iter().enumerate() {
+                for (k, &(road, b)) in to.iter().enumerate() {
+                    let Some(heads) = out.get(road.0 as usize) else {
+                        continue;
+                    };
+                    // The slowest start of any branch of the lane it leads onto.
+                    let head =
+                        heads
+                            .get(b as usize)
+                            .or(heads.last())
+                            .map_or(f32::INFINITY, |envs| {
+                                envs.iter()
+                                    .filter_map(|(_, e)| e.first().copied())
+                                    .fold(f32::INFINITY, f32::min)
+                            });
+                    let tail = &mut tails[i][lane][k];
+                    if head != *tail {
+                        *tail = head;
+                        changed = true;
+                    }
                 }
             }
         }
@@ -355,18 +411,18 @@ mod tests {
         let road = RoadId(0);
         // Mid-bend, in the right lane (1.75 m outside the centre line of a left bend).
         let mid = 300.0 + 0.25 * std::f64::consts::PI * r;
-        let v = ahead.speed_cap_mps(&reads, road, 0, mid);
+        let v = ahead.speed_cap_mps(&reads, road, 0, mid, None);
         let want = (2.0 * (r + 1.75) as f32).sqrt();
         assert!((v - want).abs() / want < 0.03, "{v} vs {want}");
         // The left lane turns tighter.
-        assert!(ahead.speed_cap_mps(&reads, road, 1, mid) < v);
+        assert!(ahead.speed_cap_mps(&reads, road, 1, mid, None) < v);
         // 100 m before the bend: exactly what braking at 1.5 m/s² from there reaches.
-        let before = ahead.speed_cap_mps(&reads, road, 0, 200.0);
+        let before = ahead.speed_cap_mps(&reads, road, 0, 200.0, None);
         let reach = (want * want + 2.0 * 1.5 * 100.0).sqrt();
         assert!((before - reach).abs() / reach < 0.03, "{before} vs {reach}");
         // 300 m before it: 31 m/s (112 km/h); after the last bend, straight-road speeds (over
         // 400 km/h).
-        let start = ahead.speed_cap_mps(&reads, road, 0, 0.0);
+        let start = ahead.speed_cap_mps(&reads, road, 0, 0.0, None);
         let reach = (want * want + 2.0 * 1.5 * 300.0).sqrt();
         assert!((start - reach).abs() / reach < 0.03, "{start} vs {reach}");
         let end = ahead.speed_cap_mps(
@@ -374,6 +430,7 @@ mod tests {
             road,
             0,
             300.0 + 0.5 * std::f64::consts::PI * r + 250.0,
+            None,
         );
         assert!(end > 110.0, "{end}");
     }
@@ -395,8 +452,8 @@ mod tests {
         let wet = envelope_of(bend(r), reads, &wet_surface);
         let mid = 300.0 + 0.25 * std::f64::consts::PI * r;
         let (v_dry, v_wet) = (
-            dry.0.speed_cap_mps(&dry.1, RoadId(0), 0, mid),
-            wet.0.speed_cap_mps(&wet.1, RoadId(0), 0, mid),
+            dry.0.speed_cap_mps(&dry.1, RoadId(0), 0, mid, None),
+            wet.0.speed_cap_mps(&wet.1, RoadId(0), 0, mid, None),
         );
         // A share of 0.3 of a grip of 0.3 × 9.81: 0.88 m/s² of the 2 m/s² it would accept on
         // dry asphalt.
@@ -405,12 +462,60 @@ mod tests {
     }
 
     #[test]
+    fn before_a_split_each_branch_has_its_own_envelope_and_the_route_picks_one() {
+        // A 300 m approach splitting into a 30 m-radius bend (the first link) and a straight.
+        let approach = RoadSpec {
+            links: vec![
+                flockway_road::LinkSpec::to("bend"),
+                flockway_road::LinkSpec::to("straight"),
+            ],
+            ..RoadSpec::through(
+                "approach",
+                2,
+                250.0,
+                &[
+                    DVec3::ZERO,
+                    DVec3::new(150.0, 0.0, 0.0),
+                    DVec3::new(300.0, 0.0, 0.0),
+                ],
+            )
+        };
+        let r = 30.0;
+        let mut pts = vec![DVec3::new(300.0, 0.0, 0.0)];
+        for i in 1..=6 {
+            let a = std::f64::consts::FRAC_PI_2 * f64::from(i) / 6.0;
+            pts.push(DVec3::new(300.0 + r * a.sin(), r * (1.0 - a.cos()), 0.0));
+        }
+        let bend = RoadSpec::through("bend", 2, 250.0, &pts);
+        let straight = RoadSpec::through(
+            "straight",
+            2,
+            250.0,
+            &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(600.0, 0.0, 0.0)],
+        );
+        let network = RoadNetwork::build(&[approach, bend, straight]).expect("valid");
+        let mut ahead = RoadAhead::default();
+        let mut reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        reads.style = Some(ahead.style_of(&reads, &network, &RoadSurface::default()));
+        let (a, b, st) = (RoadId(0), RoadId(1), RoadId(2));
+        let near_end = 280.0;
+        let to_bend = ahead.speed_cap_mps(&reads, a, 0, near_end, Some(b));
+        let to_straight = ahead.speed_cap_mps(&reads, a, 0, near_end, Some(st));
+        // Bound for the bend: the bend's speed plus 20 m of braking; for the straight: no limit
+        // a car reaches; without a route: the lane's first link, the bend.
+        let want = (2.0 * (r + 1.5) as f32 + 2.0 * 1.5 * 20.0).sqrt();
+        assert!((to_bend - want).abs() / want < 0.05, "{to_bend} vs {want}");
+        assert!(to_straight > 100.0, "{to_straight}");
+        assert_eq!(ahead.speed_cap_mps(&reads, a, 0, near_end, None), to_bend);
+    }
+
+    #[test]
     fn on_a_ring_the_envelope_is_the_bend_everywhere_and_zero_lateral_accel_turns_it_off() {
         let spec = RoadSpec::ring("ring", 1, 30.0, DVec3::ZERO, 36.6, 12);
         let reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
         let (ahead, reads) = envelope_of(spec.clone(), reads, &RoadSurface::default());
         for s in [0.0, 50.0, 229.0] {
-            let v = ahead.speed_cap_mps(&reads, RoadId(0), 0, s);
+            let v = ahead.speed_cap_mps(&reads, RoadId(0), 0, s, None);
             assert!((v - (2.0f32 * 36.6).sqrt()).abs() < 0.1, "{s}: {v}");
         }
         let off = ReadsRoad::new(
@@ -421,6 +526,9 @@ mod tests {
             1.0,
         );
         let (ahead, off) = envelope_of(spec, off, &RoadSurface::default());
-        assert_eq!(ahead.speed_cap_mps(&off, RoadId(0), 0, 10.0), f32::INFINITY);
+        assert_eq!(
+            ahead.speed_cap_mps(&off, RoadId(0), 0, 10.0, None),
+            f32::INFINITY
+        );
     }
 }
