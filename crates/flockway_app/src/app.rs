@@ -76,6 +76,13 @@ enum Join {
         /// The other road.
         onto: String,
     },
+    /// Leaves its side as an exit (a road's start dropped there).
+    Exit {
+        /// The other road.
+        onto: String,
+        /// Where along it, metres.
+        s_m: f64,
+    },
     /// Joins its side as an on-ramp.
     Side {
         /// The other road.
@@ -847,6 +854,17 @@ impl AppState {
                     },
                     format!("Linked onto `{onto}`: its lanes are in the inspector."),
                 ),
+                Join::Exit { onto, s_m } => (
+                    Command::JoinExit {
+                        road: r,
+                        onto: onto.clone(),
+                        s_m,
+                    },
+                    format!(
+                        "Leaves `{onto}` at {s_m:.0} m: its rightmost lane now goes on or takes \
+                         this road (routes choose)."
+                    ),
+                ),
                 Join::Side { onto, s_m } => (
                     Command::JoinSide {
                         road: r,
@@ -879,7 +897,8 @@ impl AppState {
     fn join_target(&self, r: usize, i: usize, px: Vec2, size: Vec2) -> Option<(usize, Join)> {
         let level = self.editor.level();
         let road = level.roads.get(r)?;
-        if road.closed || road.points.len() < 2 || i + 1 != road.points.len() {
+        let start = i == 0;
+        if road.closed || road.points.len() < 2 || !(start || i + 1 == road.points.len()) {
             return None;
         }
         let ground = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
@@ -888,6 +907,29 @@ impl AppState {
         for (_, g) in self.network.iter() {
             let name = g.name();
             if name == road.name || g.is_closed() || linked.iter().any(|l| l.to == name) {
+                continue;
+            }
+            if start {
+                // A start on another road's side: an exit, unless that road leads here already.
+                let proj = g.project(ground);
+                let leads_here = level
+                    .road(name)
+                    .is_some_and(|o| o.outgoing().iter().any(|l| l.to == road.name));
+                if !leads_here
+                    && proj.distance_m <= 0.5 * g.frame_at(proj.s_m).width_m + 1.0
+                    && proj.s_m > 0.0
+                    && proj.s_m < g.length_m()
+                    && best.as_ref().is_none_or(|(bd, _)| proj.distance_m < *bd)
+                {
+                    let s_m = (proj.s_m * 100.0).round() / 100.0;
+                    best = Some((
+                        proj.distance_m,
+                        Join::Exit {
+                            onto: name.to_owned(),
+                            s_m,
+                        },
+                    ));
+                }
                 continue;
             }
             let start = g.frame_at(0.0);
@@ -939,6 +981,9 @@ impl AppState {
                 Join::End { onto } => format!("release to link onto `{onto}`"),
                 Join::Side { onto, s_m } => {
                     format!("release to join `{onto}` from the side at {s_m:.0} m (on-ramp)")
+                }
+                Join::Exit { onto, s_m } => {
+                    format!("release to leave `{onto}` at {s_m:.0} m (exit)")
                 }
             },
         ))
@@ -1441,7 +1486,7 @@ mod tests {
     }
 
     #[test]
-    fn a_road_end_dragged_onto_a_start_links_and_onto_a_side_joins_as_an_on_ramp() {
+    fn a_road_end_dragged_onto_a_start_links_onto_a_side_joins_and_a_start_on_a_side_leaves() {
         let size = Vec2::new(1600.0, 900.0);
         // Onto the start of `main`: a link, the end on its start, one undo step for the join.
         let mut app = two_roads(size);
@@ -1498,6 +1543,24 @@ mod tests {
         let pick = app.pick_road(px, size).expect("a road");
         assert_eq!(app.editor.level().roads[pick.road].name, "main on");
         assert!((pick.s_m - 150.0).abs() < 1.0, "{pick:?}");
+
+        // The ramp's start dragged onto the road's side at 500 m: an exit there.
+        let mut app = two_roads(size);
+        let start = app.editor.level().roads[1].points[0].pos.as_vec3();
+        let px = app.camera.to_screen(start, size).expect("on screen");
+        app.press(px, size);
+        for k in 1..=8 {
+            let at = start.lerp(Vec3::new(500.0, -2.0, 0.0), k as f32 / 8.0);
+            app.drag_to(app.camera.to_screen(at, size).expect("on screen"), size);
+        }
+        let (_, hint) = app.join_hint().expect("a hint");
+        assert!(hint.contains("leave `main`"), "{hint}");
+        app.release();
+        let level = app.editor.level();
+        let main = &level.roads[0];
+        assert_eq!(main.links.len(), 2, "{:?}", main.links);
+        assert_eq!(main.links[1].to, "ramp");
+        assert!(app.network.id("main on").is_some());
 
         // Released away from any road: the point just moved.
         let mut app = two_roads(size);

@@ -110,6 +110,16 @@ pub enum Command {
         /// Where along that road, metres.
         s_m: f64,
     },
+    /// Joins a road's start onto another road's side as an exit (see
+    /// [`crate::joins::join_exit`]).
+    JoinExit {
+        /// The road whose start joins.
+        road: usize,
+        /// The road it leaves, by name.
+        onto: String,
+        /// Where along that road, metres.
+        s_m: f64,
+    },
     /// Replaces a control point's properties (width, bank, guardrails, elevation in `pos.z`).
     SetPoint {
         /// The road.
@@ -216,6 +226,7 @@ impl Command {
             Command::SetLinks { .. } => "edit links",
             Command::JoinEnd { .. } => "join roads",
             Command::JoinSide { .. } => "join from the side",
+            Command::JoinExit { .. } => "leave from the side",
             Command::SetPoint { .. } => "edit point",
             Command::SetRoad { .. } => "edit road",
             Command::AddSpawner(_) => "add spawner",
@@ -256,6 +267,7 @@ impl Command {
             | Command::Connect { .. }
             | Command::JoinEnd { .. }
             | Command::JoinSide { .. }
+            | Command::JoinExit { .. }
             | Command::SetPoint { .. }
             | Command::DeleteMarker { .. }
             | Command::DeleteVehicleType(_)
@@ -761,6 +773,9 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
         }
         Command::JoinSide { road, onto, s_m } => {
             crate::joins::join_side(level, *road, onto, *s_m).map_err(EditError::BadValue)?;
+        }
+        Command::JoinExit { road, onto, s_m } => {
+            crate::joins::join_exit(level, *road, onto, *s_m).map_err(EditError::BadValue)?;
         }
         Command::SetPoint { road, index, point } => {
             finite(point.pos)?;

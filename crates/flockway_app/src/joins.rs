@@ -273,59 +273,62 @@ pub fn join_side(
     }
 
     // What lay beyond the cut follows its piece; routes go through the pieces.
-    let place = |s: f64| -> (String, f64, u32) {
-        if s < cut1 {
-            (onto.to_owned(), s, 0)
-        } else if s < cut2 {
-            (merge_name.clone(), s - cut1, ramp_lanes)
-        } else {
-            (rest_name.clone(), s - cut2, 0)
-        }
-    };
-    let piece_end = |name: &str| {
-        if name == onto {
-            cut1
-        } else if name == merge_name {
-            cut2 - cut1
-        } else {
-            len - cut2
-        }
+    let pieces = [
+        (onto.to_owned(), 0.0, 0),
+        (merge_name.clone(), cut1, ramp_lanes),
+        (rest_name.clone(), cut2, 0),
+    ];
+    follow_pieces(level, onto, len, &pieces);
+    let at = level.roads.iter().position(|r| r.name == onto).unwrap_or(m);
+    level.roads[at] = up;
+    level.roads.insert(at + 1, merge);
+    level.roads.insert(at + 2, rest);
+    Ok((merge_name, rest_name))
+}
+
+/// Moves what stood on road `onto` (of length `len`) onto the pieces it was cut into — each
+/// `(name, start on the old road, lanes added on its right)`, in order — and makes routes
+/// through it go through every piece (a spawner moved onto a later piece starts its routes
+/// there; a destination becomes the last piece).
+fn follow_pieces(level: &mut Level, onto: &str, len: f64, pieces: &[(String, f64, u32)]) {
+    let place = |s: f64| -> (String, f64, u32, f64) {
+        let k = pieces.iter().rposition(|p| s >= p.1).unwrap_or(0);
+        let end = pieces.get(k + 1).map_or(len, |p| p.1);
+        let (name, start, lanes) = &pieces[k];
+        (name.clone(), s - start, *lanes, end - start)
     };
     for s in level.spawners.iter_mut().filter(|s| s.road == onto) {
-        let (r, at, lanes) = place(s.s_m);
+        let (r, at, lanes, _) = place(s.s_m);
         (s.road, s.s_m, s.lane) = (r, round_mm_f(at), s.lane + lanes);
     }
     for d in &mut level.destroyers {
         if let DestroyerPlaceSpec::OnRoad { road: r, s_m } = &mut d.place
             && r == onto
         {
-            let (to, at, _) = place(*s_m);
+            let (to, at, _, _) = place(*s_m);
             (*r, *s_m) = (to, round_mm_f(at));
         }
     }
     for t in level.triggers.iter_mut().filter(|t| t.road == onto) {
-        let (r, from, lanes) = place(t.from_m);
+        let (r, from, lanes, piece_len) = place(t.from_m);
         let shift = t.from_m - from;
-        t.to_m = round_mm_f((t.to_m - shift).min(piece_end(&r)));
+        t.to_m = round_mm_f((t.to_m - shift).min(piece_len));
         (t.road, t.from_m) = (r, round_mm_f(from));
         if let Some(ls) = &mut t.lanes {
             ls.iter_mut().for_each(|l| *l += lanes);
         }
     }
     for v in level.vehicles.iter_mut().filter(|v| v.road == onto) {
-        let (r, from, lanes) = place(v.from_m);
+        let (r, from, lanes, piece_len) = place(v.from_m);
         let shift = v.from_m - from;
-        v.to_m = Some(round_mm_f(
-            (v.to_m.unwrap_or(len) - shift).min(piece_end(&r)),
-        ));
+        v.to_m = Some(round_mm_f((v.to_m.unwrap_or(len) - shift).min(piece_len)));
         (v.road, v.from_m, v.lane) = (r, round_mm_f(from), v.lane + lanes);
     }
+    let later: Vec<String> = pieces.iter().skip(1).map(|p| p.0.clone()).collect();
     for s in &mut level.spawners {
         for route in &mut s.routes {
             if let Some(k) = route.roads.iter().position(|r| r == onto) {
-                route
-                    .roads
-                    .splice(k + 1..k + 1, [merge_name.clone(), rest_name.clone()]);
+                route.roads.splice(k + 1..k + 1, later.iter().cloned());
             }
             // A spawner moved onto a later piece starts its routes there.
             if let Some(k) = route.roads.iter().position(|r| *r == s.road) {
@@ -333,14 +336,78 @@ pub fn join_side(
             }
         }
         if s.destination.as_deref() == Some(onto) {
-            s.destination = Some(rest_name.clone());
+            s.destination = later.last().cloned();
         }
     }
+}
+
+/// Joins `road`'s start onto the side of `onto` at arc position `s_m`, as an exit: `onto` is cut
+/// there into itself and the rest (`NAME on`), and its rightmost lanes lead both straight on and
+/// onto `road`, whose start moves to the cut (right edges together, heading along the road).
+/// Markers beyond the cut move onto the rest; routes through `onto` go on through it. Returns
+/// the rest's name.
+pub fn join_exit(
+    level: &mut Level,
+    road: usize,
+    onto: &str,
+    s_m: f64,
+) -> Result<String, JoinError> {
+    let exit = level
+        .roads
+        .get(road)
+        .ok_or_else(|| format!("there is no road {road}"))?
+        .clone();
+    let m = index_of(level, onto)?;
+    let main = level.roads[m].clone();
+    if exit.name == main.name {
+        return Err("a road cannot leave itself".to_owned());
+    }
+    if exit.closed || main.closed {
+        return Err("a loop has no end or start to join: open it first".to_owned());
+    }
+    if main.outgoing().iter().any(|l| l.to == exit.name) {
+        return Err(format!("`{onto}` already leads onto `{}`", exit.name));
+    }
+    let g = geometry(&main)?;
+    let len = g.length_m();
+    if !s_m.is_finite() || s_m < MIN_UPSTREAM_M || s_m > len - MIN_UPSTREAM_M {
+        return Err(format!(
+            "`{onto}` is {len:.0} m long: a road leaves its side at least {MIN_UPSTREAM_M:.0} m \
+             from either end"
+        ));
+    }
+    let cut = round_mm_f(s_m);
+    let rest_name = unique_name(level, &format!("{onto} on"));
+    let mut up = main.clone();
+    up.points = piece(&main, &g, (0.0, cut), 0.0, 0.0);
+    up.next = None;
+    let shared = exit.lanes.min(main.lanes);
+    up.links = vec![
+        LinkSpec::to(&rest_name),
+        LinkSpec {
+            to: exit.name.clone(),
+            lanes: (0..shared).map(|i| (i, i)).collect(),
+        },
+    ];
+    let mut rest = main.clone();
+    rest.name = rest_name.clone();
+    rest.points = piece(&main, &g, (cut, len), 0.0, 0.0);
+    // The exit's start on the cut, its right edge on the road's, heading along the road.
+    let f = g.frame_at(cut);
+    let exit_w = exit.lane_width_m * f64::from(exit.lanes);
+    let first = level.roads[road]
+        .points
+        .first_mut()
+        .ok_or_else(|| "a road with no points has no start".to_owned())?;
+    first.pos = round_mm(f.offset(-0.5 * f.width_m + 0.5 * exit_w));
+    first.tangent = Some(round_unit(f.tangent));
+    first.guardrail_left = false;
+    let pieces = [(onto.to_owned(), 0.0, 0), (rest_name.clone(), cut, 0)];
+    follow_pieces(level, onto, len, &pieces);
     let at = level.roads.iter().position(|r| r.name == onto).unwrap_or(m);
     level.roads[at] = up;
-    level.roads.insert(at + 1, merge);
-    level.roads.insert(at + 2, rest);
-    Ok((merge_name, rest_name))
+    level.roads.insert(at + 1, rest);
+    Ok(rest_name)
 }
 
 #[cfg(test)]
@@ -497,6 +564,47 @@ mod tests {
             parse_level(&text, Path::new("joined.ron")).expect("reads"),
             level
         );
+    }
+
+    #[test]
+    fn a_start_dropped_on_a_side_builds_an_exit_that_routes() {
+        let mut level = level_with(vec![
+            straight("main", 3, DVec3::ZERO, DVec3::new(800.0, 0.0, 0.0)),
+            straight(
+                "exit",
+                1,
+                DVec3::new(420.0, -20.0, 0.0),
+                DVec3::new(600.0, -120.0, 0.0),
+            ),
+        ]);
+        level.destroyers.push(flockway_level::DestroyerSpec {
+            name: "end".to_owned(),
+            place: DestroyerPlaceSpec::OnRoad {
+                road: "main".to_owned(),
+                s_m: 700.0,
+            },
+        });
+        let rest = join_exit(&mut level, 1, "main", 400.0).expect("joins");
+        assert_eq!(rest, "main on");
+        let net = RoadNetwork::build(&level.roads).expect("a network");
+        let id = |n: &str| net.id(n).expect(n);
+        let (main, exit, r) = (id("main"), id("exit"), id(&rest));
+        // Lane 0 goes on or leaves; the others go on.
+        assert_eq!(net.lane_next(main, 0, Some(exit)), Some((exit, 0)));
+        assert_eq!(net.lane_next(main, 0, Some(r)), Some((r, 0)));
+        assert_eq!(net.lane_next(main, 2, Some(exit)), Some((r, 2)));
+        let (a, b) = (net.get(main).expect("main"), net.get(exit).expect("exit"));
+        let gap = a.lane_point(0, a.length_m()) - b.lane_point(0, 0.0);
+        assert!(gap.length() < 0.01, "{gap}");
+        assert_eq!(net.shortest_path(main, exit), Some(vec![main, exit]));
+        match &level.destroyers[0].place {
+            DestroyerPlaceSpec::OnRoad { road, s_m } => {
+                assert_eq!(road, &rest);
+                assert!((s_m - 300.0).abs() < 1e-6);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(join_exit(&mut level, 1, "main", 100.0).is_err(), "twice");
     }
 
     #[test]

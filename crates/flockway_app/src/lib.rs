@@ -19,7 +19,7 @@ pub use app::{
 };
 pub use camera::{Camera, ORBIT_FOV_RAD};
 pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
-pub use joins::{ACCELERATION_LANE_M, join_end, join_side};
+pub use joins::{ACCELERATION_LANE_M, join_end, join_exit, join_side};
 pub use play::{FRAME_BUDGET, HudStats, PlaySession, PlaySpeed};
 pub use render::{
     DEPTH_FORMAT, Gpu, Image, MSAA_SAMPLES, OFFSCREEN_FORMAT, RenderError, SKY, SceneRenderer,
