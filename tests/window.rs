@@ -353,24 +353,7 @@ fn from_an_empty_editor_a_drawn_road_with_a_spawner_and_a_destroyer_gets_cars() 
     let streamed = dir
         .path()
         .join(format!("flockway-play-{}.csv", editor.id()));
-    let started = Instant::now();
-    loop {
-        let text = std::fs::read_to_string(&streamed).unwrap_or_default();
-        let last = text
-            .lines()
-            .last()
-            .and_then(|l| l.split(',').next())
-            .and_then(|t| t.parse::<f64>().ok())
-            .unwrap_or(0.0);
-        if last >= 31.0 {
-            break;
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(180),
-            "play reached only {last} s of simulated time"
-        );
-        std::thread::sleep(Duration::from_millis(300));
-    }
+    play_until(&streamed, 31.0, Duration::from_secs(180));
     // End the run (its CSV goes beside the level), then save the level.
     x.xdotool(&["mousemove", "500", "780"]);
     x.xdotool(&["key", "Escape"]);
@@ -533,6 +516,29 @@ fn the_editor_driven_by_real_input_events_saves_the_level_it_shows() {
     );
 }
 
+/// Waits until the play telemetry streamed to `csv` has passed `sim_s` simulated seconds,
+/// failing after `within` of wall time.
+fn play_until(csv: &Path, sim_s: f64, within: Duration) {
+    let started = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(csv).unwrap_or_default();
+        let last = text
+            .lines()
+            .last()
+            .and_then(|l| l.split(',').next())
+            .and_then(|t| t.parse::<f64>().ok())
+            .unwrap_or(0.0);
+        if last >= sim_s {
+            break;
+        }
+        assert!(
+            started.elapsed() < within,
+            "play reached only {last} s of simulated time"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+    }
+}
+
 /// With `FLOCKWAY_SHOTS` set to a directory, saves the screen there as `name` (ImageMagick's
 /// `import`), for the docs.
 fn shoot(x: &Xvfb, name: &str) {
@@ -610,24 +616,7 @@ fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
     let streamed = dir
         .path()
         .join(format!("flockway-play-{}.csv", editor.id()));
-    let started = Instant::now();
-    loop {
-        let text = std::fs::read_to_string(&streamed).unwrap_or_default();
-        let last = text
-            .lines()
-            .last()
-            .and_then(|l| l.split(',').next())
-            .and_then(|t| t.parse::<f64>().ok())
-            .unwrap_or(0.0);
-        if last >= 61.0 {
-            break;
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(240),
-            "play reached only {last} s of simulated time"
-        );
-        std::thread::sleep(Duration::from_millis(300));
-    }
+    play_until(&streamed, 61.0, Duration::from_secs(240));
     shoot(&x, "editor_on_ramp.png");
     x.xdotool(&["mousemove", "500", "780"]);
     x.xdotool(&["key", "Escape"]);

@@ -839,7 +839,9 @@ impl AppState {
     /// The left button went up: a road's end dragged onto another road joins it there.
     pub fn release(&mut self) {
         let join = match (self.drag, self.drag_px) {
-            (Some(Drag::Point(r, i)), Some((px, size))) => self.join_target(r, i, px, size),
+            (Some(Drag::Point(r, i)), Some((px, size))) => {
+                self.join_target(r, i, px, size).map(|j| (r, j))
+            }
             _ => None,
         };
         self.drag = None;
@@ -891,14 +893,15 @@ impl AppState {
         }
     }
 
-    /// What releasing the pointer at `px` would join point `i` of road `r` to: when it is the
-    /// end of an open road and the pointer is over another road's start (within the road's
-    /// half width or [`PICK_PX`]) or its side. Roads it already leads onto are not offered.
-    fn join_target(&self, r: usize, i: usize, px: Vec2, size: Vec2) -> Option<(usize, Join)> {
+    /// What releasing the pointer at `px` would join point `i` of road `r` to. Its last point
+    /// (of an open road) over another road's start (within that road's half width or
+    /// [`PICK_PX`]) links onto it, over its side joins it as an on-ramp; its first point over
+    /// another road's side leaves it as an exit. Joins that exist already are not offered.
+    fn join_target(&self, r: usize, i: usize, px: Vec2, size: Vec2) -> Option<Join> {
         let level = self.editor.level();
         let road = level.roads.get(r)?;
-        let start = i == 0;
-        if road.closed || road.points.len() < 2 || !(start || i + 1 == road.points.len()) {
+        let first = i == 0;
+        if road.closed || road.points.len() < 2 || !(first || i + 1 == road.points.len()) {
             return None;
         }
         let ground = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
@@ -909,55 +912,42 @@ impl AppState {
             if name == road.name || g.is_closed() || linked.iter().any(|l| l.to == name) {
                 continue;
             }
-            if start {
-                // A start on another road's side: an exit, unless that road leads here already.
-                let proj = g.project(ground);
+            let proj = g.project(ground);
+            let on_side = proj.distance_m <= 0.5 * g.frame_at(proj.s_m).width_m + 1.0
+                && proj.s_m > 0.0
+                && proj.s_m < g.length_m();
+            let s_m = (proj.s_m * 100.0).round() / 100.0;
+            let onto = name.to_owned();
+            let (d, join) = if first {
                 let leads_here = level
                     .road(name)
                     .is_some_and(|o| o.outgoing().iter().any(|l| l.to == road.name));
-                if !leads_here
-                    && proj.distance_m <= 0.5 * g.frame_at(proj.s_m).width_m + 1.0
-                    && proj.s_m > 0.0
-                    && proj.s_m < g.length_m()
-                    && best.as_ref().is_none_or(|(bd, _)| proj.distance_m < *bd)
-                {
-                    let s_m = (proj.s_m * 100.0).round() / 100.0;
-                    best = Some((
-                        proj.distance_m,
-                        Join::Exit {
-                            onto: name.to_owned(),
-                            s_m,
-                        },
-                    ));
+                if leads_here || !on_side {
+                    continue;
                 }
-                continue;
-            }
-            let start = g.frame_at(0.0);
-            let start_px = self.camera.to_screen(start.pos.as_vec3(), size);
-            let near_start = (ground - start.pos).length() <= 0.5 * start.width_m
-                || start_px.is_some_and(|s| s.distance(px) <= PICK_PX);
-            let proj = g.project(ground);
-            let d = (ground - start.pos).length().min(proj.distance_m);
-            let join = if near_start {
-                Join::End {
-                    onto: name.to_owned(),
-                }
-            } else if proj.distance_m <= 0.5 * g.frame_at(proj.s_m).width_m + 1.0
-                && proj.s_m > 0.0
-                && proj.s_m < g.length_m()
-            {
-                Join::Side {
-                    onto: name.to_owned(),
-                    s_m: (proj.s_m * 100.0).round() / 100.0,
-                }
+                (proj.distance_m, Join::Exit { onto, s_m })
             } else {
-                continue;
+                let start = g.frame_at(0.0);
+                let to_start = (ground - start.pos).length();
+                let near_start = to_start <= 0.5 * start.width_m
+                    || self
+                        .camera
+                        .to_screen(start.pos.as_vec3(), size)
+                        .is_some_and(|s| s.distance(px) <= PICK_PX);
+                let d = to_start.min(proj.distance_m);
+                if near_start {
+                    (d, Join::End { onto })
+                } else if on_side {
+                    (d, Join::Side { onto, s_m })
+                } else {
+                    continue;
+                }
             };
             if best.as_ref().is_none_or(|(bd, _)| d < *bd) {
                 best = Some((d, join));
             }
         }
-        best.map(|(_, j)| (r, j))
+        best.map(|(_, j)| j)
     }
 
     /// The hint shown while a road's end is dragged over another road: what releasing it does.
@@ -965,7 +955,7 @@ impl AppState {
         let (Some(Drag::Point(r, i)), Some((px, size))) = (self.drag, self.drag_px) else {
             return None;
         };
-        let (_, join) = self.join_target(r, i, px, size)?;
+        let join = self.join_target(r, i, px, size)?;
         let at = self
             .editor
             .level()
@@ -1321,7 +1311,6 @@ impl AppState {
     }
 }
 
-/// Control points as small posts: yellow, the selected one white.
 /// The network of roads as drawn: a link that cannot be built (its road's end dragged away from
 /// where it leads, a road still being drawn) is left out, with the other links of its road, so
 /// everything else still shows and picks.
@@ -1353,6 +1342,7 @@ fn network_as_drawn(mut roads: Vec<RoadSpec>) -> RoadNetwork {
     RoadNetwork::build(&roads).unwrap_or_default()
 }
 
+/// Control points as small posts: yellow, the selected one white.
 fn add_handles(scene: &mut StaticScene, level: &Level, selection: Selection) {
     for (r, road) in level.roads.iter().enumerate() {
         for (i, p) in road.points.iter().enumerate() {

@@ -58,11 +58,17 @@ fn check_pair(level: &Level, road: usize, onto: &str) -> Result<(), JoinError> {
     Ok(())
 }
 
-/// A control point at a cut: where the road is, heading as it heads, with its bank and width.
-fn cut_point(frame: &RoadFrame, template: &ControlPoint, lateral_m: f64) -> ControlPoint {
+/// A control point at a cut, `lateral_m` left of the centre line: heading as the road heads,
+/// with its bank, and `extra_m` wider where `template` sets the width.
+fn cut_point(
+    frame: &RoadFrame,
+    template: &ControlPoint,
+    lateral_m: f64,
+    extra_m: f64,
+) -> ControlPoint {
     ControlPoint {
         pos: round_mm(frame.offset(lateral_m)),
-        width_m: None,
+        width_m: template.width_m.map(|w| w + extra_m),
         bank_deg: round_mm_f(frame.bank_rad.to_degrees()),
         tangent: Some(round_unit(frame.tangent)),
         ..template.clone()
@@ -93,10 +99,12 @@ pub fn join_end(level: &mut Level, road: usize, onto: &str) -> Result<(), JoinEr
     let to = &level.roads[index_of(level, onto)?];
     let start = geometry(to)?.frame_at(0.0);
     let from = &level.roads[road];
-    let lane_w = to.width_at_point(0) / f64::from(to.lanes.max(1));
-    let own_w = from.lane_width_m * f64::from(from.lanes);
+    let (width, own_w) = (
+        to.width_at_point(0),
+        from.lane_width_m * f64::from(from.lanes),
+    );
     // Right edges together: lane i continues on lane i.
-    let lateral = -0.5 * to.width_at_point(0) + 0.5 * own_w.min(lane_w * f64::from(to.lanes));
+    let lateral = -0.5 * width + 0.5 * own_w.min(width);
     let to_lanes = to.lanes;
     let spec = &mut level.roads[road];
     let last = spec
@@ -109,7 +117,7 @@ pub fn join_end(level: &mut Level, road: usize, onto: &str) -> Result<(), JoinEr
         LinkSpec::to(onto)
     } else {
         // Centre lines apart: lane by lane, lane i onto lane i; lanes beyond the other road's
-        // end (the lanes beside them take their traffic).
+        // lane count end there (the lanes beside them take their traffic).
         LinkSpec {
             to: onto.to_owned(),
             lanes: (0..spec.lanes.min(to_lanes)).map(|i| (i, i)).collect(),
@@ -141,36 +149,31 @@ fn piece(
             .unwrap_or(0);
         spec.points[i].clone()
     };
-    let widen = |p: &ControlPoint| p.width_m.map(|w| w + extra_m);
-    let mut points = vec![cut_point(&g.frame_at(a), &template(a), shift_m)];
-    if let Some(w) = template(a).width_m {
-        points[0].width_m = Some(w + extra_m);
-    }
+    let mut points = vec![cut_point(&g.frame_at(a), &template(a), shift_m, extra_m)];
     for (i, p) in spec.points.iter().enumerate() {
         let Some(s) = g.point_s(i) else { continue };
         if s > a + NEAR_CUT_M && s < b - NEAR_CUT_M {
             let f = g.frame_at(s);
             points.push(ControlPoint {
                 pos: round_mm(f.offset(shift_m)),
-                width_m: widen(p),
+                width_m: p.width_m.map(|w| w + extra_m),
                 ..p.clone()
             });
         }
     }
-    let mut end = cut_point(&g.frame_at(b), &template(b), shift_m);
-    end.width_m = template(b).width_m.map(|w| w + extra_m);
-    points.push(end);
+    points.push(cut_point(&g.frame_at(b), &template(b), shift_m, extra_m));
     points
 }
 
-/// A name not yet taken in the level, from `base`.
-fn unique_name(level: &Level, base: &str) -> String {
-    if level.road(base).is_none() {
+/// A road name from `base` that neither the level nor `taken` has yet.
+fn unique_name(level: &Level, base: &str, taken: &[&str]) -> String {
+    let free = |n: &str| level.road(n).is_none() && !taken.contains(&n);
+    if free(base) {
         return base.to_owned();
     }
     (2..)
         .map(|n| format!("{base} {n}"))
-        .find(|n| level.road(n).is_none())
+        .find(|n| free(n))
         .unwrap_or_default()
 }
 
@@ -202,10 +205,8 @@ pub fn join_side(
     let ramp_lanes = level.roads[road].lanes;
     let lane_w = main.lane_width_m;
     let added_m = f64::from(ramp_lanes) * lane_w;
-    let merge_name = unique_name(level, &format!("{onto} merge"));
-    let mut on = level.clone();
-    on.roads.push(RoadSpec::through(&merge_name, 1, 1.0, &[]));
-    let rest_name = unique_name(&on, &format!("{onto} on"));
+    let merge_name = unique_name(level, &format!("{onto} merge"), &[]);
+    let rest_name = unique_name(level, &format!("{onto} on"), &[&merge_name]);
 
     // The three pieces.
     let mut up = main.clone();
@@ -279,10 +280,10 @@ pub fn join_side(
         (rest_name.clone(), cut2, 0),
     ];
     follow_pieces(level, onto, len, &pieces);
-    let at = level.roads.iter().position(|r| r.name == onto).unwrap_or(m);
-    level.roads[at] = up;
-    level.roads.insert(at + 1, merge);
-    level.roads.insert(at + 2, rest);
+    // (Nothing above reorders the roads: `onto` is still at `m`.)
+    level.roads[m] = up;
+    level.roads.insert(m + 1, merge);
+    level.roads.insert(m + 2, rest);
     Ok((merge_name, rest_name))
 }
 
@@ -377,7 +378,7 @@ pub fn join_exit(
         ));
     }
     let cut = round_mm_f(s_m);
-    let rest_name = unique_name(level, &format!("{onto} on"));
+    let rest_name = unique_name(level, &format!("{onto} on"), &[]);
     let mut up = main.clone();
     up.points = piece(&main, &g, (0.0, cut), 0.0, 0.0);
     up.next = None;
@@ -404,9 +405,8 @@ pub fn join_exit(
     first.guardrail_left = false;
     let pieces = [(onto.to_owned(), 0.0, 0), (rest_name.clone(), cut, 0)];
     follow_pieces(level, onto, len, &pieces);
-    let at = level.roads.iter().position(|r| r.name == onto).unwrap_or(m);
-    level.roads[at] = up;
-    level.roads.insert(at + 1, rest);
+    level.roads[m] = up;
+    level.roads.insert(m + 1, rest);
     Ok(rest_name)
 }
 

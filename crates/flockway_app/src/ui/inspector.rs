@@ -1,7 +1,7 @@
 //! The inspector: every field of the selected road, control point, spawner, destroyer or
 //! trigger, edited in place (each edit an undoable command; a dragged value is one step).
 
-use super::widgets::{choice, count, error, lane, number, row, text};
+use super::widgets::{choice, count, error, lane, number, row, text, weight};
 use crate::app::{AppState, Selection, Tool};
 use crate::editor::{Command, MarkerKind};
 use flockway_level::{
@@ -464,13 +464,7 @@ fn routes(ui: &mut egui::Ui, level: &Level, sp: &mut SpawnerSpec, i: usize) -> b
                     route.name = n.trim().to_owned();
                     changed = true;
                 }
-                changed |= number(ui, by, &mut route.weight, 0.0..=1000.0, 0.01, "");
-                let pct = if total > 0.0 {
-                    100.0 * route.weight.max(0.0) / total
-                } else {
-                    0.0
-                };
-                ui.weak(format!("{pct:.0} %"));
+                changed |= weight(ui, by, &mut route.weight, total);
                 if ui
                     .small_button("x")
                     .on_hover_text("remove the route")
@@ -551,13 +545,7 @@ fn shares(ui: &mut egui::Ui, level: &Level, shares: &mut Vec<ProfileShare>, i: u
             for (k, share) in shares.iter_mut().enumerate() {
                 let by = ui.label(format!("{}.", k + 1)).id;
                 changed |= choice(ui, by, ("share", i, k), &mut share.profile, &names);
-                changed |= number(ui, by, &mut share.weight, 0.0..=1000.0, 0.01, "");
-                let pct = if total > 0.0 {
-                    100.0 * share.weight.max(0.0) / total
-                } else {
-                    0.0
-                };
-                ui.weak(format!("{pct:.0} %"));
+                changed |= weight(ui, by, &mut share.weight, total);
                 if ui.small_button("x").on_hover_text("remove").clicked() {
                     remove = Some(k);
                 }

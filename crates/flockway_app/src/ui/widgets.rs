@@ -78,6 +78,19 @@ pub(super) fn number(
     .changed()
 }
 
+/// A weight dragged or typed (0 to 1000), and the share of `total` it is, in per cent. True
+/// when it changed.
+pub(super) fn weight(ui: &mut egui::Ui, by: egui::Id, value: &mut f64, total: f64) -> bool {
+    let changed = number(ui, by, value, 0.0..=1000.0, 0.01, "");
+    let pct = if total > 0.0 {
+        100.0 * value.max(0.0) / total
+    } else {
+        0.0
+    };
+    ui.weak(format!("{pct:.0} %"));
+    changed
+}
+
 /// A whole number dragged or typed, within `range`. True when it changed.
 pub(super) fn count(
     ui: &mut egui::Ui,
