@@ -4,7 +4,7 @@ use crate::ahead::{ReadsRoad, RoadAhead, RoadAheadParams};
 use crate::control::{DriveTarget, PidGains};
 use crate::perception::LaneSignal;
 use crate::perception::{LaneIndex, Seen};
-use crate::route::{LANE_CHANGE_LEAST_GAP, LANE_END_MARGIN_M, Route};
+use crate::route::{LANE_END_MARGIN_M, Route};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
@@ -1053,13 +1053,18 @@ fn lane_gap_accepted(
     ahead_ok && behind_ok
 }
 
+/// The share of its usual lane-change time gap a courteous driver leaves a car merging in ahead
+/// of it: more than that car insists on at its lane's very end
+/// ([`LANE_CHANGE_LEAST_GAP`](crate::LANE_CHANGE_LEAST_GAP)).
+const COURTESY_GAP_SHARE: f32 = 0.7;
+
 /// How far ahead a driver looks for a car signalling to merge into its lane, m.
 const COURTESY_RANGE_M: f64 = 80.0;
 
 /// The speed that makes room for the nearest car ahead in a lane either side that signals into
 /// `lane`: its speed, plus closing the bumper gap beyond what the merging car needs behind it
-/// (the least of the lane-change time gap `gap_s` it would accept, [`LANE_CHANGE_LEAST_GAP`] of
-/// it, at this speed, and 3 m) over 1.5 s, braking at most
+/// ([`COURTESY_GAP_SHARE`] of the lane-change time gap `gap_s`, at this speed, and 3 m) over
+/// 1.5 s, braking at most
 /// `decel_mps2` below `v`. `INFINITY` when nobody signals.
 fn courtesy_speed_mps(
     index: &LaneIndex,
@@ -1113,7 +1118,7 @@ fn courtesy_speed_mps(
         return f32::INFINITY;
     };
     let bumper = bumper(m);
-    let needed = LANE_CHANGE_LEAST_GAP * gap_s * v.max(0.0) + 3.0;
+    let needed = COURTESY_GAP_SHARE * gap_s * v.max(0.0) + 3.0;
     (m.entry.speed_mps + (bumper - needed) / 1.5).max(v - decel_mps2)
 }
 
@@ -1189,10 +1194,11 @@ fn merge_speed(
         let short = need_behind(f) - ahead_of_it;
         if short > 0.0 {
             let behind_it = ahead_of_it + 0.5 * gap_s * v.max(0.0) + length_m + 3.0;
-            let room = leader.as_ref().map_or(f32::INFINITY, |l| {
-                let bumper = l.gap_m as f32 - 0.5 * (length_m + l.entry.length_m);
-                bumper - (0.5 * gap_s * v.max(0.0) + 3.0)
-            });
+            // Room ahead as gap acceptance will judge it: pulling ahead into less only trades
+            // a gap too short behind for one too short ahead.
+            let room = leader
+                .as_ref()
+                .map_or(f32::INFINITY, |l| l.gap_m as f32 - need_ahead(l));
             let wholly_ahead = ahead_of_it > 0.5 * (length_m + f.entry.length_m);
             return if free && room > short && (wholly_ahead || short < behind_it) {
                 MergeSpeed::Pull(f.entry.speed_mps.max(v) + short / 2.0)
@@ -1498,9 +1504,9 @@ mod tests {
         assert!(!accepted(18.0, 32.0, 1.0));
         assert!(!accepted(20.0, 31.0, 1.0));
         // Near its lane's end a driver insists on less.
-        assert!(accepted(16.0, 25.0, LANE_CHANGE_LEAST_GAP));
+        assert!(accepted(16.0, 25.0, crate::LANE_CHANGE_LEAST_GAP));
         // A car alongside is never a gap.
-        assert!(!accepted(2.0, 200.0, LANE_CHANGE_LEAST_GAP));
+        assert!(!accepted(2.0, 200.0, crate::LANE_CHANGE_LEAST_GAP));
     }
 
     #[test]
@@ -1532,6 +1538,12 @@ mod tests {
         // A car alongside with the way ahead blocked: drop back behind it.
         assert!(matches!(
             merge(&[(499.0, 25.0), (515.0, 25.0)], true),
+            MergeSpeed::Cap(c) if c < 25.0
+        ));
+        // A car behind too close, a slower one ahead: pulling up would leave less ahead than
+        // gap acceptance wants (15.5 m closing and 7.6 m there, 28 m given), so it drops back.
+        assert!(matches!(
+            merge(&[(475.0, 25.0), (528.0, 22.0)], true),
             MergeSpeed::Cap(c) if c < 25.0
         ));
         // Only a car ahead: fall in behind it.

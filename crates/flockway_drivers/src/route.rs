@@ -18,9 +18,9 @@ pub const LANE_CHANGE_AHEAD_S: f64 = 20.0;
 /// to the end): room to pull out of it from a standstill.
 pub const LANE_END_MARGIN_M: f64 = 6.0;
 
-/// The least share of its usual lane-change time gap a driver accepts, close to its lane's end;
-/// what a courteous driver leaves a car merging in ahead of it.
-pub const LANE_CHANGE_LEAST_GAP: f32 = 0.7;
+/// The least share of its usual lane-change time gap a driver accepts, close to its lane's end
+/// or its exit: half a second behind a car at its own speed, still more than a human's reaction.
+pub const LANE_CHANGE_LEAST_GAP: f32 = 0.5;
 
 /// A lane change a route asks for.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -319,10 +319,10 @@ mod tests {
         // It insists on its whole gap until 200 m per lane to cross is left, then less.
         assert_eq!(ask.urgency(), 1.0);
         let late = right.lane_change(2, 760.0, 27.8).expect("late");
-        assert!((late.urgency() - 0.7).abs() < 1e-6);
+        assert!((late.urgency() - 0.5).abs() < 1e-6);
         let one = right.lane_change(1, 760.0, 27.8).expect("one lane to go");
         assert_eq!(one.lanes, 1);
-        assert!((one.urgency() - 0.7).abs() < 1e-6);
+        assert!((one.urgency() - 0.5).abs() < 1e-6);
         assert!((right.lane_change(1, 650.0, 27.8).expect("one").urgency() - 0.75).abs() < 1e-3);
         assert_eq!(right.lane_change(0, 700.0, 27.8), None);
         // Bound left: lane 0 must move over, lanes 1 and 2 are fine.
