@@ -60,6 +60,7 @@ pub const HOLD_BRAKE: f32 = 0.2;
 
 /// What a driver wants: the speed along its heading and the heading, for the shared controller.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
+#[require(crate::JunctionGate)]
 pub struct DriveTarget {
     /// Target speed, m/s (never negative: drivers brake to a stop, they do not reverse).
     pub speed_mps: f32,
@@ -155,7 +156,14 @@ pub struct SharedController {
     pub limit: crate::SpeedLimit,
 }
 
+/// Where a junction may hold a vehicle: its gate and where it is on its road.
+type HeldAt = (
+    &'static crate::JunctionGate,
+    &'static flockway_vehicle::RoadTrack,
+);
+
 /// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`].
+#[allow(clippy::type_complexity)]
 pub fn follow_targets(
     mut vehicles: Query<(
         &DriveTarget,
@@ -163,10 +171,23 @@ pub fn follow_targets(
         &VehicleModel,
         &mut TargetController,
         &mut Controls,
+        Option<HeldAt>,
     )>,
 ) {
-    for (target, motion, model, mut controller, mut controls) in &mut vehicles {
-        *controls = controller.control(target, motion, &model.0.params);
+    for (target, motion, model, mut controller, mut controls, gate) in &mut vehicles {
+        // A junction holding the vehicle: no faster than stops it at the line, whoever drives.
+        let held = gate.map_or(f32::INFINITY, |(g, track)| {
+            g.cap_mps(track.s_m, model.0.params.chassis.length_m)
+        });
+        if held < target.speed_mps {
+            let capped = DriveTarget {
+                speed_mps: held,
+                ..*target
+            };
+            *controls = controller.control(&capped, motion, &model.0.params);
+        } else {
+            *controls = controller.control(target, motion, &model.0.params);
+        }
     }
 }
 

@@ -14,6 +14,7 @@
 
 mod ahead;
 mod control;
+mod junction;
 mod models;
 mod perception;
 mod profile;
@@ -25,6 +26,10 @@ pub use ahead::{
 pub use control::{
     DriveTarget, HOLD_BRAKE, Pid, PidGains, STOP_BELOW_MPS, SharedController, TargetController,
     follow_targets, wrap_angle,
+};
+pub use junction::{
+    AMBER_DECEL_MPS2, CRITICAL_GAP_S, DEADLOCK_S, JunctionGate, JunctionStats,
+    STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,
 };
 pub use models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, LANE_END_DECEL_MPS2,
@@ -75,6 +80,7 @@ impl SimPlugin for DriversPlugin {
         sim.world_mut().init_resource::<RoadSurface>();
         sim.world_mut().init_resource::<RoadAhead>();
         sim.world_mut().init_resource::<RouteStats>();
+        sim.world_mut().init_resource::<JunctionStats>();
         sim.schedule_mut().configure_sets((
             DriverSystems::Perceive.in_set(StepSet::Sense),
             DriverSystems::Decide.in_set(StepSet::Decide),
@@ -86,6 +92,7 @@ impl SimPlugin for DriversPlugin {
             (
                 follow_routes,
                 (rebuild_lane_index, update_speed_limits, update_road_ahead),
+                gate_junctions,
             )
                 .chain()
                 .in_set(DriverSystems::Perceive),

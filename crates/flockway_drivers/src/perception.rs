@@ -43,6 +43,8 @@ struct RoadLanes {
     /// Per lane: the `(road, lane)` pairs leading onto it.
     prev: Vec<Vec<(RoadId, u32)>>,
     lanes: Vec<Vec<LaneEntry>>,
+    /// For a junction path: the other paths from the same lane, with how far they overlap, m.
+    siblings: Vec<(RoadId, f64)>,
 }
 
 impl RoadLanes {
@@ -101,6 +103,15 @@ impl LaneIndex {
                 }
             }
             road.lanes.resize_with(g.lanes() as usize, Vec::new);
+            road.siblings.clear();
+            if let Some((j, k)) = network.junction_path(id) {
+                let path = &network.junctions()[j].paths[k];
+                road.siblings.extend(
+                    path.siblings
+                        .iter()
+                        .filter_map(|&(o, part)| network.path_road(j, o).map(|r| (r, part))),
+                );
+            }
         }
         self.vehicles = 0;
         for (entity, track, length_m, signal) in vehicles {
@@ -224,13 +235,13 @@ impl LaneIndex {
                 push(e, e.s_m + r.length_m - s_m);
             }
         }
+        // Inside a junction, the cars on paths from the same lane where they overlap this one.
+        self.push_siblings(r, lo, hi, -s_m, lane, exclude, out);
         if !r.closed && hi > r.length_m {
             // Traffic continues onto its lane's link.
             if let Some((next, lane2)) = r.lane_next(lane, None)
-                && let Some(e2) = self
-                    .roads
-                    .get(&next)
-                    .and_then(|r2| r2.lanes.get(lane2 as usize))
+                && let Some(r2) = self.roads.get(&next)
+                && let Some(e2) = r2.lanes.get(lane2 as usize)
             {
                 let end = e2.partition_point(|e| e.s_m <= hi - r.length_m);
                 for e in &e2[..end] {
@@ -242,6 +253,15 @@ impl LaneIndex {
                         });
                     }
                 }
+                self.push_siblings(
+                    r2,
+                    f64::NEG_INFINITY,
+                    hi - r.length_m,
+                    r.length_m - s_m,
+                    lane2,
+                    exclude,
+                    out,
+                );
             }
         }
         if !r.closed && lo < 0.0 {
@@ -290,8 +310,22 @@ impl LaneIndex {
             })
         };
         let i = entries.partition_point(|e| !ahead(e));
+        // Inside a junction a car on a path from the same lane is still in front while the
+        // two paths overlap.
+        let sibling = self.sibling_ahead(r, s_m, me).map(|e| Seen {
+            gap_m: e.s_m - s_m,
+            lane,
+            entry: e,
+        });
         if let Some(e) = entries.get(i) {
-            return seen(e, e.s_m - s_m, lane);
+            let own = seen(e, e.s_m - s_m, lane);
+            return match (own, sibling) {
+                (Some(o), Some(s)) if s.gap_m < o.gap_m => Some(s),
+                (o, _) => o.or(sibling.filter(|s| s.gap_m <= range_m)),
+            };
+        }
+        if let Some(s) = sibling.filter(|s| s.gap_m <= range_m) {
+            return Some(s);
         }
         if r.closed {
             // Round the loop: the first vehicle of the lane (never ourselves, unless alone).
@@ -303,12 +337,24 @@ impl LaneIndex {
         // Along the lane's links, road after road, until someone is found or out of range.
         let mut gap = r.length_m - s_m;
         let (mut road, mut lane) = r.lane_next(lane, next)?;
-        for _ in 0..MAX_HOPS {
+        for hop in 0..MAX_HOPS {
             if gap > range_m {
                 return None;
             }
             let r = self.roads.get(&road)?;
-            if let Some(e) = r.lanes.get(lane as usize)?.first() {
+            let first = r.lanes.get(lane as usize)?.first();
+            // Into a junction: a car on a path from the same lane, where they overlap, counts.
+            let sibling = if hop == 0 {
+                self.sibling_ahead(r, f64::NEG_INFINITY, me)
+            } else {
+                None
+            };
+            let nearest = match (first, sibling.as_ref()) {
+                (Some(e), Some(s)) if s.s_m < e.s_m => Some(s),
+                (Some(e), _) => Some(e),
+                (None, s) => s,
+            };
+            if let Some(e) = nearest {
                 return seen(e, gap + e.s_m, lane);
             }
             if r.closed {
@@ -318,6 +364,58 @@ impl LaneIndex {
             (road, lane) = r.lane_next(lane, None)?;
         }
         None
+    }
+
+    /// On a junction path `r`: every vehicle on a path from the same lane between `lo` and `hi`
+    /// (arc positions on `r`) while that path overlaps `r`, at gap `s + offset`.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
+    fn push_siblings(
+        &self,
+        r: &RoadLanes,
+        lo: f64,
+        hi: f64,
+        offset: f64,
+        lane: u32,
+        exclude: Option<Entity>,
+        out: &mut Vec<Seen>,
+    ) {
+        for &(road, part) in &r.siblings {
+            let Some(entries) = self.roads.get(&road).and_then(|r| r.lanes.first()) else {
+                continue;
+            };
+            let a = entries.partition_point(|e| e.s_m < lo);
+            for e in entries[a..]
+                .iter()
+                .take_while(|e| e.s_m <= hi && e.s_m < part)
+            {
+                if Some(e.entity) != exclude {
+                    out.push(Seen {
+                        gap_m: e.s_m + offset,
+                        lane,
+                        entry: *e,
+                    });
+                }
+            }
+        }
+    }
+
+    /// On a junction path `r`, the nearest vehicle ahead of `s_m` on a path from the same lane
+    /// while that path still overlaps `r`.
+    fn sibling_ahead(&self, r: &RoadLanes, s_m: f64, me: Entity) -> Option<LaneEntry> {
+        r.siblings
+            .iter()
+            .filter_map(|&(road, part)| {
+                let entries = self.roads.get(&road)?.lanes.first()?;
+                let i = entries.partition_point(|e| e.s_m <= s_m);
+                entries
+                    .get(i)
+                    .filter(|e| e.s_m < part && e.entity != me)
+                    .copied()
+            })
+            .min_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)))
     }
 
     /// The nearest vehicle behind in `lane` within `range_m` (strictly behind, or level with
@@ -471,6 +569,14 @@ pub(crate) mod fixtures {
             &[DVec3::new(900.0, 1.75, 0.0), DVec3::new(1_200.0, 40.0, 0.0)],
         );
         let network = RoadNetwork::build(&[a, south, north]).expect("a valid split");
+        index_over(network, cars)
+    }
+
+    /// An index over 4.6 m vehicles at `(road, lane, s, speed along the road)` on `network`.
+    pub(crate) fn index_over(
+        network: RoadNetwork,
+        cars: &[(RoadId, u32, f64, f32)],
+    ) -> (RoadNetwork, LaneIndex, Vec<(Entity, RoadTrack)>) {
         let mut world = World::new();
         let tracks: Vec<(Entity, RoadTrack)> = cars
             .iter()
@@ -753,5 +859,80 @@ mod tests {
         assert_eq!(f.map(|f| f.entry.entity), Some(cars[2].0));
         let f = index.follower(north, 1, 0.0, Entity::PLACEHOLDER, 100.0);
         assert_eq!(f.map(|f| f.entry.entity), Some(cars[3].0));
+    }
+
+    #[test]
+    fn in_a_junction_a_car_on_a_path_from_the_same_lane_is_in_front_while_they_overlap() {
+        use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
+        use glam::DVec3;
+        // `a` ends 16 m before `b` starts; `c` starts 8 m to the left of the gap, heading north.
+        let a = RoadSpec::through("a", 1, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let b = RoadSpec::through(
+            "b",
+            1,
+            50.0,
+            &[DVec3::new(116.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+        );
+        let c = RoadSpec::through(
+            "c",
+            1,
+            50.0,
+            &[DVec3::new(108.0, 8.0, 0.0), DVec3::new(108.0, 100.0, 0.0)],
+        );
+        let to = |to: &str| ConnectionSpec {
+            from: "a".into(),
+            from_lane: 0,
+            to: to.into(),
+            to_lane: 0,
+        };
+        let junction = JunctionSpec {
+            name: "j".into(),
+            control: Control::RightBeforeLeft,
+            connections: vec![to("b"), to("c")],
+            signal: None,
+        };
+        let build = || {
+            RoadNetwork::build_with(
+                &[a.clone(), b.clone(), c.clone()],
+                std::slice::from_ref(&junction),
+            )
+            .expect("a junction")
+        };
+        let network = build();
+        let (a, straight, left) = (
+            RoadId(0),
+            network.id("j#0").expect("straight"),
+            network.id("j#1").expect("left"),
+        );
+        // A car turning left 2 m into the junction, one going straight behind it: on its own
+        // path the straight car has nobody ahead, but the turning car is in front of it.
+        let (_, index, cars) = crate::perception::fixtures::index_over(
+            network,
+            &[(left, 0, 2.0, 3.0), (a, 0, 95.0, 10.0)],
+        );
+        let (turning, _) = cars[0];
+        let (me, track) = &cars[1];
+        let ahead = index
+            .leader(a, 0, track.s_m, *me, 50.0, Some(straight))
+            .expect("the turning car");
+        assert_eq!(ahead.entry.entity, turning);
+        assert!((ahead.gap_m - 7.0).abs() < 1e-9, "{}", ahead.gap_m);
+        let mut seen = Vec::new();
+        index.within(a, 0, track.s_m, 0.0, 20.0, Some(*me), &mut seen);
+        assert_eq!(
+            seen.iter().map(|s| s.entry.entity).collect::<Vec<_>>(),
+            vec![turning]
+        );
+        // Once the paths have parted the turning car is no longer in the way.
+        let (_, index, cars) = crate::perception::fixtures::index_over(
+            build(),
+            &[(left, 0, 12.0, 3.0), (a, 0, 95.0, 10.0)],
+        );
+        let (me, track) = &cars[1];
+        assert!(
+            index
+                .leader(a, 0, track.s_m, *me, 50.0, Some(straight))
+                .is_none()
+        );
     }
 }

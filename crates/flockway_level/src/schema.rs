@@ -2,7 +2,7 @@
 //! those whose systems arrive later, so the format is settled before files exist in the wild.
 
 use crate::expect::Expectation;
-use flockway_road::RoadSpec;
+use flockway_road::{JunctionSpec, RoadSpec};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -29,6 +29,10 @@ pub struct Level {
     /// Roads, in id order (road `i` has id `i`).
     #[serde(default)]
     pub roads: Vec<RoadSpec>,
+    /// Junctions: where links cross or meet inside an area, with right of way by rule or
+    /// signal. Their paths are roads named `JUNCTION#k`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub junctions: Vec<JunctionSpec>,
     /// Vehicle types by name, each a vehicle definition file under `assets/`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub vehicle_types: Vec<VehicleTypeSpec>,
@@ -65,6 +69,7 @@ impl Level {
             seed,
             duration_s,
             roads: Vec::new(),
+            junctions: Vec::new(),
             vehicle_types: Vec::new(),
             driver_profiles: Vec::new(),
             spawners: Vec::new(),
@@ -74,6 +79,29 @@ impl Level {
             telemetry: TelemetrySpec::default(),
             expect: Vec::new(),
         }
+    }
+
+    /// The roads traffic at the end of road `name` continues onto: its links' and its junction
+    /// connections' (a junction's path in between), in that order, each once.
+    pub fn leads_to(&self, name: &str) -> Vec<&str> {
+        let mut out: Vec<&str> = Vec::new();
+        let links = self.road(name).map(|r| r.outgoing()).unwrap_or_default();
+        let through = self
+            .junctions
+            .iter()
+            .flat_map(|j| &j.connections)
+            .filter(|c| c.from == name)
+            .map(|c| c.to.as_str());
+        for to in links
+            .iter()
+            .filter_map(|l| self.road(&l.to).map(|r| r.name.as_str()))
+            .chain(through)
+        {
+            if !out.contains(&to) {
+                out.push(to);
+            }
+        }
+        out
     }
 
     /// The road with this name.

@@ -143,7 +143,7 @@ pub fn warnings(level: &Level) -> Vec<Issue> {
             }
         });
         let outgoing = spec.outgoing();
-        if outgoing.is_empty() {
+        if outgoing.is_empty() && level.leads_to(&spec.name).is_empty() {
             if !destroyed {
                 out.push(Issue {
                     path: vec![Field("roads"), Index(i), Field("points"), Index(last)],
@@ -152,9 +152,14 @@ pub fn warnings(level: &Level) -> Vec<Issue> {
             }
             continue;
         }
-        let any_lane = outgoing
+        let through = level
+            .junctions
             .iter()
-            .any(|l| l.lanes.is_empty() || l.lanes.iter().any(|(a, _)| *a < spec.lanes));
+            .any(|j| j.connections.iter().any(|c| c.from == spec.name));
+        let any_lane = through
+            || outgoing
+                .iter()
+                .any(|l| l.lanes.is_empty() || l.lanes.iter().any(|(a, _)| *a < spec.lanes));
         if !any_lane && !destroyed {
             out.push(Issue {
                 path: vec![Field("roads"), Index(i), Field("links")],
@@ -194,6 +199,7 @@ impl Checker<'_> {
         }
         for (field, len) in [
             ("roads", l.roads.len()),
+            ("junctions", l.junctions.len()),
             ("vehicle_types", l.vehicle_types.len()),
             ("driver_profiles", l.driver_profiles.len()),
             ("spawners", l.spawners.len()),
@@ -211,6 +217,7 @@ impl Checker<'_> {
             }
         }
         self.roads();
+        self.junctions();
         self.vehicle_types();
         self.driver_profiles();
         self.spawners();
@@ -551,10 +558,68 @@ impl Checker<'_> {
     }
 
     /// Whether road `a` leads onto road `b` at its end.
+    /// Each junction: unique names, connections between lanes that exist and do not meet, a
+    /// control that fits them, paths whose names no road takes.
+    fn junctions(&mut self) {
+        let l = self.level;
+        self.unique("junctions", l.junctions.iter().map(|j| j.name.as_str()));
+        for (i, spec) in l.junctions.iter().enumerate() {
+            let at = |rest: &[PathStep]| [&[Field("junctions"), Index(i)][..], rest].concat();
+            let built = flockway_road::Junction::build(spec, |name| {
+                let k = l.roads.iter().position(|r| r.name == name)?;
+                self.roads.get(k)?.as_ref().map(|g| (k as u32, g))
+            });
+            match built {
+                Ok(junction) => {
+                    for p in &junction.paths {
+                        if l.road(&p.spec.name).is_some() {
+                            let msg = format!(
+                                "a road is named `{}`, the name of this junction's path; rename the road or the junction",
+                                p.spec.name
+                            );
+                            self.issue(at(&[Field("name")]), msg);
+                        }
+                    }
+                }
+                Err(e) => {
+                    use flockway_road::JunctionError as E;
+                    let path = match &e {
+                        E::UnknownRoad { k, road, .. } => {
+                            let c = &spec.connections[*k];
+                            let f = if c.from == *road { "from" } else { "to" };
+                            at(&[Field("connections"), Index(*k), Field(f)])
+                        }
+                        E::Lane { k, road, lane, .. } => {
+                            let c = &spec.connections[*k];
+                            let f = if c.from == *road && c.from_lane == *lane {
+                                "from_lane"
+                            } else {
+                                "to_lane"
+                            };
+                            at(&[Field("connections"), Index(*k), Field(f)])
+                        }
+                        E::Closed { k, .. } | E::Meets { k, .. } | E::Duplicate { k, .. } => {
+                            at(&[Field("connections"), Index(*k)])
+                        }
+                        E::Major { .. } | E::NoSignal { .. } => at(&[Field("control")]),
+                        E::SignalUnused { .. } => at(&[Field("signal")]),
+                        E::Signal { phase, .. } => {
+                            at(&[Field("signal"), Field("phases"), Index(*phase)])
+                        }
+                    };
+                    // A road that failed to build was reported with the roads.
+                    let unbuilt =
+                        matches!(&e, E::UnknownRoad { road, .. } if l.road(road).is_some());
+                    if !unbuilt {
+                        self.issue(path, e.to_string());
+                    }
+                }
+            }
+        }
+    }
+
     fn leads_onto(&self, a: &str, b: &str) -> bool {
-        self.level
-            .road(a)
-            .is_some_and(|r| r.outgoing().iter().any(|l| l.to == b))
+        self.level.leads_to(a).contains(&b)
     }
 
     fn spawner_routes(&mut self, i: usize, s: &SpawnerSpec) {
@@ -638,14 +703,9 @@ impl Checker<'_> {
             if r == to {
                 return true;
             }
-            for l in self
-                .level
-                .road(&r)
-                .map(|r| r.outgoing())
-                .unwrap_or_default()
-            {
-                if seen.insert(l.to.clone()) {
-                    todo.push(l.to);
+            for to in self.level.leads_to(&r) {
+                if seen.insert(to.to_owned()) {
+                    todo.push(to.to_owned());
                 }
             }
         }
@@ -1069,6 +1129,108 @@ mod tests {
                     .iter()
                     .any(|p| p.starts_with(line) && p.contains(needle)),
                 "links `{links}` / `{extra}` should report `{needle}` at line {line}, got {found:?}"
+            );
+        }
+    }
+
+    /// Road `a` ending 16 m before `b` starts and 8 m short of where `c` starts to the left:
+    /// a signalised junction `j` takes `a` on to both; `CONNECTIONS`, `SIGNAL` and `ROUTES`
+    /// filled in by each test.
+    const JUNCTION: &str = r#"(
+    version: 1,
+    seed: 1,
+    duration_s: 10.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0)), (pos: (100.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (116.0, 0.0, 0.0)), (pos: (200.0, 0.0, 0.0))]),
+        (name: "c", speed_limit_kmh: 50.0, points: [(pos: (108.0, 8.0, 0.0)), (pos: (108.0, 100.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Signal,
+            connections: CONNECTIONS,
+            signal: (offset_s: 5.0, phases: SIGNAL)),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "auto", model: FlockLanes, vehicle: "sedan")],
+    spawners: [(name: "s", road: "a", interval_s: (min: 1.0, max: 2.0), profiles: [(profile: "auto", weight: 1.0)],
+        routes: ROUTES)],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 80.0)), (name: "c", place: OnRoad(road: "c", s_m: 80.0))],
+)"#;
+
+    fn junction_level(connections: &str, signal: &str, routes: &str) -> String {
+        JUNCTION
+            .replace("CONNECTIONS", connections)
+            .replace("SIGNAL", signal)
+            .replace("ROUTES", routes)
+    }
+
+    const BOTH: &str = r#"[(from: "a", to: "b"), (from: "a", to: "c")]"#;
+    const PHASES: &str = r#"[(duration_s: 30.0, state: "Gg"), (duration_s: 3.0, state: "yy"), (duration_s: 20.0, state: "rr")]"#;
+    const ROUTES: &str =
+        r#"[(name: "b", roads: ["a", "b"], weight: 1.0), (name: "c", roads: ["c"], weight: 1.0)]"#;
+
+    #[test]
+    fn a_junction_level_reads_back_and_routes_go_through_it() {
+        let src = junction_level(BOTH, PHASES, ROUTES);
+        let level = parse_level(&src, Path::new("t.ron")).expect("a valid junction level");
+        assert!(
+            super::warnings(&level).is_empty(),
+            "{:?}",
+            super::warnings(&level)
+        );
+        let j = &level.junctions[0];
+        assert_eq!(j.control, flockway_road::Control::Signal);
+        assert_eq!(j.connections[1].to, "c");
+        assert_eq!(j.signal.as_ref().map(|s| s.offset_s), Some(5.0));
+        assert_eq!(level.leads_to("a"), vec!["b", "c"]);
+        // Written back and read again, the same level.
+        let again = parse_level(
+            &crate::level_to_string(&level).expect("ron"),
+            Path::new("t.ron"),
+        )
+        .expect("reads back");
+        assert_eq!(again.junctions, level.junctions);
+    }
+
+    #[test]
+    fn each_junction_error_is_reported_where_it_is() {
+        let cases = [
+            (
+                r#"[(from: "a", to: "b"), (from: "a", to: "d")]"#,
+                PHASES,
+                "12:",
+                "junction `j` connection 1: there is no road named `d`",
+            ),
+            (
+                r#"[(from: "a", to: "b"), (from: "a", to: "c", to_lane: 1)]"#,
+                PHASES,
+                "12:",
+                "road `c` has 1 lane(s), numbered 0 to 0, not lane 1",
+            ),
+            (
+                BOTH,
+                r#"[(duration_s: 30.0, state: "G")]"#,
+                "13:",
+                "signal phase 0: state `G` has 1 letter(s) for 2 connection(s)",
+            ),
+            (
+                r#"[(from: "a", to: "b")]"#,
+                PHASES,
+                "18:",
+                "road `a` does not lead onto `c`",
+            ),
+        ];
+        for (connections, signal, line, needle) in cases {
+            let src = junction_level(connections, signal, ROUTES);
+            let found = match parse_level(&src, Path::new("t.ron")) {
+                Ok(_) => Vec::new(),
+                Err(e) => e.diagnostics().iter().map(|d| d.to_string()).collect(),
+            };
+            assert!(
+                found
+                    .iter()
+                    .any(|p| p.starts_with(line) && p.contains(needle)),
+                "`{connections}` / `{signal}` should report `{needle}` at line {line}, got {found:?}"
             );
         }
     }

@@ -14,6 +14,7 @@
 mod error;
 mod geometry;
 mod grid;
+mod junction;
 mod mesh;
 mod network;
 mod spec;
@@ -24,13 +25,17 @@ pub use error::RoadError;
 pub use geometry::{
     CURVATURE_BIN_M, RoadCursor, RoadFrame, RoadGeometry, RoadProjection, lane_offset,
 };
+pub use junction::{
+    CONFLICT_DISTANCE_M, Conflict, ConnectionSpec, Control, Junction, JunctionError, JunctionPath,
+    JunctionSpec, Phase, SignalProgram, SignalState, Turn, path_name,
+};
 pub use mesh::{
     DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,
     RoadMeshes, STATION_STEP_M, Side,
 };
 pub use network::{
-    LANE_REACH_HORIZON_M, Link, MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId, RoadNetwork,
-    RoadNetworkError, RoadPlugin, RoadShape, rebuild_roads,
+    Junctions, LANE_REACH_HORIZON_M, Link, MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId,
+    RoadNetwork, RoadNetworkError, RoadPlugin, RoadShape, rebuild_roads,
 };
 pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, LinkSpec, RoadSpec};
 pub use validate::{

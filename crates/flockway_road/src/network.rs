@@ -1,5 +1,6 @@
 //! Roads in the ECS world: components the editor changes, and the network every system queries.
 
+use crate::junction::{Junction, JunctionError, JunctionSpec};
 use crate::{RoadError, RoadGeometry, RoadMeshes, RoadProjection, RoadSpec};
 use bevy_ecs::prelude::*;
 use flockway_core::{Sim, SimPlugin, StepSet};
@@ -35,6 +36,9 @@ pub enum NetworkError {
     /// A road's spec is not drivable.
     #[error(transparent)]
     Road(#[from] RoadError),
+    /// Two junctions share a name.
+    #[error("two junctions are named `{0}`; junction names must be unique")]
+    DuplicateJunction(String),
     /// Two roads share a name.
     #[error("two roads are named `{0}`; road names must be unique")]
     DuplicateName(String),
@@ -91,6 +95,9 @@ pub enum NetworkError {
         /// Distance between the lane centres, m.
         gap_m: f64,
     },
+    /// A junction that cannot be built.
+    #[error(transparent)]
+    Junction(#[from] JunctionError),
     /// `next` names a road whose start is not at this road's end.
     #[error(
         "road `{road}` ends {gap_m:.2} m from the start of `{next}`; a connection needs them within 1 m"
@@ -111,6 +118,10 @@ pub struct RoadNetwork {
     /// Indexed by `RoadId`; an id whose road was deleted in the editor leaves a hole.
     slots: Vec<Option<Slot>>,
     by_name: BTreeMap<String, RoadId>,
+    /// The junctions, in the level's order; their paths are roads after the level's own.
+    junctions: Vec<Junction>,
+    /// For each junction path's road: its junction and path index.
+    paths: BTreeMap<RoadId, (usize, usize)>,
 }
 
 /// A link at a road's end onto the start of another road, lane by lane.
@@ -144,6 +155,15 @@ pub const LANE_REACH_HORIZON_M: f64 = 3_000.0;
 impl RoadNetwork {
     /// Builds a network from specs (road `i` gets id `i`), checking names and connections.
     pub fn build(specs: &[RoadSpec]) -> Result<RoadNetwork, NetworkError> {
+        RoadNetwork::build_with(specs, &[])
+    }
+
+    /// Builds a network from road specs (road `i` gets id `i`) and junctions, whose paths get
+    /// the ids after the roads', checking names, connections and junctions.
+    pub fn build_with(
+        specs: &[RoadSpec],
+        junctions: &[JunctionSpec],
+    ) -> Result<RoadNetwork, NetworkError> {
         let shapes = specs
             .iter()
             .enumerate()
@@ -153,12 +173,41 @@ impl RoadNetwork {
                 Ok((RoadId(i as u32), g, m))
             })
             .collect::<Result<Vec<_>, RoadError>>()?;
-        RoadNetwork::from_shapes(shapes)
+        RoadNetwork::from_shapes(shapes, junctions)
     }
 
     fn from_shapes(
-        shapes: Vec<(RoadId, Arc<RoadGeometry>, Arc<RoadMeshes>)>,
+        mut shapes: Vec<(RoadId, Arc<RoadGeometry>, Arc<RoadMeshes>)>,
+        junction_specs: &[JunctionSpec],
     ) -> Result<RoadNetwork, NetworkError> {
+        // Junction paths become roads numbered after the level's, linked in and out below.
+        let mut junctions = Vec::with_capacity(junction_specs.len());
+        let mut paths = BTreeMap::new();
+        let mut path_links = Vec::new();
+        let mut next_id = shapes.iter().map(|(id, _, _)| id.0 + 1).max().unwrap_or(0);
+        for (j, spec) in junction_specs.iter().enumerate() {
+            if junction_specs[..j].iter().any(|o| o.name == spec.name) {
+                return Err(NetworkError::DuplicateJunction(spec.name.clone()));
+            }
+            let junction = Junction::build(spec, |name| {
+                shapes
+                    .iter()
+                    .find(|(_, g, _)| g.name() == name)
+                    .map(|(id, g, _)| (id.0, g.as_ref()))
+            })?;
+            let mut built = Vec::with_capacity(junction.paths.len());
+            for (k, path) in junction.paths.iter().enumerate() {
+                let g = Arc::new(RoadGeometry::new(&path.spec)?);
+                let m = Arc::new(RoadMeshes::build(&g));
+                let id = RoadId(next_id);
+                next_id += 1;
+                paths.insert(id, (j, k));
+                path_links.push((RoadId(path.from.0), path.from.1, id, path.to));
+                built.push((id, g, m));
+            }
+            shapes.extend(built);
+            junctions.push(junction);
+        }
         let mut by_name = BTreeMap::new();
         for (id, g, _) in &shapes {
             if by_name.insert(g.name().to_owned(), *id).is_some() {
@@ -250,6 +299,20 @@ impl RoadNetwork {
             }
             resolved.push((i, links));
         }
+        for (from, lane, path, (to, to_lane)) in path_links {
+            if let Some((_, links)) = resolved.iter_mut().find(|(i, _)| *i == from.0 as usize) {
+                links.push(Link {
+                    to: path,
+                    lanes: vec![(lane, 0)],
+                });
+            }
+            if let Some((_, links)) = resolved.iter_mut().find(|(i, _)| *i == path.0 as usize) {
+                links.push(Link {
+                    to: RoadId(to),
+                    lanes: vec![(0, to_lane)],
+                });
+            }
+        }
         for (i, links) in resolved {
             for link in &links {
                 if let Some(to) = &mut slots[link.to.0 as usize] {
@@ -262,7 +325,39 @@ impl RoadNetwork {
                 slot.links = links;
             }
         }
-        Ok(RoadNetwork { slots, by_name })
+        Ok(RoadNetwork {
+            slots,
+            by_name,
+            junctions,
+            paths,
+        })
+    }
+
+    /// The junctions, in the level's order.
+    pub fn junctions(&self) -> &[Junction] {
+        &self.junctions
+    }
+
+    /// If road `id` is a path through a junction: the junction's index and the path's.
+    pub fn junction_path(&self, id: RoadId) -> Option<(usize, usize)> {
+        self.paths.get(&id).copied()
+    }
+
+    /// The junction path that takes traffic from the end of `from` onto `to`, if one does
+    /// (the first, by lane, when several lanes have one).
+    pub fn junction_path_between(&self, from: RoadId, to: RoadId) -> Option<RoadId> {
+        self.links(from)
+            .iter()
+            .map(|l| l.to)
+            .find(|&p| self.paths.contains_key(&p) && self.link(p, to).is_some())
+    }
+
+    /// The road of path `k` of junction `j`.
+    pub fn path_road(&self, j: usize, k: usize) -> Option<RoadId> {
+        self.paths
+            .iter()
+            .find(|&(_, jk)| *jk == (j, k))
+            .map(|(&id, _)| id)
     }
 
     /// Number of roads.
@@ -476,6 +571,10 @@ impl RoadNetwork {
     }
 }
 
+/// The level's junctions; the network's junction paths are rebuilt when they change.
+#[derive(Resource, Debug, Clone, Default, PartialEq)]
+pub struct Junctions(pub Vec<JunctionSpec>);
+
 /// Why the road network is out of date: the last edit made it invalid.
 #[derive(Resource, Debug, Clone, Default, PartialEq)]
 pub struct RoadNetworkError(pub Option<NetworkError>);
@@ -487,6 +586,7 @@ impl SimPlugin for RoadPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.world_mut().init_resource::<RoadNetwork>();
         sim.world_mut().init_resource::<RoadNetworkError>();
+        sim.world_mut().init_resource::<Junctions>();
         sim.add_systems(StepSet::Prepare, rebuild_roads);
     }
 }
@@ -497,11 +597,15 @@ pub fn rebuild_roads(
     mut commands: Commands,
     roads: Query<(Entity, &RoadId, Ref<Road>, Option<&RoadShape>)>,
     mut removed: RemovedComponents<Road>,
+    junctions: Res<Junctions>,
     mut network: ResMut<RoadNetwork>,
     mut error: ResMut<RoadNetworkError>,
 ) {
     let removed_any = removed.read().count() > 0;
-    if !removed_any && !roads.iter().any(|(_, _, road, _)| road.is_changed()) {
+    if !removed_any
+        && !junctions.is_changed()
+        && !roads.iter().any(|(_, _, road, _)| road.is_changed())
+    {
         return;
     }
     let mut sorted: Vec<_> = roads.iter().collect();
@@ -528,7 +632,7 @@ pub fn rebuild_roads(
         };
         shapes.push((*id, geometry, meshes));
     }
-    match RoadNetwork::from_shapes(shapes) {
+    match RoadNetwork::from_shapes(shapes, &junctions.0) {
         Ok(n) => {
             *network = n;
             error.0 = None;
@@ -588,6 +692,37 @@ mod tests {
             sim.world().resource::<RoadNetworkError>().0,
             Some(NetworkError::Road(RoadError::Lanes { .. }))
         ));
+    }
+
+    #[test]
+    fn junctions_are_rebuilt_when_they_change() {
+        let a = RoadSpec::through("a", 1, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let b = RoadSpec::through(
+            "b",
+            1,
+            50.0,
+            &[DVec3::new(120.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+        );
+        let mut sim = sim_with(&[a, b]);
+        sim.step();
+        assert_eq!(sim.world().resource::<RoadNetwork>().len(), 2);
+        sim.world_mut().resource_mut::<Junctions>().0 = vec![crate::JunctionSpec {
+            name: "j".into(),
+            control: crate::Control::RightBeforeLeft,
+            connections: vec![crate::ConnectionSpec {
+                from: "a".into(),
+                from_lane: 0,
+                to: "b".into(),
+                to_lane: 0,
+            }],
+            signal: None,
+        }];
+        sim.step();
+        let net = sim.world().resource::<RoadNetwork>();
+        assert_eq!(net.len(), 3);
+        let path = net.id("j#0").expect("the junction's path");
+        assert_eq!(net.junction_path(path), Some((0, 0)));
+        assert!((net.get(path).expect("path").length_m() - 20.0).abs() < 1e-6);
     }
 
     #[test]

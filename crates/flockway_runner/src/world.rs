@@ -4,7 +4,7 @@ use crate::runner::RunError;
 use flockway_core::{IdKind, RngStreams, Sim, StableId, TICKS_PER_SECOND};
 use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
-use flockway_road::{Road, RoadId, RoadNetwork, RoadPlugin};
+use flockway_road::{Junctions, Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
     Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner, TelemetrySettings, TrafficPlugin,
     Trigger, TriggerEffect, spawn_driven,
@@ -20,6 +20,8 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     sim.add_plugin(VehiclePlugin);
     sim.add_plugin(DriversPlugin);
     sim.add_plugin(TrafficPlugin);
+    sim.world_mut()
+        .insert_resource(Junctions(level.junctions.clone()));
     for (i, spec) in level.roads.iter().enumerate() {
         sim.world_mut().spawn((
             RoadId(i as u32),
@@ -50,6 +52,13 @@ fn spawn_routes(
             let road = id(name)?;
             if roads.len() == 1 && road == start {
                 continue;
+            }
+            // Through a junction: its path between the two roads.
+            let last = roads[roads.len() - 1];
+            if network.link(last, road).is_none()
+                && let Some(path) = network.junction_path_between(last, road)
+            {
+                roads.push(path);
             }
             roads.push(road);
         }
@@ -85,7 +94,8 @@ pub fn populate(
         level: level_name.to_owned(),
         message,
     };
-    let network = RoadNetwork::build(&level.roads).map_err(|e| fail(e.to_string()))?;
+    let network =
+        RoadNetwork::build_with(&level.roads, &level.junctions).map_err(|e| fail(e.to_string()))?;
     let road = |name: &str| {
         network
             .id(name)

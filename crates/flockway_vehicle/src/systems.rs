@@ -176,6 +176,9 @@ pub fn sync_vehicles(
     }
 }
 
+/// How far from its junction path's centre line a car still counts as on that path, m.
+const JUNCTION_HOLD_M: f64 = 6.0;
+
 /// Updates a road track for a new position: follows the current road with its cursor, moves on
 /// past the end of an open road along its lane's link (to the track's `next_road` where the lane
 /// leads there), and searches the network when off every road.
@@ -205,7 +208,12 @@ pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forw
             frame = f2;
         }
     }
+    // Inside a junction the paths overlap: a car cutting a corner stays on its own path rather
+    // than jumping onto whichever other path is nearer.
+    let in_junction =
+        network.junction_path(track.road).is_some() && proj.distance_m < JUNCTION_HOLD_M;
     if !proj.on_road
+        && !in_junction
         && let Some((id, p)) = network.project(pos)
         && p.on_road
         && id != track.road

@@ -1,0 +1,1040 @@
+//! Junctions: where links cross or meet inside an area. Every connection through a junction is a
+//! path of its own — a one-lane internal road, a smooth curve from one lane's end to another
+//! lane's start, driven like any road — and the junction knows which paths conflict, where, and
+//! who gives way to whom: by a priority rule, an all-way stop, right before left, or a signal.
+
+use crate::geometry::RoadGeometry;
+use crate::spec::{ControlPoint, RoadSpec};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// A junction as stored in a level: its connections and how right of way is decided.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JunctionSpec {
+    /// Unique name within the level; its paths are the roads `NAME#0`, `NAME#1`, ….
+    pub name: String,
+    /// How right of way is decided.
+    pub control: Control,
+    /// The movements through the junction, each from a lane's end to a lane's start; a signal
+    /// program's states are given in this order.
+    pub connections: Vec<ConnectionSpec>,
+    /// The signal program, for a junction whose control is `Signal`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signal: Option<SignalProgram>,
+}
+
+/// One movement through a junction: from the end of lane `from_lane` of road `from` to the
+/// start of lane `to_lane` of road `to`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectionSpec {
+    /// Road whose end leads into the junction.
+    pub from: String,
+    /// Lane of `from`.
+    #[serde(default)]
+    pub from_lane: u32,
+    /// Road whose start leads out of the junction.
+    pub to: String,
+    /// Lane of `to`.
+    #[serde(default)]
+    pub to_lane: u32,
+}
+
+/// How a junction decides right of way.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Control {
+    /// Traffic from the roads in `major` has right of way; the rest gives way, coming to a full
+    /// stop first when `stop` is set. Between movements of the same rank a turn across oncoming
+    /// traffic gives way, then traffic from the right goes first.
+    Priority {
+        /// Roads entering the junction whose traffic has right of way.
+        major: Vec<String>,
+        /// Whether minor-road traffic must stop at the line before it may go (a stop sign).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        stop: bool,
+    },
+    /// Everyone stops at the line; then they go in the order they stopped.
+    AllWayStop,
+    /// Traffic from the right goes first; a turn across oncoming traffic gives way.
+    RightBeforeLeft,
+    /// Traffic lights: the junction's `signal` program.
+    Signal,
+}
+
+/// A fixed-time signal program: phases repeated in a cycle, shifted by an offset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SignalProgram {
+    /// Where in its cycle the program is at time 0, s: neighbouring signals coordinate by it.
+    #[serde(default)]
+    pub offset_s: f64,
+    /// The phases, in order.
+    pub phases: Vec<Phase>,
+}
+
+/// One phase of a signal program.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Phase {
+    /// How long it lasts, s.
+    pub duration_s: f64,
+    /// One letter per connection, in the junction's order: `G` green, `g` green that gives way
+    /// (a permitted turn), `y` amber, `r` red — as SUMO writes them.
+    pub state: String,
+}
+
+/// What a signal shows one connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SignalState {
+    /// Go, with right of way.
+    Green,
+    /// Go, giving way to conflicting traffic that has green.
+    GreenYield,
+    /// Stop if it can do so comfortably.
+    Amber,
+    /// Stop.
+    Red,
+}
+
+impl SignalState {
+    /// The state a letter of a phase's `state` stands for.
+    pub fn from_letter(c: char) -> Option<SignalState> {
+        match c {
+            'G' => Some(SignalState::Green),
+            'g' => Some(SignalState::GreenYield),
+            'y' | 'Y' => Some(SignalState::Amber),
+            'r' | 'R' => Some(SignalState::Red),
+            _ => None,
+        }
+    }
+
+    /// The letter a phase's `state` writes for it.
+    pub fn letter(self) -> char {
+        match self {
+            SignalState::Green => 'G',
+            SignalState::GreenYield => 'g',
+            SignalState::Amber => 'y',
+            SignalState::Red => 'r',
+        }
+    }
+
+    /// Whether a vehicle may enter on it.
+    pub fn is_go(self) -> bool {
+        matches!(self, SignalState::Green | SignalState::GreenYield)
+    }
+}
+
+impl SignalProgram {
+    /// One cycle's length, s.
+    pub fn cycle_s(&self) -> f64 {
+        self.phases.iter().map(|p| p.duration_s.max(0.0)).sum()
+    }
+
+    /// The phase showing at time `t_s`, and the time it has left, s. `None` without phases.
+    pub fn phase_at(&self, t_s: f64) -> Option<(usize, f64)> {
+        let cycle = self.cycle_s();
+        if self.phases.is_empty() || cycle <= 0.0 {
+            return None;
+        }
+        let mut t = (t_s + self.offset_s).rem_euclid(cycle);
+        for (i, p) in self.phases.iter().enumerate() {
+            if t < p.duration_s {
+                return Some((i, p.duration_s - t));
+            }
+            t -= p.duration_s.max(0.0);
+        }
+        // Rounding at the cycle's end: the last phase's final instant.
+        Some((self.phases.len() - 1, 0.0))
+    }
+
+    /// What connection `k` is shown at time `t_s` (red for a letter the program lacks).
+    pub fn state_at(&self, t_s: f64, k: usize) -> SignalState {
+        self.phase_at(t_s)
+            .and_then(|(i, _)| self.phases[i].state.chars().nth(k))
+            .and_then(SignalState::from_letter)
+            .unwrap_or(SignalState::Red)
+    }
+}
+
+/// How a path turns, by its heading change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Turn {
+    /// Within 30° of straight on.
+    Straight,
+    /// Left by 30° to 150°.
+    Left,
+    /// Right by 30° to 150°.
+    Right,
+    /// More than 150° either way.
+    UTurn,
+}
+
+impl Turn {
+    fn of(heading_change_rad: f64) -> Turn {
+        let deg = heading_change_rad.to_degrees();
+        if deg.abs() > 150.0 {
+            Turn::UTurn
+        } else if deg > 30.0 {
+            Turn::Left
+        } else if deg < -30.0 {
+            Turn::Right
+        } else {
+            Turn::Straight
+        }
+    }
+
+    /// Whether it crosses the path of oncoming traffic (right-hand traffic).
+    fn across(self) -> bool {
+        matches!(self, Turn::Left | Turn::UTurn)
+    }
+}
+
+/// Two paths closer than this, centre line to centre line, conflict there, m: two car widths
+/// and a little room.
+pub const CONFLICT_DISTANCE_M: f64 = 2.5;
+
+/// Spacing of the points two paths are compared at, m.
+const SAMPLE_M: f64 = 0.25;
+
+/// Where two paths of a junction come too close for two vehicles at once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Conflict {
+    /// The other path, by its connection index.
+    pub other: usize,
+    /// Whether both lead onto the same lane (they merge) rather than cross.
+    pub merge: bool,
+    /// Where along this path the conflict area starts, m.
+    pub at_m: f64,
+    /// Where along the other path it starts, m.
+    pub other_at_m: f64,
+    /// Where along this path it ends (clear of the other path again), m.
+    pub clear_m: f64,
+}
+
+/// One movement through a built junction.
+#[derive(Debug, Clone)]
+pub struct JunctionPath {
+    /// The internal road a vehicle drives through the junction.
+    pub spec: RoadSpec,
+    /// Road and lane it comes from (ids as the network numbers roads).
+    pub from: (u32, u32),
+    /// Road and lane it leads onto.
+    pub to: (u32, u32),
+    /// How it turns.
+    pub turn: Turn,
+    /// Unit heading as it enters the junction (x east, y north).
+    pub heading_in: DVec3,
+    /// Its conflicts with other paths, by the other's index.
+    pub conflicts: Vec<Conflict>,
+    /// The other paths from the same lane, each with how far along this path the two still
+    /// overlap (closer than [`CONFLICT_DISTANCE_M`]), m: a car there is in front of a car on
+    /// either.
+    pub siblings: Vec<(usize, f64)>,
+}
+
+/// A junction with its paths built and their conflicts found.
+#[derive(Debug, Clone)]
+pub struct Junction {
+    /// The spec it was built from.
+    pub spec: JunctionSpec,
+    /// One per connection, in the spec's order.
+    pub paths: Vec<JunctionPath>,
+}
+
+/// A junction that cannot be built: what is wrong with which connection.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JunctionError {
+    /// A connection names a road the level lacks.
+    #[error("junction `{junction}` connection {k}: there is no road named `{road}`")]
+    UnknownRoad {
+        /// The junction.
+        junction: String,
+        /// The connection's index.
+        k: usize,
+        /// The missing name.
+        road: String,
+    },
+    /// A connection names a lane its road lacks.
+    #[error(
+        "junction `{junction}` connection {k}: road `{road}` has {lanes} lane(s), numbered 0 to {last}, not lane {lane}",
+        last = lanes.saturating_sub(1)
+    )]
+    Lane {
+        /// The junction.
+        junction: String,
+        /// The connection's index.
+        k: usize,
+        /// The road.
+        road: String,
+        /// The lane asked for.
+        lane: u32,
+        /// The road's lane count.
+        lanes: u32,
+    },
+    /// A connection starts or ends on a closed road, which has no end or start.
+    #[error(
+        "junction `{junction}` connection {k}: road `{road}` is a closed loop and has no end to connect"
+    )]
+    Closed {
+        /// The junction.
+        junction: String,
+        /// The connection's index.
+        k: usize,
+        /// The road.
+        road: String,
+    },
+    /// The two lanes of a connection meet: there is nothing to cross.
+    #[error(
+        "junction `{junction}` connection {k}: the lanes meet ({gap_m:.2} m apart); link the roads with `links` instead"
+    )]
+    Meets {
+        /// The junction.
+        junction: String,
+        /// The connection's index.
+        k: usize,
+        /// Their distance, m.
+        gap_m: f64,
+    },
+    /// Two connections of one junction are the same.
+    #[error("junction `{junction}` has connection {k} twice (also as {first})")]
+    Duplicate {
+        /// The junction.
+        junction: String,
+        /// The repeated connection's index.
+        k: usize,
+        /// The first one's.
+        first: usize,
+    },
+    /// A priority junction names a major road that does not enter it.
+    #[error("junction `{junction}`: major road `{road}` has no connection through the junction")]
+    Major {
+        /// The junction.
+        junction: String,
+        /// The road.
+        road: String,
+    },
+    /// A junction controlled by a signal that has no program.
+    #[error("junction `{junction}` is controlled by a signal but has no `signal` program")]
+    NoSignal {
+        /// The junction.
+        junction: String,
+    },
+    /// A signal program on a junction another rule controls.
+    #[error("junction `{junction}` has a `signal` program but its control is not `Signal`")]
+    SignalUnused {
+        /// The junction.
+        junction: String,
+    },
+    /// A signal program that cannot run.
+    #[error("junction `{junction}` signal phase {phase}: {problem}")]
+    Signal {
+        /// The junction.
+        junction: String,
+        /// The phase's index.
+        phase: usize,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+impl Junction {
+    /// Builds the paths of `spec` between the roads `roads` (by name, with their network ids),
+    /// finds their conflicts and checks its control.
+    pub fn build<'a>(
+        spec: &JunctionSpec,
+        road: impl Fn(&str) -> Option<(u32, &'a RoadGeometry)>,
+    ) -> Result<Junction, JunctionError> {
+        let name = &spec.name;
+        let mut paths = Vec::with_capacity(spec.connections.len());
+        for (k, c) in spec.connections.iter().enumerate() {
+            if let Some(first) = spec.connections[..k].iter().position(|o| o == c) {
+                return Err(JunctionError::Duplicate {
+                    junction: name.clone(),
+                    k,
+                    first,
+                });
+            }
+            let find = |road_name: &str, lane: u32| {
+                let (id, g) = road(road_name).ok_or_else(|| JunctionError::UnknownRoad {
+                    junction: name.clone(),
+                    k,
+                    road: road_name.to_owned(),
+                })?;
+                if lane >= g.lanes() {
+                    return Err(JunctionError::Lane {
+                        junction: name.clone(),
+                        k,
+                        road: road_name.to_owned(),
+                        lane,
+                        lanes: g.lanes(),
+                    });
+                }
+                if g.is_closed() {
+                    return Err(JunctionError::Closed {
+                        junction: name.clone(),
+                        k,
+                        road: road_name.to_owned(),
+                    });
+                }
+                Ok((id, g))
+            };
+            let (from_id, from) = find(&c.from, c.from_lane)?;
+            let (to_id, to) = find(&c.to, c.to_lane)?;
+            let end = from.frame_at(from.length_m());
+            let start = to.frame_at(0.0);
+            let p0 = from.lane_point(c.from_lane, from.length_m());
+            let p1 = to.lane_point(c.to_lane, 0.0);
+            let gap_m = (p1 - p0).length();
+            if gap_m < 1.0 {
+                return Err(JunctionError::Meets {
+                    junction: name.clone(),
+                    k,
+                    gap_m,
+                });
+            }
+            let lane_width = end.width_m / f64::from(from.lanes().max(1));
+            let point = |pos: DVec3, tangent: DVec3| ControlPoint {
+                width_m: Some(lane_width),
+                guardrail_left: false,
+                guardrail_right: false,
+                tangent: Some(tangent),
+                ..ControlPoint::at(pos)
+            };
+            let spec = RoadSpec {
+                name: path_name(name, k),
+                closed: false,
+                lanes: 1,
+                lane_width_m: lane_width,
+                speed_limit_kmh: from.speed_limit_kmh().min(to.speed_limit_kmh()),
+                next: None,
+                links: Vec::new(),
+                points: vec![point(p0, end.tangent), point(p1, start.tangent)],
+            };
+            let heading_in = flat(end.tangent);
+            let heading_out = flat(start.tangent);
+            let change = libm::atan2(
+                heading_in.x * heading_out.y - heading_in.y * heading_out.x,
+                heading_in.dot(heading_out),
+            );
+            paths.push(JunctionPath {
+                spec,
+                from: (from_id, c.from_lane),
+                to: (to_id, c.to_lane),
+                turn: Turn::of(change),
+                heading_in,
+                conflicts: Vec::new(),
+                siblings: Vec::new(),
+            });
+        }
+        check_control(spec)?;
+        let mut junction = Junction {
+            spec: spec.clone(),
+            paths,
+        };
+        junction.find_conflicts();
+        Ok(junction)
+    }
+
+    /// Finds every pair of paths from different lanes that come within
+    /// [`CONFLICT_DISTANCE_M`] of each other, or lead onto the same lane.
+    fn find_conflicts(&mut self) {
+        let samples: Vec<Vec<(f64, DVec3)>> = self
+            .paths
+            .iter()
+            .map(|p| match RoadGeometry::new(&p.spec) {
+                Ok(g) => {
+                    let n = (g.length_m() / SAMPLE_M).ceil().max(1.0) as usize;
+                    (0..=n)
+                        .map(|i| {
+                            let s = g.length_m() * i as f64 / n as f64;
+                            (s, g.pos_at(s))
+                        })
+                        .collect()
+                }
+                Err(_) => Vec::new(),
+            })
+            .collect();
+        for i in 0..self.paths.len() {
+            for j in 0..self.paths.len() {
+                if i == j {
+                    continue;
+                }
+                if self.paths[i].from == self.paths[j].from {
+                    // Siblings: together until the first point where they are apart.
+                    let b = &samples[j];
+                    let part = samples[i]
+                        .iter()
+                        .find(|(_, p)| {
+                            b.iter()
+                                .all(|(_, q)| (*p - *q).length() >= CONFLICT_DISTANCE_M)
+                        })
+                        .map_or_else(|| samples[i].last().map_or(0.0, |x| x.0), |x| x.0);
+                    self.paths[i].siblings.push((j, part));
+                    continue;
+                }
+                let merge = self.paths[i].to == self.paths[j].to;
+                let near = |a: &[(f64, DVec3)], b: &[(f64, DVec3)]| {
+                    let close: Vec<f64> = a
+                        .iter()
+                        .filter(|(_, p)| {
+                            b.iter()
+                                .any(|(_, q)| (*p - *q).length() < CONFLICT_DISTANCE_M)
+                        })
+                        .map(|(s, _)| *s)
+                        .collect();
+                    close.first().copied().zip(close.last().copied())
+                };
+                let (a, b) = (&samples[i], &samples[j]);
+                let here = near(a, b);
+                let there = near(b, a);
+                let conflict = match (here, there) {
+                    (Some((at, clear)), Some((other_at, _))) => Some((at, clear, other_at)),
+                    _ if merge => {
+                        let end = |s: &[(f64, DVec3)]| s.last().map_or(0.0, |x| x.0);
+                        Some((end(a), end(a), end(b)))
+                    }
+                    _ => None,
+                };
+                if let Some((at_m, clear_m, other_at_m)) = conflict {
+                    self.paths[i].conflicts.push(Conflict {
+                        other: j,
+                        merge,
+                        at_m,
+                        other_at_m,
+                        clear_m,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Whether a vehicle on path `i` gives way to one on conflicting path `j`, with the signal
+    /// states `signal` (one per connection) when the junction has a signal. Under an all-way
+    /// stop both give way to each other (the order they stopped in decides).
+    pub fn gives_way(&self, i: usize, j: usize, signal: Option<&[SignalState]>) -> bool {
+        let (a, b) = (&self.paths[i], &self.paths[j]);
+        let rank = |k: usize| -> u8 {
+            match (&self.spec.control, signal) {
+                (Control::Priority { major, .. }, _) => {
+                    let from = &self.spec.connections[k].from;
+                    u8::from(major.iter().any(|m| m == from))
+                }
+                (Control::Signal, Some(states)) => match states.get(k) {
+                    Some(SignalState::Green) => 2,
+                    Some(SignalState::GreenYield) => 1,
+                    _ => 0,
+                },
+                _ => 0,
+            }
+        };
+        match &self.spec.control {
+            Control::AllWayStop => true,
+            _ => {
+                let (ra, rb) = (rank(i), rank(j));
+                if ra != rb {
+                    return ra < rb;
+                }
+                // Same rank: a turn across oncoming traffic gives way to it, then the one
+                // whose traffic comes from the right goes first.
+                let oncoming = a.heading_in.dot(b.heading_in) < -0.5;
+                if oncoming && a.turn.across() != b.turn.across() {
+                    return a.turn.across();
+                }
+                if a.turn != Turn::Straight
+                    && b.turn == Turn::Straight
+                    && self.paths[i].to == self.paths[j].to
+                {
+                    // Merging onto the same lane: the turning car fits in behind the straight one.
+                    return true;
+                }
+                from_right(a.heading_in, b.heading_in)
+            }
+        }
+    }
+
+    /// Whether a vehicle on path `k` must come to a full stop at the line before it may enter.
+    pub fn must_stop(&self, k: usize) -> bool {
+        match &self.spec.control {
+            Control::AllWayStop => true,
+            Control::Priority { major, stop } => {
+                *stop && !major.iter().any(|m| *m == self.spec.connections[k].from)
+            }
+            _ => false,
+        }
+    }
+
+    /// The signal states at time `t_s`, one per connection; `None` without a signal.
+    pub fn signal_at(&self, t_s: f64) -> Option<Vec<SignalState>> {
+        let program = self.spec.signal.as_ref()?;
+        Some(
+            (0..self.paths.len())
+                .map(|k| program.state_at(t_s, k))
+                .collect(),
+        )
+    }
+}
+
+/// The name of path `k` of junction `junction`: its internal road's name.
+pub fn path_name(junction: &str, k: usize) -> String {
+    format!("{junction}#{k}")
+}
+
+/// Whether traffic heading `b` comes from the right of traffic heading `a` (right-hand traffic:
+/// it crosses from right to left in front of it).
+fn from_right(a: DVec3, b: DVec3) -> bool {
+    a.x * b.y - a.y * b.x > 0.5
+}
+
+/// `v` flattened onto the ground and made unit length (x east if it has no horizontal part).
+fn flat(v: DVec3) -> DVec3 {
+    DVec3::new(v.x, v.y, 0.0)
+        .try_normalize()
+        .unwrap_or(DVec3::X)
+}
+
+/// Checks a junction's control against its connections.
+fn check_control(spec: &JunctionSpec) -> Result<(), JunctionError> {
+    match &spec.control {
+        Control::Priority { major, .. } => {
+            for m in major {
+                if !spec.connections.iter().any(|c| c.from == *m) {
+                    return Err(JunctionError::Major {
+                        junction: spec.name.clone(),
+                        road: m.clone(),
+                    });
+                }
+            }
+        }
+        Control::Signal => {
+            let problem = |phase: usize, problem: String| JunctionError::Signal {
+                junction: spec.name.clone(),
+                phase,
+                problem,
+            };
+            let Some(program) = &spec.signal else {
+                return Err(JunctionError::NoSignal {
+                    junction: spec.name.clone(),
+                });
+            };
+            if program.phases.is_empty() {
+                return Err(problem(
+                    0,
+                    "a signal program needs at least one phase".into(),
+                ));
+            }
+            if !program.offset_s.is_finite() {
+                return Err(problem(
+                    0,
+                    "the offset must be a finite number of seconds".into(),
+                ));
+            }
+            for (i, p) in program.phases.iter().enumerate() {
+                if !(p.duration_s.is_finite() && p.duration_s > 0.0) {
+                    return Err(problem(
+                        i,
+                        format!("duration {} s; it must be more than 0", p.duration_s),
+                    ));
+                }
+                let n = p.state.chars().count();
+                if n != spec.connections.len() {
+                    return Err(problem(
+                        i,
+                        format!(
+                            "state `{}` has {n} letter(s) for {} connection(s); give one per connection",
+                            p.state,
+                            spec.connections.len()
+                        ),
+                    ));
+                }
+                if let Some(c) = p
+                    .state
+                    .chars()
+                    .find(|&c| SignalState::from_letter(c).is_none())
+                {
+                    return Err(problem(
+                        i,
+                        format!(
+                            "state `{}` has `{c}`; the letters are G, g, y and r",
+                            p.state
+                        ),
+                    ));
+                }
+            }
+        }
+        Control::AllWayStop | Control::RightBeforeLeft => {}
+    }
+    if spec.signal.is_some() && spec.control != Control::Signal {
+        return Err(JunctionError::SignalUnused {
+            junction: spec.name.clone(),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{NetworkError, RoadNetwork};
+
+    /// A crossroads 16 m across: one lane in and one out on each arm (right-hand traffic),
+    /// arms `w`, `e`, `s`, `n`, roads `w in`, `w out`, …; 100 m each.
+    fn arms() -> Vec<RoadSpec> {
+        let road = |name: &str, a: (f64, f64), b: (f64, f64)| {
+            RoadSpec::through(
+                name,
+                1,
+                50.0,
+                &[DVec3::new(a.0, a.1, 0.0), DVec3::new(b.0, b.1, 0.0)],
+            )
+        };
+        vec![
+            road("w in", (-108.0, -1.5), (-8.0, -1.5)),
+            road("e out", (8.0, -1.5), (108.0, -1.5)),
+            road("e in", (108.0, 1.5), (8.0, 1.5)),
+            road("w out", (-8.0, 1.5), (-108.0, 1.5)),
+            road("s in", (1.5, -108.0), (1.5, -8.0)),
+            road("n out", (1.5, 8.0), (1.5, 108.0)),
+            road("n in", (-1.5, 108.0), (-1.5, 8.0)),
+            road("s out", (-1.5, -8.0), (-1.5, -108.0)),
+        ]
+    }
+
+    /// Every movement of [`arms`]: straight, left and right from each arm, in that order per arm
+    /// (`w`, `e`, `s`, `n`): connection `3 * arm + {0 straight, 1 left, 2 right}`.
+    fn movements() -> Vec<ConnectionSpec> {
+        let c = |from: &str, to: &str| ConnectionSpec {
+            from: from.into(),
+            from_lane: 0,
+            to: to.into(),
+            to_lane: 0,
+        };
+        vec![
+            c("w in", "e out"),
+            c("w in", "n out"),
+            c("w in", "s out"),
+            c("e in", "w out"),
+            c("e in", "s out"),
+            c("e in", "n out"),
+            c("s in", "n out"),
+            c("s in", "w out"),
+            c("s in", "e out"),
+            c("n in", "s out"),
+            c("n in", "e out"),
+            c("n in", "w out"),
+        ]
+    }
+
+    const W_STRAIGHT: usize = 0;
+    const W_LEFT: usize = 1;
+    const W_RIGHT: usize = 2;
+    const E_STRAIGHT: usize = 3;
+    const S_STRAIGHT: usize = 6;
+    const N_STRAIGHT: usize = 9;
+
+    fn crossroads(control: Control) -> RoadNetwork {
+        crossroads_with(control, None)
+    }
+
+    fn crossroads_with(control: Control, signal: Option<SignalProgram>) -> RoadNetwork {
+        let junction = JunctionSpec {
+            name: "x".into(),
+            control,
+            connections: movements(),
+            signal,
+        };
+        RoadNetwork::build_with(&arms(), &[junction]).expect("a valid crossroads")
+    }
+
+    fn priority() -> Control {
+        Control::Priority {
+            major: vec!["w in".into(), "e in".into()],
+            stop: false,
+        }
+    }
+
+    #[test]
+    fn each_connection_is_a_road_from_its_lane_end_to_its_lane_start_linked_both_ways() {
+        let net = crossroads(priority());
+        assert_eq!(net.len(), 8 + 12);
+        let x = &net.junctions()[0];
+        let w_in = net.id("w in").expect("w in");
+        let straight = net.id("x#0").expect("the first path is a road");
+        assert_eq!(net.junction_path(straight), Some((0, W_STRAIGHT)));
+        assert_eq!(net.path_road(0, W_STRAIGHT), Some(straight));
+        let g = net.get(straight).expect("geometry");
+        assert!((g.length_m() - 16.0).abs() < 0.01, "{}", g.length_m());
+        assert!((g.pos_at(0.0) - DVec3::new(-8.0, -1.5, 0.0)).length() < 1e-6);
+        // In from the approach, out onto the exit, lane by lane.
+        assert!(net.link(w_in, straight).is_some());
+        assert_eq!(
+            net.lane_next(straight, 0, None),
+            Some((net.id("e out").expect("e out"), 0))
+        );
+        assert_eq!(net.lane_prev(straight, 0), &[(w_in, 0)]);
+        // Turns: the right turn is the shortest path (a quarter circle of 6.5 m radius), the
+        // left one a quarter circle of 9.5 m radius.
+        let len = |k: usize| {
+            net.get(net.path_road(0, k).expect("path"))
+                .expect("g")
+                .length_m()
+        };
+        assert!((len(W_RIGHT) - 10.2).abs() < 0.3, "{}", len(W_RIGHT));
+        assert!((len(W_LEFT) - 14.9).abs() < 0.4, "{}", len(W_LEFT));
+        assert_eq!(
+            (
+                x.paths[W_STRAIGHT].turn,
+                x.paths[W_LEFT].turn,
+                x.paths[W_RIGHT].turn
+            ),
+            (Turn::Straight, Turn::Left, Turn::Right)
+        );
+        let right = net
+            .get(net.path_road(0, W_RIGHT).expect("right"))
+            .expect("g");
+        assert!(right.curvature_at(0.5 * right.length_m()) < -0.05);
+        // No rails inside a junction; the speed limit is the lower of the two roads'.
+        assert_eq!(right.guardrails_at(1.0), (false, false));
+        // Routing goes through the junction.
+        let n_out = net.id("n out").expect("n out");
+        assert_eq!(
+            net.shortest_path(w_in, n_out),
+            Some(vec![w_in, net.path_road(0, W_LEFT).expect("left"), n_out])
+        );
+    }
+
+    #[test]
+    fn crossing_and_merging_paths_conflict_parallel_and_diverging_ones_do_not() {
+        let net = crossroads(priority());
+        let x = &net.junctions()[0];
+        let conflict = |i: usize, j: usize| x.paths[i].conflicts.iter().find(|c| c.other == j);
+        // Straight across each other: near the middle of both, where the lanes cross.
+        let c = conflict(W_STRAIGHT, S_STRAIGHT).expect("they cross");
+        assert!(!c.merge);
+        assert!((c.at_m - 7.5).abs() < 1.5, "{c:?}");
+        assert!(c.clear_m > c.at_m);
+        assert!(conflict(S_STRAIGHT, W_STRAIGHT).is_some());
+        // Opposite straights pass 3 m apart; a lane's movements diverge from one point.
+        assert!(conflict(W_STRAIGHT, E_STRAIGHT).is_none());
+        assert!(conflict(W_STRAIGHT, W_LEFT).is_none());
+        // A left turn crosses the oncoming straight.
+        assert!(conflict(W_LEFT, E_STRAIGHT).is_some());
+        // The right turn and the straight from the north both lead onto `s out`: a merge.
+        let m = conflict(W_RIGHT, N_STRAIGHT).expect("they merge");
+        assert!(m.merge);
+        // The straight and the right turn from one lane overlap for their first metres.
+        let part = |i: usize, j: usize| {
+            x.paths[i]
+                .siblings
+                .iter()
+                .find(|s| s.0 == j)
+                .map(|s| s.1)
+                .expect("siblings")
+        };
+        assert!(
+            (2.0..10.0).contains(&part(W_STRAIGHT, W_RIGHT)),
+            "{}",
+            part(W_STRAIGHT, W_RIGHT)
+        );
+        assert!(part(W_LEFT, W_RIGHT) < 10.0);
+        assert!(
+            x.paths[W_STRAIGHT]
+                .siblings
+                .iter()
+                .all(|s| s.0 == W_LEFT || s.0 == W_RIGHT)
+        );
+        // Conflicts are found both ways round.
+        for (i, p) in x.paths.iter().enumerate() {
+            for c in &p.conflicts {
+                assert!(x.paths[c.other].conflicts.iter().any(|d| d.other == i));
+            }
+        }
+    }
+
+    #[test]
+    fn right_of_way_by_priority_turn_and_the_right() {
+        let net = crossroads(priority());
+        let x = &net.junctions()[0];
+        // The minor road gives way to the major one, never the other way round.
+        assert!(x.gives_way(S_STRAIGHT, W_STRAIGHT, None));
+        assert!(!x.gives_way(W_STRAIGHT, S_STRAIGHT, None));
+        // On the major road a left turn gives way to the oncoming straight.
+        assert!(x.gives_way(W_LEFT, E_STRAIGHT, None));
+        assert!(!x.gives_way(E_STRAIGHT, W_LEFT, None));
+        assert!(!x.must_stop(S_STRAIGHT));
+
+        let net = crossroads(Control::RightBeforeLeft);
+        let x = &net.junctions()[0];
+        // Eastbound, traffic from the south comes from the right.
+        assert!(x.gives_way(W_STRAIGHT, S_STRAIGHT, None));
+        assert!(!x.gives_way(S_STRAIGHT, W_STRAIGHT, None));
+        assert!(
+            x.gives_way(S_STRAIGHT, E_STRAIGHT, None),
+            "from the east is the right of the south"
+        );
+
+        let net = crossroads(Control::AllWayStop);
+        let x = &net.junctions()[0];
+        assert!(
+            x.gives_way(W_STRAIGHT, S_STRAIGHT, None) && x.gives_way(S_STRAIGHT, W_STRAIGHT, None)
+        );
+        assert!(x.must_stop(W_STRAIGHT));
+
+        let stop = Control::Priority {
+            major: vec!["w in".into(), "e in".into()],
+            stop: true,
+        };
+        let net = crossroads(stop);
+        assert!(net.junctions()[0].must_stop(S_STRAIGHT));
+        assert!(!net.junctions()[0].must_stop(W_STRAIGHT));
+    }
+
+    /// Two phases of 30 s green and 3 s amber: east–west first (left turns permitted, giving
+    /// way), then north–south.
+    fn two_phase(offset_s: f64) -> SignalProgram {
+        let phase = |duration_s: f64, state: &str| Phase {
+            duration_s,
+            state: state.into(),
+        };
+        SignalProgram {
+            offset_s,
+            phases: vec![
+                phase(30.0, "GgGGgGrrrrrr"),
+                phase(3.0, "yyyyyyrrrrrr"),
+                phase(30.0, "rrrrrrGgGGgG"),
+                phase(3.0, "rrrrrryyyyyy"),
+            ],
+        }
+    }
+
+    #[test]
+    fn a_signal_program_cycles_with_its_offset_and_its_states_decide_right_of_way() {
+        let net = crossroads_with(Control::Signal, Some(two_phase(0.0)));
+        let x = &net.junctions()[0];
+        let program = x.spec.signal.as_ref().expect("a signal");
+        assert_eq!(program.cycle_s(), 66.0);
+        assert_eq!(program.phase_at(0.0), Some((0, 30.0)));
+        assert_eq!(program.phase_at(31.0), Some((1, 2.0)));
+        assert_eq!(program.phase_at(66.0 + 40.0), Some((2, 23.0)));
+        assert_eq!(program.state_at(10.0, W_STRAIGHT), SignalState::Green);
+        assert_eq!(program.state_at(10.0, W_LEFT), SignalState::GreenYield);
+        assert_eq!(program.state_at(10.0, S_STRAIGHT), SignalState::Red);
+        assert_eq!(program.state_at(32.0, W_STRAIGHT), SignalState::Amber);
+        let states = x.signal_at(10.0).expect("a signal");
+        // The permitted left turn gives way to the oncoming straight on green.
+        assert!(x.gives_way(W_LEFT, E_STRAIGHT, Some(&states)));
+        assert!(!x.gives_way(E_STRAIGHT, W_LEFT, Some(&states)));
+        // An offset shifts the cycle: 40 s into it at time 0.
+        let shifted = crossroads_with(Control::Signal, Some(two_phase(40.0)));
+        assert_eq!(
+            shifted.junctions()[0].signal_at(0.0).expect("signal")[S_STRAIGHT],
+            SignalState::Green
+        );
+        assert_eq!(
+            SignalState::from_letter('G').map(SignalState::letter),
+            Some('G')
+        );
+        assert!(!SignalState::Amber.is_go() && SignalState::GreenYield.is_go());
+    }
+
+    #[test]
+    fn a_junction_that_cannot_be_built_says_which_connection_and_why() {
+        let build_with = |control: Control, connections: Vec<ConnectionSpec>, signal| {
+            let junction = JunctionSpec {
+                name: "x".into(),
+                control,
+                connections,
+                signal,
+            };
+            match RoadNetwork::build_with(&arms(), &[junction]) {
+                Err(NetworkError::Junction(e)) => e.to_string(),
+                Err(other) => panic!("expected a junction error, got {other}"),
+                Ok(_) => panic!("expected a junction error, got a network"),
+            }
+        };
+        let build = |control, connections| build_with(control, connections, None);
+        let mut bad = movements();
+        bad[4].to = "nowhere".into();
+        assert_eq!(
+            build(priority(), bad),
+            "junction `x` connection 4: there is no road named `nowhere`"
+        );
+        let mut bad = movements();
+        bad[2].from_lane = 1;
+        assert!(
+            build(priority(), bad)
+                .contains("connection 2: road `w in` has 1 lane(s), numbered 0 to 0, not lane 1")
+        );
+        let mut bad = movements();
+        bad.push(bad[0].clone());
+        assert!(build(priority(), bad).contains("has connection 12 twice (also as 0)"));
+        let major = Control::Priority {
+            major: vec!["s out".into()],
+            stop: false,
+        };
+        assert!(build(major, movements()).contains("major road `s out` has no connection"));
+        let mut program = two_phase(0.0);
+        let signal = |p: &SignalProgram| build_with(Control::Signal, movements(), Some(p.clone()));
+        program.phases[2].state.pop();
+        assert!(
+            signal(&program)
+                .contains("phase 2: state `rrrrrrGgGGg` has 11 letter(s) for 12 connection(s)")
+        );
+        program.phases[2].state.push('x');
+        assert!(signal(&program).contains("has `x`; the letters are G, g, y and r"));
+        program.phases[2].state = "rrrrrrGgGGgG".into();
+        program.phases[1].duration_s = 0.0;
+        assert!(signal(&program).contains("phase 1: duration 0 s"));
+        assert!(build(Control::Signal, movements()).contains("has no `signal` program"));
+        assert!(
+            build_with(priority(), movements(), Some(two_phase(0.0)))
+                .contains("its control is not `Signal`")
+        );
+        // Lanes that meet need a link, not a junction; a loop has no end to leave by.
+        let mut roads = arms();
+        roads.push(RoadSpec::through(
+            "on",
+            1,
+            50.0,
+            &[DVec3::new(108.0, -1.5, 0.0), DVec3::new(200.0, -1.5, 0.0)],
+        ));
+        roads.push(RoadSpec::ring(
+            "loop",
+            1,
+            50.0,
+            DVec3::new(0.0, 400.0, 0.0),
+            50.0,
+            8,
+        ));
+        let one = |from: &str, to: &str| {
+            let junction = JunctionSpec {
+                name: "x".into(),
+                control: Control::RightBeforeLeft,
+                connections: vec![ConnectionSpec {
+                    from: from.into(),
+                    from_lane: 0,
+                    to: to.into(),
+                    to_lane: 0,
+                }],
+                signal: None,
+            };
+            RoadNetwork::build_with(&roads, &[junction])
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        assert!(one("e out", "on").contains("the lanes meet (0.00 m apart); link the roads"));
+        assert!(one("loop", "on").contains("road `loop` is a closed loop"));
+        // Two junctions of one name.
+        let j = JunctionSpec {
+            name: "x".into(),
+            control: priority(),
+            connections: movements(),
+            signal: None,
+        };
+        assert_eq!(
+            RoadNetwork::build_with(&arms(), &[j.clone(), j]).err(),
+            Some(NetworkError::DuplicateJunction("x".into()))
+        );
+    }
+}

@@ -1,0 +1,79 @@
+//! Junctions, checked on exported data: a car arriving at a red light stops before the line and
+//! drives through the junction's path onto the road beyond when the light turns green.
+
+#[allow(dead_code, reason = "shared with the tests that run shipped levels")]
+mod common;
+
+use common::run;
+use std::path::Path;
+
+/// A 200 m road `a` at 50 km/h ending 16 m before `b` starts; junction `j` between them with a
+/// signal red for the first 40 s of each 70 s cycle; three cars from a spawner on `a`.
+const SIGNAL: &str = r#"(
+    version: 1,
+    name: "signal",
+    seed: 1,
+    duration_s: 70.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (200.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (216.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (400.0, 0.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Signal, connections: [(from: "a", to: "b")],
+            signal: (phases: [(duration_s: 40.0, state: "r"), (duration_s: 30.0, state: "G")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 3.0, max: 3.0), profiles: [(profile: "autonomous", weight: 1.0)],
+        speed_kmh: 40.0, schedule: [(from_s: 8.0, interval_s: (min: 1000.0, max: 1000.0))])],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 170.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/signal.ron");
+    let level = flockway_level::parse_level(SIGNAL, &path).expect("a valid level");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv_path = dir.path().join("signal.csv");
+    let m = run(level, &path, 1, None, Some(csv_path.clone()));
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    let mut reader = csv::Reader::from_path(&csv_path).expect("the CSV");
+    let headers = reader.headers().expect("headers").clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
+    let (time, id, road, s, speed) = (
+        col("time_s"),
+        col("vehicle_id"),
+        col("road"),
+        col("s_m"),
+        col("speed_kmh"),
+    );
+    let mut cars = std::collections::BTreeSet::new();
+    let (mut stopped_at_line, mut through, mut on_red) = (0, 0, 0);
+    for row in reader.records() {
+        let row = row.expect("a row");
+        let t: f64 = row[time].parse().expect("time_s");
+        let s_m: f64 = row[s].parse().expect("s_m");
+        let v: f64 = row[speed].parse().expect("speed_kmh");
+        cars.insert(row[id].to_owned());
+        match &row[road] {
+            // Front bumper (half the 4.6 m body ahead of the centre) short of the line.
+            "a" if t < 40.0 => {
+                assert!(
+                    s_m + 2.3 <= 200.0,
+                    "past the line on red at {t} s: s = {s_m}"
+                );
+                if v < 0.5 && s_m > 180.0 {
+                    stopped_at_line += 1;
+                }
+            }
+            "j#0" if t < 40.0 => on_red += 1,
+            "b" => through += 1,
+            _ => {}
+        }
+    }
+    assert_eq!(cars.len(), 3, "three cars: {cars:?}");
+    assert_eq!(on_red, 0, "rows inside the junction on red");
+    assert!(stopped_at_line > 0, "the first car waits at the line");
+    assert!(through > 0, "the cars drive on after green");
+}
