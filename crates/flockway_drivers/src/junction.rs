@@ -18,6 +18,11 @@ pub const AMBER_DECEL_MPS2: f32 = 3.5;
 pub const STOP_LINE_MARGIN_M: f64 = 1.0;
 /// The time gap a yielding driver wants before a conflicting vehicle reaches the conflict, s.
 pub const CRITICAL_GAP_S: f64 = 4.5;
+/// Bumper gap a held car keeps to the car ahead of it in the queue at the line, m.
+pub const QUEUE_GAP_M: f64 = 2.0;
+/// Speed above which a car that can no longer stop comfortably before the line is committed
+/// to going through, m/s (below it, it creeps and can stop).
+const COMMITTED_MPS: f32 = 3.0;
 /// Speed below which a vehicle counts as stopped at a stop line, m/s.
 const STOPPED_MPS: f32 = 0.3;
 /// How close to the line a stop counts as a stop at it, m (front bumper).
@@ -162,6 +167,7 @@ pub fn gate_junctions(
                 SignalState::Green | SignalState::GreenYield => {}
             }
         }
+        let signal_hold = hold;
         // A stop sign or an all-way stop: a full stop at the line first.
         if !hold && junction.must_stop(a.path) && stopped_tick.is_none() {
             hold = true;
@@ -236,6 +242,19 @@ pub fn gate_junctions(
                 }
             }
         }
+        // Past the point of no return: a car that was going and can no longer stop before the
+        // line without braking harder than at amber goes on (stopping would leave it across
+        // the line, in the way).
+        let need = f64::from(a.speed_mps).powi(2) / (2.0 * a.to_line_m.max(0.01));
+        if hold
+            && !signal_hold
+            && !a.held
+            && a.speed_mps > COMMITTED_MPS
+            && a.to_line_m > 0.0
+            && need > f64::from(AMBER_DECEL_MPS2)
+        {
+            hold = false;
+        }
         // Nobody waits forever: held at the line this long with nothing in its way moving.
         let held_since = if gate.path == path_road {
             gate.held_since.or(Some(tick))
@@ -252,11 +271,19 @@ pub fn gate_junctions(
             hold = false;
             deadlock = true;
         }
-        let line = network.get(track.road).map_or(0.0, |g| g.length_m());
+        // Held: at the line, or behind the car ahead of it in the queue there (a queue pressed
+        // from behind would otherwise push its first car over the line).
+        let line = network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
+        let queue = index
+            .leader(track.road, track.lane, track.s_m, a.entity, line - track.s_m, None)
+            .filter(|l| track.s_m + l.gap_m < line + 5.0)
+            .map_or(f64::INFINITY, |l| {
+                track.s_m + l.gap_m - 0.5 * f64::from(l.entry.length_m) - QUEUE_GAP_M
+            });
         decided.push((
             a.entity,
             JunctionGate {
-                stop_at_m: hold.then_some(line - STOP_LINE_MARGIN_M),
+                stop_at_m: hold.then_some(line.min(queue)),
                 path: path_road,
                 stopped_tick,
                 held_since: if hold { held_since } else { None },
