@@ -8,7 +8,8 @@ use common::run;
 use std::path::Path;
 
 /// A 200 m road `a` at 50 km/h ending 16 m before `b` starts; junction `j` between them with a
-/// signal red for the first 40 s of each 70 s cycle; three cars from a spawner on `a`.
+/// signal red for the first 40 s of each 70 s cycle; eight cars from a spawner on `a`, 3 s
+/// apart, that queue at the red light and leave on green.
 const SIGNAL: &str = r#"(
     version: 1,
     name: "signal",
@@ -25,9 +26,10 @@ const SIGNAL: &str = r#"(
     vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
     driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
     spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 3.0, max: 3.0), profiles: [(profile: "autonomous", weight: 1.0)],
-        speed_kmh: 40.0, schedule: [(from_s: 8.0, interval_s: (min: 1000.0, max: 1000.0))])],
+        speed_kmh: 40.0, schedule: [(from_s: 23.0, interval_s: (min: 1000.0, max: 1000.0))])],
     destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 170.0))],
     telemetry: (period_s: 0.1),
+    expect: ["junction_flow_veh_per_h.j > 0", "max_queue_m.j > 40", "discharge_headway_s.j in 1..3"],
 )"#;
 
 #[test]
@@ -38,6 +40,15 @@ fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
     let csv_path = dir.path().join("signal.csv");
     let m = run(level, &path, 1, None, Some(csv_path.clone()));
     assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    // All eight through in the 70 s; the queue of eight cars reached back about 50 m; the
+    // fifth to eighth left the line at a steady headway; each waited for the green.
+    assert!(
+        (m["junction_flow_veh_per_h.j"] - 8.0 * 3600.0 / 70.0).abs() < 1e-6,
+        "{m:#?}"
+    );
+    assert!((40.0..70.0).contains(&m["max_queue_m.j"]), "{m:#?}");
+    assert!((1.0..3.0).contains(&m["discharge_headway_s.j"]), "{m:#?}");
+    assert!(m["junction_delay_s.j"] > 10.0, "{m:#?}");
     let mut reader = csv::Reader::from_path(&csv_path).expect("the CSV");
     let headers = reader.headers().expect("headers").clone();
     let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
@@ -72,7 +83,7 @@ fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
             _ => {}
         }
     }
-    assert_eq!(cars.len(), 3, "three cars: {cars:?}");
+    assert_eq!(cars.len(), 8, "eight cars: {cars:?}");
     assert_eq!(on_red, 0, "rows inside the junction on red");
     assert!(stopped_at_line > 0, "the first car waits at the line");
     assert!(through > 0, "the cars drive on after green");

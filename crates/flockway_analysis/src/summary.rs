@@ -208,6 +208,26 @@ impl Summary {
         for (d, v) in &self.flow_veh_per_h {
             out.push_str(&format!("flow {d:<12}{} veh/h\n", fmt_value(*v)));
         }
+        // Each junction's measures, on one line.
+        let junctions = self
+            .metrics
+            .keys()
+            .filter_map(|k| k.strip_prefix("junction_flow_veh_per_h."));
+        for j in junctions {
+            let mut line = format!("junction {j:<8}");
+            for (key, label, unit) in [
+                ("junction_flow_veh_per_h", "", " veh/h"),
+                ("junction_delay_s", ", delay ", " s"),
+                ("max_queue_m", ", longest queue ", " m"),
+                ("discharge_headway_s", ", discharge headway ", " s"),
+            ] {
+                if let Some(v) = self.metrics.get(&format!("{key}.{j}")) {
+                    line.push_str(&format!("{label}{}{unit}", fmt_value(*v)));
+                }
+            }
+            out.push_str(&line);
+            out.push('\n');
+        }
         if !self.expectations.is_empty() {
             out.push_str("expectations\n");
             for e in &self.expectations {

@@ -275,7 +275,14 @@ pub fn gate_junctions(
         // from behind would otherwise push its first car over the line).
         let line = network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
         let queue = index
-            .leader(track.road, track.lane, track.s_m, a.entity, line - track.s_m, None)
+            .leader(
+                track.road,
+                track.lane,
+                track.s_m,
+                a.entity,
+                line - track.s_m,
+                None,
+            )
             .filter(|l| track.s_m + l.gap_m < line + 5.0)
             .map_or(f64::INFINITY, |l| {
                 track.s_m + l.gap_m - 0.5 * f64::from(l.entry.length_m) - QUEUE_GAP_M

@@ -18,6 +18,8 @@ pub enum Qualifier {
     Destroyer,
     /// Optionally a driver profile name: the metric over that profile's vehicles only.
     Profile,
+    /// The qualifier is a junction name (required).
+    Junction,
 }
 
 /// A metric that expectations may test, with its unit and meaning.
@@ -80,11 +82,19 @@ pub enum Metric {
     WaveSpeedKmh,
     /// Period of the wave at a fixed point (s).
     WavePeriodS,
+    /// Mean delay of the vehicles through a junction (s).
+    JunctionDelayS,
+    /// Longest queue waiting at a junction (m).
+    MaxQueueM,
+    /// Vehicles entering a junction per hour (veh/h).
+    JunctionFlowVehPerH,
+    /// Mean headway of queued vehicles crossing a signal's line, from the fifth on (s).
+    DischargeHeadwayS,
 }
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 21] = [
+    pub const ALL: [Metric; 25] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -106,6 +116,10 @@ impl Metric {
         Metric::WaveDetected,
         Metric::WaveSpeedKmh,
         Metric::WavePeriodS,
+        Metric::JunctionDelayS,
+        Metric::MaxQueueM,
+        Metric::JunctionFlowVehPerH,
+        Metric::DischargeHeadwayS,
     ];
 
     /// Its name, unit, qualifier and meaning.
@@ -237,6 +251,30 @@ impl Metric {
                 unit: "s",
                 description: "period of the wave at a fixed point",
             },
+            Metric::JunctionDelayS => MetricInfo {
+                name: "junction_delay_s",
+                qualifier: Qualifier::Junction,
+                unit: "s",
+                description: "mean delay of the vehicles entering a junction after the warm-up: time from 150 m before its line to the line above that stretch at the speed limit",
+            },
+            Metric::MaxQueueM => MetricInfo {
+                name: "max_queue_m",
+                qualifier: Qualifier::Junction,
+                unit: "m",
+                description: "longest queue at a junction after the warm-up: from the line to the back of the farthest car below 2 m/s within 150 m of it, on any approach lane",
+            },
+            Metric::JunctionFlowVehPerH => MetricInfo {
+                name: "junction_flow_veh_per_h",
+                qualifier: Qualifier::Junction,
+                unit: "veh/h",
+                description: "vehicles entering a junction per hour after the warm-up",
+            },
+            Metric::DischargeHeadwayS => MetricInfo {
+                name: "discharge_headway_s",
+                qualifier: Qualifier::Junction,
+                unit: "s",
+                description: "mean time between queued vehicles crossing a signal's line on one lane in one green, from the fifth of the queue on (3 600 / it is the saturation flow per lane)",
+            },
         }
     }
 
@@ -263,8 +301,8 @@ impl Metric {
 }
 
 /// Every metric's [`MetricInfo`], in [`Metric::ALL`] order.
-pub const METRICS: [MetricInfo; 21] = {
-    let mut out = [Metric::Ticks.info(); 21];
+pub const METRICS: [MetricInfo; 25] = {
+    let mut out = [Metric::Ticks.info(); 25];
     let mut i = 0;
     while i < out.len() {
         out[i] = Metric::ALL[i].info();
@@ -363,6 +401,11 @@ impl Expectation {
             (Qualifier::Destroyer, None) => {
                 return Err(format!(
                     "metric `{metric}` needs a destroyer: `{metric}.DESTROYER`"
+                ));
+            }
+            (Qualifier::Junction, None) => {
+                return Err(format!(
+                    "metric `{metric}` needs a junction: `{metric}.JUNCTION`"
                 ));
             }
             (_, Some(q)) if q.is_empty() => return Err(format!("empty name after `{metric}.`")),

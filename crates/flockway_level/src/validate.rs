@@ -872,12 +872,14 @@ impl Checker<'_> {
                 Qualifier::Road => l.roads.iter().any(|r| &r.name == q),
                 Qualifier::Destroyer => l.destroyers.iter().any(|d| &d.name == q),
                 Qualifier::Profile => l.driver_profiles.iter().any(|p| &p.name == q),
+                Qualifier::Junction => l.junctions.iter().any(|j| &j.name == q),
                 Qualifier::None => true,
             };
             if !known {
                 let kind = match info.qualifier {
                     Qualifier::Road => "road",
                     Qualifier::Profile => "driver profile",
+                    Qualifier::Junction => "junction",
                     _ => "destroyer",
                 };
                 self.issue(

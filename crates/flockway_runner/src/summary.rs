@@ -6,7 +6,7 @@ use flockway_core::{RunStats, Sim, TICKS_PER_SECOND};
 use flockway_drivers::RouteStats;
 use flockway_level::{Expectation, Level, Metric};
 use flockway_road::RoadNetwork;
-use flockway_traffic::{TelemetrySettings, TrafficStats};
+use flockway_traffic::{JunctionMeasures, TelemetrySettings, TrafficStats};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Duration;
@@ -115,6 +115,24 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
             0.0
         };
         put(Metric::FlowVehPerH.key_for(&d.name), flow);
+    }
+    // Each junction's measures over the same part of the run.
+    let junctions = world.resource::<JunctionMeasures>();
+    for (junction, totals) in level.junctions.iter().zip(&junctions.totals) {
+        let name = &junction.name;
+        if measured_s > 0.0 {
+            put(
+                Metric::JunctionFlowVehPerH.key_for(name),
+                totals.entered as f64 * 3600.0 / measured_s,
+            );
+        }
+        put(Metric::MaxQueueM.key_for(name), totals.max_queue_m);
+        if let Some(v) = totals.mean_delay_s() {
+            put(Metric::JunctionDelayS.key_for(name), v);
+        }
+        if let Some(v) = totals.discharge_headway_s() {
+            put(Metric::DischargeHeadwayS.key_for(name), v);
+        }
     }
     let road_lengths: BTreeMap<String, f64> = network
         .iter()

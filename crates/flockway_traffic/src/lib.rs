@@ -6,10 +6,15 @@
 //! `Record`, [`Destroyer`] in `Despawn`. Vehicles get a [`VehicleId`] (spawn order, stable across
 //! runs) that keys their random stream and their telemetry rows.
 
+mod junctions;
 mod spawn;
 mod stats;
 mod zones;
 
+pub use junctions::{
+    APPROACH_ZONE_M, DISCHARGE_FROM, JunctionMeasures, JunctionTotals, QUEUED_MPS,
+    measure_junctions,
+};
 pub use spawn::{
     SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
     spawn_driven,
@@ -44,7 +49,8 @@ impl SimPlugin for TrafficPlugin {
             StepSet::Triggers,
             (count_collisions, apply_triggers).chain(),
         );
-        sim.add_systems(StepSet::Record, sample_telemetry);
+        sim.world_mut().init_resource::<JunctionMeasures>();
+        sim.add_systems(StepSet::Record, (sample_telemetry, measure_junctions));
         sim.add_systems(StepSet::Despawn, run_destroyers);
     }
 }

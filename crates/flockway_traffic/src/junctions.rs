@@ -1,0 +1,194 @@
+//! What each junction measures over the run: vehicles through, their delay, the longest queue,
+//! and at a signal the headway at which a queue discharges.
+
+use crate::stats::TelemetrySettings;
+use bevy_ecs::prelude::*;
+use flockway_core::{DT_S, SimClock};
+use flockway_road::{Control, RoadId, RoadNetwork};
+use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use std::collections::BTreeMap;
+
+/// How far before a junction's line its delay and queues are measured, m.
+pub const APPROACH_ZONE_M: f64 = 150.0;
+/// Below this speed a car in the zone counts as queued, m/s.
+pub const QUEUED_MPS: f32 = 2.0;
+/// The first vehicles of a queue leave at longer headways while they get going; the discharge
+/// headway is measured from this one on (the Highway Capacity Manual's convention).
+pub const DISCHARGE_FROM: u32 = 5;
+
+/// One junction's totals after the warm-up.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JunctionTotals {
+    /// Vehicles that entered it.
+    pub entered: u64,
+    /// Sum of their delays, s (over the vehicles whose approach was measured whole).
+    pub delay_sum_s: f64,
+    /// How many delays were summed.
+    pub delays: u64,
+    /// Longest queue seen, m.
+    pub max_queue_m: f64,
+    /// Sum of discharge headways, s.
+    pub headway_sum_s: f64,
+    /// How many headways were summed.
+    pub headways: u64,
+}
+
+impl JunctionTotals {
+    /// Mean delay, s; `None` before any vehicle went through.
+    pub fn mean_delay_s(&self) -> Option<f64> {
+        (self.delays > 0).then(|| self.delay_sum_s / self.delays as f64)
+    }
+
+    /// Mean discharge headway, s; `None` when no queue of five or more discharged.
+    pub fn discharge_headway_s(&self) -> Option<f64> {
+        (self.headways > 0).then(|| self.headway_sum_s / self.headways as f64)
+    }
+}
+
+/// A vehicle on its way to a junction's line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Approach {
+    junction: usize,
+    /// Road and lane it approaches on.
+    lane: (RoadId, u32),
+    /// Tick it entered the zone and its distance to the line then, m (`None`: it started
+    /// inside the zone, so its delay is not measured).
+    entered: Option<(u64, f64)>,
+    /// Whether it has been queued in the zone.
+    queued: bool,
+}
+
+/// Per approach lane: the last queued vehicle to cross, in which cycle, and its place.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Discharge {
+    tick: u64,
+    cycle: i64,
+    place: u32,
+}
+
+/// Every junction's measures, and what is needed to take them.
+#[derive(Resource, Debug, Clone, Default, PartialEq)]
+pub struct JunctionMeasures {
+    /// Per junction, in the level's order.
+    pub totals: Vec<JunctionTotals>,
+    approaching: BTreeMap<Entity, Approach>,
+    discharge: BTreeMap<(RoadId, u32), Discharge>,
+}
+
+/// Follows every vehicle through the junctions: counts the ones entering, their delay from the
+/// zone's start to the line, the queue in the zone, and queued vehicles discharging at a signal.
+#[allow(clippy::type_complexity)]
+pub fn measure_junctions(
+    network: Res<RoadNetwork>,
+    clock: Res<SimClock>,
+    settings: Res<TelemetrySettings>,
+    mut measures: ResMut<JunctionMeasures>,
+    vehicles: Query<(Entity, &RoadTrack, &Motion, &VehicleModel)>,
+) {
+    let junctions = network.junctions();
+    if junctions.is_empty() {
+        return;
+    }
+    let measures = &mut *measures;
+    measures
+        .totals
+        .resize_with(junctions.len(), JunctionTotals::default);
+    let tick = clock.tick().0;
+    let counting = tick >= settings.stats_from_tick;
+    let mut queue = vec![0.0f64; junctions.len()];
+    let mut seen = Vec::new();
+    for (entity, track, motion, model) in &vehicles {
+        seen.push(entity);
+        let half = 0.5 * f64::from(model.0.params.chassis.length_m);
+        if let Some((j, _)) = network.junction_path(track.road) {
+            // Inside: it crossed the line since the last tick, if it was approaching.
+            let Some(a) = measures.approaching.remove(&entity) else {
+                continue;
+            };
+            if a.junction != j || !counting {
+                continue;
+            }
+            let totals = &mut measures.totals[j];
+            totals.entered += 1;
+            if let Some((t0, zone_m)) = a.entered {
+                let limit = network
+                    .get(a.lane.0)
+                    .map_or(1.0, |g| g.speed_limit_kmh() / 3.6);
+                totals.delay_sum_s += ((tick - t0) as f64 * DT_S - zone_m / limit).max(0.0);
+                totals.delays += 1;
+            }
+            let program = match &junctions[j].spec.control {
+                Control::Signal => junctions[j].spec.signal.as_ref(),
+                _ => None,
+            };
+            if let Some(program) = program.filter(|p| p.cycle_s() > 0.0) {
+                let t = tick as f64 * DT_S;
+                let cycle = ((t + program.offset_s) / program.cycle_s()).floor() as i64;
+                let last = measures.discharge.get(&a.lane).copied();
+                let place = match last {
+                    Some(d) if a.queued && d.cycle == cycle => d.place + 1,
+                    _ if a.queued => 1,
+                    _ => 0,
+                };
+                if let Some(d) = last
+                    && place >= DISCHARGE_FROM
+                    && d.place + 1 == place
+                {
+                    totals.headway_sum_s += (tick - d.tick) as f64 * DT_S;
+                    totals.headways += 1;
+                }
+                if place > 0 {
+                    measures
+                        .discharge
+                        .insert(a.lane, Discharge { tick, cycle, place });
+                } else {
+                    measures.discharge.remove(&a.lane);
+                }
+            }
+            continue;
+        }
+        // Before a junction: its next road is one of the junction's paths.
+        let next = track.next_road.or_else(|| {
+            network
+                .lane_next(track.road, track.lane, None)
+                .map(|(road, _)| road)
+        });
+        let Some((j, _)) = next.and_then(|n| network.junction_path(n)) else {
+            measures.approaching.remove(&entity);
+            continue;
+        };
+        let Some(g) = network.get(track.road) else {
+            continue;
+        };
+        let to_line = g.length_m() - track.s_m - half;
+        if to_line > APPROACH_ZONE_M {
+            measures.approaching.remove(&entity);
+            continue;
+        }
+        let queued = motion.forward_mps < QUEUED_MPS;
+        let a = measures.approaching.entry(entity).or_insert(Approach {
+            junction: j,
+            lane: (track.road, track.lane),
+            // Entered now if it was outside the zone a tick ago (not just spawned inside it).
+            entered: (to_line > APPROACH_ZONE_M - 1.0).then_some((tick, to_line)),
+            queued: false,
+        });
+        a.queued |= queued;
+        a.lane = (track.road, track.lane);
+        if queued {
+            queue[j] = queue[j].max(to_line + 2.0 * half);
+        }
+    }
+    // Vehicles gone (destroyed, or off the road) are forgotten.
+    if !measures.approaching.is_empty() {
+        seen.sort_unstable();
+        measures
+            .approaching
+            .retain(|e, _| seen.binary_search(e).is_ok());
+    }
+    if counting {
+        for (totals, q) in measures.totals.iter_mut().zip(queue) {
+            totals.max_queue_m = totals.max_queue_m.max(q);
+        }
+    }
+}
