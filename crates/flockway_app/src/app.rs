@@ -10,7 +10,7 @@ use flockway_level::{
     TriggerEffectSpec, TriggerSpec, mixed_shares, reference_profiles, reference_vehicle_types,
     validate,
 };
-use flockway_road::{NetworkError, RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
+use flockway_road::{JunctionSpec, NetworkError, RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
 use flockway_runner::{RunError, level_name, load_driver_profiles};
 use glam::{DVec3, Vec2, Vec3};
 use std::collections::BTreeMap;
@@ -261,7 +261,7 @@ impl AppState {
             .filter(|r| RoadGeometry::new(r).is_ok())
             .cloned()
             .collect();
-        self.network = network_as_drawn(ok);
+        self.network = network_as_drawn(ok, level.junctions.clone());
         self.scene_version += 1;
     }
 
@@ -907,9 +907,14 @@ impl AppState {
         let ground = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
         let linked = road.outgoing();
         let mut best: Option<(f64, Join)> = None;
-        for (_, g) in self.network.iter() {
+        for (id, g) in self.network.iter() {
             let name = g.name();
-            if name == road.name || g.is_closed() || linked.iter().any(|l| l.to == name) {
+            // A junction's paths are built from its connections, never joined by hand.
+            if name == road.name
+                || g.is_closed()
+                || linked.iter().any(|l| l.to == name)
+                || self.network.junction_path(id).is_some()
+            {
                 continue;
             }
             let proj = g.project(ground);
@@ -1312,12 +1317,23 @@ impl AppState {
 }
 
 /// The network of roads as drawn: a link that cannot be built (its road's end dragged away from
-/// where it leads, a road still being drawn) is left out, with the other links of its road, so
-/// everything else still shows and picks.
-fn network_as_drawn(mut roads: Vec<RoadSpec>) -> RoadNetwork {
-    for _ in 0..=roads.len() {
-        let failing = match RoadNetwork::build(&roads) {
+/// where it leads, a road still being drawn) is left out, with the other links of its road, and
+/// a junction that cannot be built (a road of it moved or deleted) is left out, so everything
+/// else still shows and picks.
+fn network_as_drawn(mut roads: Vec<RoadSpec>, mut junctions: Vec<JunctionSpec>) -> RoadNetwork {
+    for _ in 0..=roads.len() + junctions.len() {
+        let failing = match RoadNetwork::build_with(&roads, &junctions) {
             Ok(network) => return network,
+            Err(NetworkError::Junction(e)) => {
+                junctions.retain(|j| j.name != e.junction());
+                continue;
+            }
+            Err(NetworkError::DuplicateJunction(name)) => {
+                if let Some(k) = junctions.iter().rposition(|j| j.name == name) {
+                    junctions.remove(k);
+                }
+                continue;
+            }
             Err(
                 NetworkError::UnknownNext { road, .. }
                 | NetworkError::LinkLane { road, .. }
@@ -1383,6 +1399,33 @@ mod tests {
     fn app_on(level: &str) -> AppState {
         let editor = Editor::open(Path::new(level)).expect("shipped level");
         AppState::new(editor, PathBuf::from("../../assets"))
+    }
+
+    #[test]
+    fn the_editor_draws_a_junctions_paths_and_a_click_on_one_picks_no_road() {
+        let mut app = app_on("../../levels/signal_queue.ron");
+        let path = app
+            .network
+            .id("signal#0")
+            .expect("the junction's path is drawn");
+        assert_eq!(app.network.junction_path(path), Some((0, 0)));
+        // The path's middle, between the two roads: nothing to select there.
+        let size = Vec2::new(1600.0, 900.0);
+        app.camera = Camera::Top {
+            centre: glam::Vec3::new(408.0, 0.0, 0.0),
+            half_height_m: 20.0,
+        };
+        let px = app
+            .camera
+            .to_screen(glam::Vec3::new(408.0, 0.0, 0.0), size)
+            .expect("on screen");
+        assert!(app.pick_road(px, size).is_none());
+        // A junction whose road is gone is left out; the roads still show.
+        let mut roads = app.editor.level().roads.clone();
+        roads.remove(1);
+        let network = network_as_drawn(roads, app.editor.level().junctions.clone());
+        assert_eq!(network.len(), 1);
+        assert!(network.junctions().is_empty());
     }
 
     #[test]

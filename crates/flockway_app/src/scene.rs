@@ -54,6 +54,14 @@ pub mod palette {
     pub const SPAWNER: [f32; 4] = [0.1, 0.7, 0.15, 1.0];
     /// The arrow on a spawner's pad.
     pub const SPAWNER_ARROW: [f32; 4] = [0.85, 1.0, 0.85, 1.0];
+    /// A signal showing green.
+    pub const SIGNAL_GREEN: [f32; 4] = [0.05, 0.8, 0.1, 1.0];
+    /// A signal showing a green that gives way.
+    pub const SIGNAL_YIELD: [f32; 4] = [0.45, 0.9, 0.35, 1.0];
+    /// A signal showing amber.
+    pub const SIGNAL_AMBER: [f32; 4] = [1.0, 0.6, 0.0, 1.0];
+    /// A signal showing red.
+    pub const SIGNAL_RED: [f32; 4] = [0.9, 0.03, 0.02, 1.0];
     /// Ground grid lines every 10 m.
     pub const GRID: [f32; 4] = [0.2, 0.31, 0.16, 1.0];
     /// Ground grid lines every 100 m.
@@ -560,6 +568,8 @@ pub struct VehicleFrame {
     pub ids: Vec<Entity>,
     /// Their instances, in the same order.
     pub instances: Vec<VehicleInstance>,
+    /// A bar across each signalised lane at its line, in the signal's colour for it now.
+    pub signals: Vec<VehicleInstance>,
 }
 
 /// What a vehicle's paint tells.
@@ -618,6 +628,13 @@ impl VehicleFrame {
             self.ids.push(e);
             self.instances.push(i);
         }
+        self.signals.clear();
+        if let (Some(network), Some(clock)) = (
+            world.get_resource::<RoadNetwork>(),
+            world.get_resource::<flockway_core::SimClock>(),
+        ) {
+            signal_bars(network, clock.seconds(), &mut self.signals);
+        }
     }
 
     /// Blends the previous step's poses into this step's for a frame between them (`alpha` 0
@@ -643,6 +660,47 @@ impl VehicleFrame {
                     }
                 }
                 _ => *n,
+            });
+        }
+        out.extend_from_slice(&self.signals);
+    }
+}
+
+/// A bar across the end of every lane a signal controls, at its line, coloured by what the
+/// signal shows that lane's movement at `t_s` (the first of its movements: lanes of one
+/// approach usually share a state).
+pub fn signal_bars(network: &RoadNetwork, t_s: f64, out: &mut Vec<VehicleInstance>) {
+    for junction in network.junctions() {
+        let Some(states) = junction.signal_at(t_s) else {
+            continue;
+        };
+        let mut done: Vec<(u32, u32)> = Vec::new();
+        for (path, state) in junction.paths.iter().zip(states) {
+            if done.contains(&path.from) {
+                continue;
+            }
+            done.push(path.from);
+            let Some(g) = network.get(RoadId(path.from.0)) else {
+                continue;
+            };
+            // Just past the line, where the car held at it does not cover it.
+            let s = g.length_m();
+            let f = g.frame_at(s);
+            let pos = f.offset(g.lane_offset_m(path.from.1, s)) + f.tangent * 0.6 + f.up * 0.02;
+            let along =
+                Vec3::new(f.tangent.x as f32, f.tangent.y as f32, 0.0).normalize_or(Vec3::X);
+            let colour = match state {
+                flockway_road::SignalState::Green => palette::SIGNAL_GREEN,
+                flockway_road::SignalState::GreenYield => palette::SIGNAL_YIELD,
+                flockway_road::SignalState::Amber => palette::SIGNAL_AMBER,
+                flockway_road::SignalState::Red => palette::SIGNAL_RED,
+            };
+            let width = (f.width_m / f64::from(g.lanes().max(1))) as f32 - 0.4;
+            out.push(VehicleInstance {
+                translation: pos.as_vec3().to_array(),
+                rotation: Quat::from_rotation_arc(Vec3::X, along).to_array(),
+                size: [1.0, width, 0.12],
+                colour,
             });
         }
     }
@@ -671,15 +729,19 @@ mod tests {
         let prev = VehicleFrame {
             ids: vec![a, b],
             instances: vec![instance(0.0), instance(10.0)],
+            signals: Vec::new(),
         };
         // `a` left, `c` arrived: `b` blends with its own previous pose, `c` is drawn as is.
         let next = VehicleFrame {
             ids: vec![b, c],
             instances: vec![instance(12.0), instance(50.0)],
+            signals: vec![instance(-5.0)],
         };
         let mut out = Vec::new();
         next.interpolate(&prev, 0.25, &mut out);
-        assert_eq!(out.len(), 2);
+        // The vehicles, then the signal bars as they are.
+        assert_eq!(out.len(), 3);
+        assert_eq!(out[2], instance(-5.0));
         assert!((out[0].translation[0] - 10.5).abs() < 1e-6);
         assert_eq!(out[1].translation[0], 50.0);
     }
@@ -694,5 +756,30 @@ mod tests {
             let centre = corners.iter().copied().sum::<Vec3>() / 4.0;
             assert!(centre.dot(normal) > 0.0);
         }
+    }
+
+    #[test]
+    fn each_signalised_lane_gets_a_bar_at_its_line_in_the_colour_it_shows() {
+        let level =
+            flockway_level::load_level(std::path::Path::new("../../levels/signal_queue.ron"))
+                .expect("shipped level");
+        let network = RoadNetwork::build_with(&level.roads, &level.junctions).expect("network");
+        let mut bars = Vec::new();
+        signal_bars(&network, 10.0, &mut bars);
+        assert_eq!(bars.len(), 1);
+        assert_eq!(bars[0].colour, palette::SIGNAL_GREEN);
+        // Just past the line, 400 m along the approach, across its lane.
+        assert!(
+            (bars[0].translation[0] - 400.6).abs() < 0.01,
+            "{:?}",
+            bars[0]
+        );
+        assert!(bars[0].size[1] > 2.0);
+        bars.clear();
+        signal_bars(&network, 28.0, &mut bars);
+        assert_eq!(bars[0].colour, palette::SIGNAL_AMBER);
+        bars.clear();
+        signal_bars(&network, 45.0, &mut bars);
+        assert_eq!(bars[0].colour, palette::SIGNAL_RED);
     }
 }

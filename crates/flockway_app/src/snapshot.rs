@@ -94,7 +94,13 @@ pub fn render_level(
     vehicles.capture(runner.sim_mut().world_mut());
     let mut renderer = SceneRenderer::new(&gpu.device, OFFSCREEN_FORMAT);
     renderer.set_static(&gpu.device, &scene);
-    renderer.set_vehicles(&gpu.device, &gpu.queue, &vehicles.instances);
+    let drawn: Vec<_> = vehicles
+        .instances
+        .iter()
+        .chain(&vehicles.signals)
+        .copied()
+        .collect();
+    renderer.set_vehicles(&gpu.device, &gpu.queue, &drawn);
     let (w, h) = snapshot.size;
     let (min, max) = match snapshot.region {
         Some([x0, y0, x1, y1]) => (

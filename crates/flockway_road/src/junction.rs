@@ -338,6 +338,23 @@ pub enum JunctionError {
     },
 }
 
+impl JunctionError {
+    /// The junction it is about.
+    pub fn junction(&self) -> &str {
+        match self {
+            JunctionError::UnknownRoad { junction, .. }
+            | JunctionError::Lane { junction, .. }
+            | JunctionError::Closed { junction, .. }
+            | JunctionError::Meets { junction, .. }
+            | JunctionError::Duplicate { junction, .. }
+            | JunctionError::Major { junction, .. }
+            | JunctionError::NoSignal { junction }
+            | JunctionError::SignalUnused { junction }
+            | JunctionError::Signal { junction, .. } => junction,
+        }
+    }
+}
+
 impl Junction {
     /// Builds the paths of `spec` between the roads `roads` (by name, with their network ids),
     /// finds their conflicts and checks its control.

@@ -198,7 +198,11 @@ impl RoadNetwork {
             let mut built = Vec::with_capacity(junction.paths.len());
             for (k, path) in junction.paths.iter().enumerate() {
                 let g = Arc::new(RoadGeometry::new(&path.spec)?);
-                let m = Arc::new(RoadMeshes::build(&g));
+                // A path is paved but not painted: its edge lines would criss-cross the junction.
+                let m = Arc::new(RoadMeshes {
+                    markings: crate::Mesh::default(),
+                    ..RoadMeshes::build(&g)
+                });
                 let id = RoadId(next_id);
                 next_id += 1;
                 paths.insert(id, (j, k));
