@@ -18,6 +18,9 @@ pub const AMBER_DECEL_MPS2: f32 = 3.5;
 pub const STOP_LINE_MARGIN_M: f64 = 1.0;
 /// The time gap a yielding driver wants before a conflicting vehicle reaches the conflict, s.
 pub const CRITICAL_GAP_S: f64 = 4.5;
+/// How far ahead in time vehicles approaching a junction are followed, s: longer than any
+/// critical gap a driver asks for.
+pub const FOE_HORIZON_S: f64 = 12.0;
 /// Bumper gap a held car keeps to the car ahead of it in the queue at the line, m.
 pub const QUEUE_GAP_M: f64 = 2.0;
 /// Speed above which a car that can no longer stop comfortably before the line is committed
@@ -32,6 +35,12 @@ const AT_LINE_M: f64 = 4.0;
 pub const DEADLOCK_S: f64 = 20.0;
 /// How far before the line a vehicle is considered approaching at the least, m.
 const APPROACH_M: f64 = 30.0;
+
+/// The critical gap of a vehicle's driver, s: the least time before a vehicle it gives way to
+/// at a junction reaches their conflict that it accepts to go. Vehicles without one use
+/// [`CRITICAL_GAP_S`].
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct CriticalGap(pub f32);
 
 /// What the junction ahead lets a vehicle do; decided every tick before the drivers.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
@@ -94,6 +103,7 @@ pub fn gate_junctions(
         &VehicleModel,
         &mut JunctionGate,
     )>,
+    gaps: Query<&CriticalGap>,
 ) {
     if network.junctions().is_empty() {
         return;
@@ -125,7 +135,10 @@ pub fn gate_junctions(
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
         let to_line = g.length_m() - track.s_m - half;
         let v = motion.forward_mps.max(0.0);
-        let horizon = APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2));
+        // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
+        // for.
+        let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
+            .max(f64::from(v) * FOE_HORIZON_S);
         if to_line < horizon {
             approaches.push(Approach {
                 entity,
@@ -154,6 +167,9 @@ pub fn gate_junctions(
         };
         let stopped_now = a.speed_mps < STOPPED_MPS && a.to_line_m < AT_LINE_M;
         let stopped_tick = stopped_tick.or(stopped_now.then_some(tick));
+        let critical_gap_s = gaps
+            .get(a.entity)
+            .map_or(CRITICAL_GAP_S, |g| f64::from(g.0));
         let mut hold = false;
         // The signal.
         if let Some(states) = states {
@@ -232,7 +248,7 @@ pub fn gate_junctions(
                         continue;
                     }
                     let eta = (f.to_line_m + c.other_at_m) / f64::from(f.speed_mps.max(0.5));
-                    if eta < CRITICAL_GAP_S {
+                    if eta < critical_gap_s {
                         hold = true;
                         blocked_by_moving |= f.speed_mps > STOPPED_MPS;
                     }

@@ -48,6 +48,9 @@ pub struct FlockParams {
     /// Time gap it keeps to the car ahead in its lane, s, as adaptive cruise control does (0:
     /// none beyond what collision avoidance keeps, the flocking rule).
     pub time_gap_s: f32,
+    /// The least time, s, before a vehicle it gives way to at a junction reaches their
+    /// conflict, that it accepts to go (its critical gap).
+    pub critical_gap_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of the limit, drawn once per vehicle.
@@ -123,6 +126,7 @@ impl Default for FlockParams {
             lane_change_gap_s: 1.0,
             courtesy_decel_mps2: 1.5,
             time_gap_s: 0.0,
+            critical_gap_s: crate::junction::CRITICAL_GAP_S as f32,
             road_ahead: RoadAheadParams::default(),
             speed_factor: SpeedFactorParams::default(),
             throttle: PidGains {
@@ -329,6 +333,9 @@ pub struct IdmParams {
     /// How hard it brakes, at most, to make room for a car signalling to merge in ahead of it,
     /// m/s² (0: it does not make room).
     pub courtesy_decel_mps2: f32,
+    /// The least time, s, before a vehicle it gives way to at a junction reaches their
+    /// conflict, that it accepts to go (its critical gap).
+    pub critical_gap_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of v₀, drawn once per vehicle.
@@ -356,6 +363,7 @@ impl Default for IdmParams {
             lookahead_s: flock.lookahead_s,
             lane_change_gap_s: flock.lane_change_gap_s,
             courtesy_decel_mps2: flock.courtesy_decel_mps2,
+            critical_gap_s: flock.critical_gap_s,
             road_ahead: flock.road_ahead,
             speed_factor: flock.speed_factor,
             throttle: PidGains {

@@ -235,14 +235,14 @@ impl DriverSpec {
         let grip = entity
             .get::<VehicleModel>()
             .map_or(1.0, |m| m.0.params.tyres.friction);
-        let (ahead, factor) = match self {
+        let (ahead, factor, critical_gap_s) = match self {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
                 entity.insert((
                     FlockDriver::new(p.clone(), keep, lane),
                     TargetController::new(p.throttle, p.steering),
                 ));
-                (p.road_ahead, p.speed_factor.draw(rng))
+                (p.road_ahead, p.speed_factor.draw(rng), p.critical_gap_s)
             }
             DriverSpec::Human(h) => {
                 let spread = f64::from(h.speed_spread.clamp(0.0, 0.9));
@@ -257,7 +257,11 @@ impl DriverSpec {
                     TargetController::new(h.flock.throttle, h.flock.steering),
                 ));
                 // The spread around the profile's factor: the two multiply.
-                (h.flock.road_ahead, h.flock.speed_factor.draw(rng) * uniform)
+                (
+                    h.flock.road_ahead,
+                    h.flock.speed_factor.draw(rng) * uniform,
+                    h.flock.critical_gap_s,
+                )
             }
             DriverSpec::WaveDamper(p) => {
                 entity.insert((
@@ -265,7 +269,11 @@ impl DriverSpec {
                     WaveDamper::new(p.clone()),
                     TargetController::new(p.flock.throttle, p.flock.steering),
                 ));
-                (p.flock.road_ahead, p.flock.speed_factor.draw(rng))
+                (
+                    p.flock.road_ahead,
+                    p.flock.speed_factor.draw(rng),
+                    p.flock.critical_gap_s,
+                )
             }
             DriverSpec::Idm(p) => {
                 entity.insert((
@@ -276,10 +284,14 @@ impl DriverSpec {
                     },
                     TargetController::new(p.throttle, p.steering),
                 ));
-                (p.road_ahead, p.speed_factor.draw(rng))
+                (p.road_ahead, p.speed_factor.draw(rng), p.critical_gap_s)
             }
         };
-        entity.insert((SpeedFactor(factor), ReadsRoad::new(ahead, grip)));
+        entity.insert((
+            SpeedFactor(factor),
+            ReadsRoad::new(ahead, grip),
+            crate::CriticalGap(critical_gap_s),
+        ));
     }
 }
 
