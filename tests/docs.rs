@@ -31,6 +31,12 @@ fn the_summary_table_lists_the_summary_type_s_keys_in_file_order() {
 }
 
 #[test]
+fn the_signals_table_lists_the_signals_csv_columns_in_order() {
+    let keys = table_keys(&read("docs/cli.md"), "## The signals CSV");
+    assert_eq!(keys, flockway::run::telemetry::SIGNAL_COLUMNS);
+}
+
+#[test]
 fn the_csv_table_lists_the_telemetry_columns_in_order() {
     let keys = table_keys(&read("docs/cli.md"), "## The telemetry CSV");
     assert_eq!(keys, CSV_COLUMNS);

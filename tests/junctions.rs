@@ -84,6 +84,14 @@ fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
         }
     }
     assert_eq!(cars.len(), 8, "eight cars: {cars:?}");
+    // Beside the CSV, the signal's states from the start and each change.
+    let signals = std::fs::read_to_string(dir.path().join("signal.signals.csv")).expect("signals");
+    assert_eq!(
+        signals,
+        "time_s,junction,connection,from,from_lane,to,to_lane,state\n\
+         0.000,j,0,a,0,b,0,r\n\
+         40.000,j,0,a,0,b,0,G\n"
+    );
     assert_eq!(on_red, 0, "rows inside the junction on red");
     assert!(stopped_at_line > 0, "the first car waits at the line");
     assert!(through > 0, "the cars drive on after green");

@@ -11,6 +11,7 @@
 mod assets;
 pub mod batch;
 mod runner;
+mod signals;
 mod summary;
 pub mod telemetry;
 #[cfg(test)]

@@ -79,7 +79,8 @@ pub struct RunOptions {
     pub seconds: Option<f64>,
     /// Seed to use instead of the level's.
     pub seed: Option<u64>,
-    /// Where to stream the telemetry CSV.
+    /// Where to stream the telemetry CSV (and, for a level with signals, `STEM.signals.csv`
+    /// beside it).
     pub csv: Option<PathBuf>,
     /// A directory for one telemetry CSV per vehicle.
     pub per_vehicle: Option<PathBuf>,
@@ -97,6 +98,8 @@ pub struct Runner {
     name: String,
     total_ticks: u64,
     csv: Option<TelemetryWriter>,
+    /// Beside the CSV, when the level has signals: every change of a signal's states.
+    signals: Option<crate::signals::SignalsWriter>,
     per_vehicle: Option<PerVehicleFiles>,
     plots: Option<(PathBuf, PlotFormat)>,
     trace: Trace,
@@ -186,6 +189,20 @@ impl Runner {
             }
             None => None,
         };
+        let has_signals = level
+            .junctions
+            .iter()
+            .any(|j| j.control == flockway_road::Control::Signal);
+        let signals = match &options.csv {
+            Some(csv) if has_signals => {
+                let path = crate::signals::signals_path(csv);
+                Some(
+                    crate::signals::SignalsWriter::create(&path)
+                        .map_err(|source| RunError::Output { path, source })?,
+                )
+            }
+            _ => None,
+        };
         let per_vehicle = match &options.per_vehicle {
             Some(dir) => {
                 std::fs::create_dir_all(dir).map_err(|source| RunError::Output {
@@ -205,6 +222,7 @@ impl Runner {
             name: name.to_owned(),
             total_ticks,
             csv,
+            signals,
             per_vehicle,
             plots: options.plots.clone(),
             trace: Trace::new(),
@@ -249,6 +267,16 @@ impl Runner {
             self.stepping += started.elapsed();
             if self.sim.tick().0 == 1 {
                 self.check_roads()?;
+            }
+            if let Some(signals) = &mut self.signals {
+                // The states the step's vehicles saw (the clock advances after the step).
+                let time_s = (self.sim.tick().0 - 1) as f64 / f64::from(TICKS_PER_SECOND);
+                signals
+                    .record(self.sim.world().resource::<RoadNetwork>(), time_s)
+                    .map_err(|source| RunError::Output {
+                        path: signals.path().to_owned(),
+                        source,
+                    })?;
             }
             self.write_samples()?;
         }
@@ -342,6 +370,12 @@ impl Runner {
         }
         if let Some(files) = self.per_vehicle.take() {
             files.finish()?;
+        }
+        if let Some(signals) = self.signals.take() {
+            let path = signals.path().to_owned();
+            signals
+                .finish()
+                .map_err(|source| RunError::Output { path, source })?;
         }
         let summary = measure(
             &self.sim,
