@@ -100,7 +100,8 @@ fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
 /// A major road `m in` → `m out` (west to east, 50 km/h) with a car every 7 s until 50 s, and a
 /// minor road
 /// `s in` from the south whose cars turn right onto `m out`, giving way to the major road; the
-/// minor driver's `critical_gap_s` is `GAP`.
+/// minor drivers' `critical_gap_s` is `GAP` and `follow_up_s` `FOLLOW`; two minor cars, 2 s
+/// apart, from 25 s.
 const PRIORITY: &str = r#"(
     version: 1,
     name: "priority",
@@ -118,23 +119,26 @@ const PRIORITY: &str = r#"(
     vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
     driver_profiles: [
         (name: "major", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron", set: {"time_gap_s": 1.5}),
-        (name: "minor", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron", set: {"time_gap_s": 1.5, "critical_gap_s": GAP}),
+        (name: "minor", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron", set: {"time_gap_s": 1.5, "critical_gap_s": GAP, "follow_up_s": FOLLOW}),
     ],
     spawners: [
         (name: "major", road: "m in", s_m: 5.0, interval_s: (min: 7.0, max: 7.0), profiles: [(profile: "major", weight: 1.0)], speed_kmh: 50.0,
             schedule: [(from_s: 50.0, interval_s: (min: 1000.0, max: 1000.0))]),
         (name: "minor", road: "s in", s_m: 5.0, interval_s: (min: 25.0, max: 25.0), profiles: [(profile: "minor", weight: 1.0)], speed_kmh: 40.0,
-            schedule: [(from_s: 25.0, interval_s: (min: 1000.0, max: 1000.0))]),
+            schedule: [(from_s: 25.0, interval_s: (min: 2.0, max: 2.0)), (from_s: 26.5, interval_s: (min: 1000.0, max: 1000.0))]),
     ],
     destroyers: [(name: "out", place: OnRoad(road: "m out", s_m: 280.0))],
     telemetry: (period_s: 0.1),
 )"#;
 
-/// When the minor car entered the junction, s, and the shortest time, s, any major car then
-/// needed to reach the line at its speed; `None` if it never did.
-fn minor_entry(gap_s: f64) -> Option<(f64, f64)> {
+/// When the first minor car entered the junction, s, the shortest time, s, any major car then
+/// needed to reach the line at its speed, and when the second minor car entered; `None` if the
+/// first never did.
+fn minor_entry(gap_s: f64, follow_up_s: f64) -> Option<(f64, f64, Option<f64>)> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/priority.ron");
-    let text = PRIORITY.replace("GAP", &format!("{gap_s:.1}"));
+    let text = PRIORITY
+        .replace("GAP", &format!("{gap_s:.1}"))
+        .replace("FOLLOW", &format!("{follow_up_s:.1}"));
     let level = flockway_level::parse_level(&text, &path).expect("a valid level");
     let dir = tempfile::tempdir().expect("tempdir");
     let csv_path = dir.path().join("priority.csv");
@@ -143,16 +147,24 @@ fn minor_entry(gap_s: f64) -> Option<(f64, f64)> {
     let mut reader = csv::Reader::from_path(&csv_path).expect("the CSV");
     let headers = reader.headers().expect("headers").clone();
     let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
-    let (time, driver, road, s, speed) = (
+    let (time, id, driver, road, s, speed) = (
         col("time_s"),
+        col("vehicle_id"),
         col("driver"),
         col("road"),
         col("s_m"),
         col("speed_kmh"),
     );
     let mut rows: Vec<(f64, String, String, f64, f64)> = Vec::new();
+    let mut entries: Vec<(String, f64)> = Vec::new();
     for row in reader.records() {
         let row = row.expect("a row");
+        if &row[driver] == "minor"
+            && row[road].starts_with("t#")
+            && !entries.iter().any(|(v, _)| v == &row[id])
+        {
+            entries.push((row[id].to_owned(), row[time].parse().expect("time")));
+        }
         rows.push((
             row[time].parse().expect("time"),
             row[driver].to_owned(),
@@ -161,10 +173,7 @@ fn minor_entry(gap_s: f64) -> Option<(f64, f64)> {
             row[speed].parse::<f64>().expect("speed") / 3.6,
         ));
     }
-    let entry = rows
-        .iter()
-        .find(|r| r.1 == "minor" && r.2.starts_with("t#"))
-        .map(|r| r.0)?;
+    let entry = entries.first()?.1;
     // The major cars at the sample before: time to the line (292 m along `m in`).
     let before = entry - 0.1;
     let nearest = rows
@@ -172,7 +181,7 @@ fn minor_entry(gap_s: f64) -> Option<(f64, f64)> {
         .filter(|r| (r.0 - before).abs() < 1e-6 && r.1 == "major" && r.2 == "m in")
         .map(|r| (292.0 - r.3) / r.4.max(0.1))
         .fold(f64::INFINITY, f64::min);
-    Some((entry, nearest))
+    Some((entry, nearest, entries.get(1).map(|e| e.1)))
 }
 
 #[test]
@@ -181,15 +190,29 @@ fn a_yielding_car_waits_for_a_gap_of_at_least_its_critical_gap() {
     // each in the junction for about a second and a half: gaps of about 5.5 s. It takes one
     // that leaves the nearest major car at least its critical gap from the conflict (a little
     // less from the line, the conflict being a few metres beyond it; samples every 0.1 s).
-    let (entry, gap) = minor_entry(4.5).expect("the minor car goes");
+    let (entry, gap, _) = minor_entry(4.5, 2.5).expect("the minor car goes");
     assert!((40.0..68.0).contains(&entry), "entered at {entry} s");
     assert!(gap > 4.0, "the nearest major car was {gap} s from the line");
     // A driver asking 7.5 s finds no such gap in the stream: it goes once the stream has
     // passed (the last major car, from 49 s, reaches the junction at about 70 s).
-    let (cautious, gap) = minor_entry(7.5).expect("the cautious car goes");
+    let (cautious, gap, _) = minor_entry(7.5, 2.5).expect("the cautious car goes");
     assert!(
         cautious > 68.0,
         "entered at {cautious} s, {gap} s before a major car"
     );
     assert!(gap > 7.0, "the nearest major car was {gap} s from the line");
+}
+
+#[test]
+fn a_yielding_car_follows_the_one_before_it_no_sooner_than_its_follow_up_time() {
+    // Two minor cars queue at the line; once the stream has passed they go one after the
+    // other, the second no sooner than its follow-up time after the first.
+    for follow_up_s in [2.5, 6.0] {
+        let (first, _, second) = minor_entry(7.5, follow_up_s).expect("the minor cars go");
+        let second = second.expect("the second minor car goes");
+        assert!(
+            second - first >= follow_up_s - 0.1,
+            "follow-up {follow_up_s} s: {first} s then {second} s"
+        );
+    }
 }

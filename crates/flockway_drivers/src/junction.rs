@@ -9,6 +9,7 @@ use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
 use flockway_road::{RoadId, RoadNetwork, SignalState};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use std::collections::BTreeMap;
 
 /// Braking a held vehicle plans to stop at the line with, m/s².
 pub const STOP_LINE_DECEL_MPS2: f32 = 2.5;
@@ -18,6 +19,8 @@ pub const AMBER_DECEL_MPS2: f32 = 3.5;
 pub const STOP_LINE_MARGIN_M: f64 = 1.0;
 /// The time gap a yielding driver wants before a conflicting vehicle reaches the conflict, s.
 pub const CRITICAL_GAP_S: f64 = 4.5;
+/// The follow-up time of a driver whose file does not set one, s.
+pub const FOLLOW_UP_S: f64 = 2.5;
 /// How far ahead in time vehicles approaching a junction are followed, s: longer than any
 /// critical gap a driver asks for.
 pub const FOE_HORIZON_S: f64 = 12.0;
@@ -36,11 +39,17 @@ pub const DEADLOCK_S: f64 = 20.0;
 /// How far before the line a vehicle is considered approaching at the least, m.
 const APPROACH_M: f64 = 30.0;
 
-/// The critical gap of a vehicle's driver, s: the least time before a vehicle it gives way to
-/// at a junction reaches their conflict that it accepts to go. Vehicles without one use
-/// [`CRITICAL_GAP_S`].
+/// How a vehicle's driver takes gaps where it gives way at a junction. Vehicles without one use
+/// [`CRITICAL_GAP_S`] and [`FOLLOW_UP_S`].
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
-pub struct CriticalGap(pub f32);
+pub struct GapAcceptance {
+    /// The least time before a vehicle it gives way to reaches their conflict that it accepts
+    /// to go, s (its critical gap).
+    pub critical_gap_s: f32,
+    /// The least time after the car before it entered the same path that it follows it, s (its
+    /// follow-up time).
+    pub follow_up_s: f32,
+}
 
 /// What the junction ahead lets a vehicle do; decided every tick before the drivers.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
@@ -74,6 +83,8 @@ impl JunctionGate {
 pub struct JunctionStats {
     /// Deadlocks broken: vehicles that went after waiting [`DEADLOCK_S`] with nothing moving.
     pub deadlocks: u64,
+    /// Per junction path: the tick the last vehicle entered it (for the follow-up time).
+    pub last_entry: BTreeMap<RoadId, u64>,
 }
 
 /// One vehicle approaching a junction path this tick.
@@ -103,7 +114,7 @@ pub fn gate_junctions(
         &VehicleModel,
         &mut JunctionGate,
     )>,
-    gaps: Query<&CriticalGap>,
+    gaps: Query<&GapAcceptance>,
 ) {
     if network.junctions().is_empty() {
         return;
@@ -167,9 +178,11 @@ pub fn gate_junctions(
         };
         let stopped_now = a.speed_mps < STOPPED_MPS && a.to_line_m < AT_LINE_M;
         let stopped_tick = stopped_tick.or(stopped_now.then_some(tick));
-        let critical_gap_s = gaps
+        let (critical_gap_s, follow_up_s) = gaps
             .get(a.entity)
-            .map_or(CRITICAL_GAP_S, |g| f64::from(g.0));
+            .map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
+                (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
+            });
         let mut hold = false;
         // The signal.
         if let Some(states) = states {
@@ -199,6 +212,7 @@ pub fn gate_junctions(
         }
         // Right of way: the conflicting streams it gives way to must leave it a gap.
         let mut blocked_by_moving = false;
+        let mut yields = false;
         if !hold {
             for c in &path.conflicts {
                 if !junction.gives_way(a.path, c.other, states) {
@@ -224,6 +238,7 @@ pub fn gate_junctions(
                 if matches!(foe_state, Some(SignalState::Red)) {
                     continue;
                 }
+                yields = true;
                 // Approaching: any foe bound for that path that reaches the conflict sooner than
                 // the critical gap, and is not itself held at its line.
                 let under_all_way = junction.must_stop(a.path) && junction.must_stop(c.other);
@@ -257,6 +272,19 @@ pub fn gate_junctions(
                     break;
                 }
             }
+        }
+        // Through a gap it gives way for, it follows the car before it on its path no sooner
+        // than its follow-up time.
+        if !hold
+            && yields
+            && path_road.is_some_and(|p| {
+                stats
+                    .last_entry
+                    .get(&p)
+                    .is_some_and(|&t| (tick - t) as f64 * DT_S < follow_up_s)
+            })
+        {
+            hold = true;
         }
         // Past the point of no return: a car that was going and can no longer stop before the
         // line without braking harder than at amber goes on (stopping would leave it across
@@ -317,11 +345,15 @@ pub fn gate_junctions(
     // Write the decisions (in the query's order, as they were made); a vehicle approaching no
     // junction is free.
     let mut d = decided.into_iter().peekable();
-    for (entity, _, _, _, mut gate) in &mut vehicles {
+    for (entity, track, _, _, mut gate) in &mut vehicles {
         let (new, deadlock) = match d.next_if(|(e, _, _)| *e == entity) {
             Some((_, g, deadlock)) => (g, deadlock),
             None => (JunctionGate::default(), false),
         };
+        // It was approaching this path and is on it now: it entered.
+        if gate.path == Some(track.road) {
+            stats.last_entry.insert(track.road, tick);
+        }
         if *gate != new {
             *gate = new;
         }

@@ -28,8 +28,8 @@ pub use control::{
     follow_targets, wrap_angle,
 };
 pub use junction::{
-    AMBER_DECEL_MPS2, CRITICAL_GAP_S, CriticalGap, DEADLOCK_S, JunctionGate, JunctionStats,
-    STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,
+    AMBER_DECEL_MPS2, CRITICAL_GAP_S, DEADLOCK_S, FOLLOW_UP_S, GapAcceptance, JunctionGate,
+    JunctionStats, STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,
 };
 pub use models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, LANE_END_DECEL_MPS2,

@@ -51,6 +51,9 @@ pub struct FlockParams {
     /// The least time, s, before a vehicle it gives way to at a junction reaches their
     /// conflict, that it accepts to go (its critical gap).
     pub critical_gap_s: f32,
+    /// Where it gives way at a junction, the least time after the car before it entered the
+    /// same path that it follows it through the same gap, s (its follow-up time).
+    pub follow_up_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of the limit, drawn once per vehicle.
@@ -127,6 +130,7 @@ impl Default for FlockParams {
             courtesy_decel_mps2: 1.5,
             time_gap_s: 0.0,
             critical_gap_s: crate::junction::CRITICAL_GAP_S as f32,
+            follow_up_s: crate::junction::FOLLOW_UP_S as f32,
             road_ahead: RoadAheadParams::default(),
             speed_factor: SpeedFactorParams::default(),
             throttle: PidGains {
@@ -336,6 +340,9 @@ pub struct IdmParams {
     /// The least time, s, before a vehicle it gives way to at a junction reaches their
     /// conflict, that it accepts to go (its critical gap).
     pub critical_gap_s: f32,
+    /// Where it gives way at a junction, the least time after the car before it entered the
+    /// same path that it follows it through the same gap, s (its follow-up time).
+    pub follow_up_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Each driver's desired speed as a share of v₀, drawn once per vehicle.
@@ -364,6 +371,7 @@ impl Default for IdmParams {
             lane_change_gap_s: flock.lane_change_gap_s,
             courtesy_decel_mps2: flock.courtesy_decel_mps2,
             critical_gap_s: flock.critical_gap_s,
+            follow_up_s: flock.follow_up_s,
             road_ahead: flock.road_ahead,
             speed_factor: flock.speed_factor,
             throttle: PidGains {

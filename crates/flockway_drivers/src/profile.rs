@@ -235,14 +235,18 @@ impl DriverSpec {
         let grip = entity
             .get::<VehicleModel>()
             .map_or(1.0, |m| m.0.params.tyres.friction);
-        let (ahead, factor, critical_gap_s) = match self {
+        let (ahead, factor, (critical_gap_s, follow_up_s)) = match self {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
                 entity.insert((
                     FlockDriver::new(p.clone(), keep, lane),
                     TargetController::new(p.throttle, p.steering),
                 ));
-                (p.road_ahead, p.speed_factor.draw(rng), p.critical_gap_s)
+                (
+                    p.road_ahead,
+                    p.speed_factor.draw(rng),
+                    (p.critical_gap_s, p.follow_up_s),
+                )
             }
             DriverSpec::Human(h) => {
                 let spread = f64::from(h.speed_spread.clamp(0.0, 0.9));
@@ -260,7 +264,7 @@ impl DriverSpec {
                 (
                     h.flock.road_ahead,
                     h.flock.speed_factor.draw(rng) * uniform,
-                    h.flock.critical_gap_s,
+                    (h.flock.critical_gap_s, h.flock.follow_up_s),
                 )
             }
             DriverSpec::WaveDamper(p) => {
@@ -272,7 +276,7 @@ impl DriverSpec {
                 (
                     p.flock.road_ahead,
                     p.flock.speed_factor.draw(rng),
-                    p.flock.critical_gap_s,
+                    (p.flock.critical_gap_s, p.flock.follow_up_s),
                 )
             }
             DriverSpec::Idm(p) => {
@@ -284,13 +288,20 @@ impl DriverSpec {
                     },
                     TargetController::new(p.throttle, p.steering),
                 ));
-                (p.road_ahead, p.speed_factor.draw(rng), p.critical_gap_s)
+                (
+                    p.road_ahead,
+                    p.speed_factor.draw(rng),
+                    (p.critical_gap_s, p.follow_up_s),
+                )
             }
         };
         entity.insert((
             SpeedFactor(factor),
             ReadsRoad::new(ahead, grip),
-            crate::CriticalGap(critical_gap_s),
+            crate::GapAcceptance {
+                critical_gap_s,
+                follow_up_s,
+            },
         ));
     }
 }
