@@ -126,25 +126,17 @@ pub fn gate_junctions(
         .iter()
         .map(|j| j.signal_at(t_s))
         .collect();
-    // Who approaches which path, in entity order (the query's order is the world's, fixed).
+    // Who approaches which path (in the query's order, which the world fixes): by its route's
+    // next road, or where its lane leads for a car that follows the links.
     let mut approaches: Vec<Approach> = Vec::new();
     for (entity, track, motion, model, gate) in &vehicles {
-        // Its route's next road, or where its lane leads for a car that follows the links.
-        let Some(next) = track.next_road.or_else(|| {
-            network
-                .lane_next(track.road, track.lane, None)
-                .map(|(road, _)| road)
-        }) else {
-            continue;
-        };
-        let Some((j, k)) = network.junction_path(next) else {
-            continue;
-        };
-        let Some(g) = network.get(track.road) else {
-            continue;
-        };
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
-        let to_line = g.length_m() - track.s_m - half;
+        let Some(ahead) =
+            network.junction_ahead(track.road, track.lane, track.s_m, track.next_road, half)
+        else {
+            continue;
+        };
+        let (j, k, to_line) = (ahead.junction, ahead.path, ahead.to_line_m);
         let v = motion.forward_mps.max(0.0);
         // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
         // for.

@@ -34,8 +34,8 @@ pub use mesh::{
     RoadMeshes, STATION_STEP_M, Side,
 };
 pub use network::{
-    Junctions, LANE_REACH_HORIZON_M, Link, MAX_CONNECTION_GAP_M, NetworkError, Road, RoadId,
-    RoadNetwork, RoadNetworkError, RoadPlugin, RoadShape, rebuild_roads,
+    JunctionAhead, Junctions, LANE_REACH_HORIZON_M, Link, MAX_CONNECTION_GAP_M, NetworkError, Road,
+    RoadId, RoadNetwork, RoadNetworkError, RoadPlugin, RoadShape, rebuild_roads,
 };
 pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, LinkSpec, RoadSpec};
 pub use validate::{

@@ -122,6 +122,19 @@ pub struct RoadNetwork {
     junctions: Vec<Junction>,
     /// For each junction path's road: its junction and path index.
     paths: BTreeMap<RoadId, (usize, usize)>,
+    /// Per junction, its paths' roads in connection order.
+    path_roads: Vec<Vec<RoadId>>,
+}
+
+/// The junction path a vehicle is about to enter ([`RoadNetwork::junction_ahead`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JunctionAhead {
+    /// The junction's index.
+    pub junction: usize,
+    /// The path's index in the junction.
+    pub path: usize,
+    /// From the vehicle's front bumper to the line (the end of its road), m.
+    pub to_line_m: f64,
 }
 
 /// A link at a road's end onto the start of another road, lane by lane.
@@ -183,6 +196,7 @@ impl RoadNetwork {
         // Junction paths become roads numbered after the level's, linked in and out below.
         let mut junctions = Vec::with_capacity(junction_specs.len());
         let mut paths = BTreeMap::new();
+        let mut path_roads = vec![Vec::new(); junction_specs.len()];
         let mut path_links = Vec::new();
         let mut next_id = shapes.iter().map(|(id, _, _)| id.0 + 1).max().unwrap_or(0);
         for (j, spec) in junction_specs.iter().enumerate() {
@@ -206,6 +220,7 @@ impl RoadNetwork {
                 let id = RoadId(next_id);
                 next_id += 1;
                 paths.insert(id, (j, k));
+                path_roads[j].push(id);
                 path_links.push((RoadId(path.from.0), path.from.1, id, path.to));
                 built.push((id, g, m));
             }
@@ -334,6 +349,7 @@ impl RoadNetwork {
             by_name,
             junctions,
             paths,
+            path_roads,
         })
     }
 
@@ -358,10 +374,28 @@ impl RoadNetwork {
 
     /// The road of path `k` of junction `j`.
     pub fn path_road(&self, j: usize, k: usize) -> Option<RoadId> {
-        self.paths
-            .iter()
-            .find(|&(_, jk)| *jk == (j, k))
-            .map(|(&id, _)| id)
+        self.path_roads.get(j)?.get(k).copied()
+    }
+
+    /// The junction path a vehicle on `road`, lane `lane`, at `s_m`, bound for `next` (or
+    /// following its lane's first link when `None`) is about to enter: the junction's index, the
+    /// path's, and how far its front bumper (`half_length_m` ahead of `s_m`) is from the line.
+    pub fn junction_ahead(
+        &self,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        next: Option<RoadId>,
+        half_length_m: f64,
+    ) -> Option<JunctionAhead> {
+        let next = next.or_else(|| self.lane_next(road, lane, None).map(|(r, _)| r))?;
+        let (junction, path) = self.junction_path(next)?;
+        let g = self.get(road)?;
+        Some(JunctionAhead {
+            junction,
+            path,
+            to_line_m: g.length_m() - s_m - half_length_m,
+        })
     }
 
     /// Number of roads.

@@ -96,9 +96,7 @@ pub fn measure_junctions(
     let tick = clock.tick().0;
     let counting = tick >= settings.stats_from_tick;
     let mut queue = vec![0.0f64; junctions.len()];
-    let mut seen = Vec::new();
     for (entity, track, motion, model) in &vehicles {
-        seen.push(entity);
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
         if let Some((j, _)) = network.junction_path(track.road) {
             // Inside: it crossed the line since the last tick, if it was approaching.
@@ -148,19 +146,13 @@ pub fn measure_junctions(
             continue;
         }
         // Before a junction: its next road is one of the junction's paths.
-        let next = track.next_road.or_else(|| {
-            network
-                .lane_next(track.road, track.lane, None)
-                .map(|(road, _)| road)
-        });
-        let Some((j, _)) = next.and_then(|n| network.junction_path(n)) else {
+        let Some(ahead) =
+            network.junction_ahead(track.road, track.lane, track.s_m, track.next_road, half)
+        else {
             measures.approaching.remove(&entity);
             continue;
         };
-        let Some(g) = network.get(track.road) else {
-            continue;
-        };
-        let to_line = g.length_m() - track.s_m - half;
+        let (j, to_line) = (ahead.junction, ahead.to_line_m);
         if to_line > APPROACH_ZONE_M {
             measures.approaching.remove(&entity);
             continue;
@@ -179,13 +171,8 @@ pub fn measure_junctions(
             queue[j] = queue[j].max(to_line + 2.0 * half);
         }
     }
-    // Vehicles gone (destroyed, or off the road) are forgotten.
-    if !measures.approaching.is_empty() {
-        seen.sort_unstable();
-        measures
-            .approaching
-            .retain(|e, _| seen.binary_search(e).is_ok());
-    }
+    // Vehicles gone (destroyed) are forgotten.
+    measures.approaching.retain(|e, _| vehicles.contains(*e));
     if counting {
         for (totals, q) in measures.totals.iter_mut().zip(queue) {
             totals.max_queue_m = totals.max_queue_m.max(q);
