@@ -216,3 +216,246 @@ fn a_yielding_car_follows_the_one_before_it_no_sooner_than_its_follow_up_time() 
         );
     }
 }
+
+/// A CSV row: time, vehicle, road, s and speed in m/s.
+type Row = (f64, String, String, f64, f64);
+
+/// Reads a run's CSV into [`Row`]s.
+fn rows(csv_path: &Path) -> Vec<Row> {
+    let mut reader = csv::Reader::from_path(csv_path).expect("the CSV");
+    let headers = reader.headers().expect("headers").clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
+    let (time, id, road, s, speed) = (
+        col("time_s"),
+        col("vehicle_id"),
+        col("road"),
+        col("s_m"),
+        col("speed_kmh"),
+    );
+    reader
+        .records()
+        .map(|row| {
+            let row = row.expect("a row");
+            (
+                row[time].parse().expect("time"),
+                row[id].to_owned(),
+                row[road].to_owned(),
+                row[s].parse().expect("s"),
+                row[speed].parse::<f64>().expect("speed") / 3.6,
+            )
+        })
+        .collect()
+}
+
+/// Runs level text `text` (named `name`) with seed 1, returning its metrics and CSV rows.
+fn run_text(name: &str, text: &str) -> (std::collections::BTreeMap<String, f64>, Vec<Row>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("levels/{name}.ron"));
+    let level = flockway_level::parse_level(text, &path).expect("a valid level");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv_path = dir.path().join(format!("{name}.csv"));
+    let m = run(level, &path, 1, None, Some(csv_path.clone()));
+    let rows = rows(&csv_path);
+    (m.into_iter().collect(), rows)
+}
+
+/// One car at 50 km/h from 5 m along a 200 m road; the signal ahead is green until `AMBER`,
+/// amber for 3 s, red for 20 s, then green again.
+const AMBER: &str = r#"(
+    version: 1,
+    name: "amber",
+    seed: 1,
+    duration_s: 50.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (200.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (216.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (400.0, 0.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Signal, connections: [(from: "a", to: "b")],
+            signal: (phases: [(duration_s: GREEN, state: "G"), (duration_s: 3.0, state: "y"), (duration_s: 20.0, state: "r"), (duration_s: 100.0, state: "G")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 1.0, max: 1.0), max_vehicles: 1,
+        profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 50.0)],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 170.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+/// When the car of [`AMBER`] with amber from `green_s` entered the junction, s.
+fn amber_entry(green_s: f64) -> f64 {
+    let (m, rows) = run_text("amber", &AMBER.replace("GREEN", &format!("{green_s:.1}")));
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    assert_eq!(m["red_entries.j"], 0.0, "{m:#?}");
+    rows.iter()
+        .find(|r| r.2 == "j#0")
+        .map(|r| r.0)
+        .expect("the car enters the junction")
+}
+
+#[test]
+fn at_amber_a_car_that_can_stop_comfortably_stops_and_one_that_cannot_goes_on() {
+    // Spawned at 1 s, at 50 km/h the car's front reaches the line at about 15 s. Amber at 14 s
+    // finds it about 20 m away: stopping would take over 3.5 m/s², so it goes on, through the
+    // junction before the red.
+    let late = amber_entry(14.0);
+    assert!((14.0..17.0).contains(&late), "entered at {late} s");
+    // Amber at 9 s finds it about 70 m away: it stops (1.4 m/s² would do) and waits out the
+    // red, entering after it (9 + 3 + 20 = 32 s).
+    let early = amber_entry(9.0);
+    assert!(early >= 32.0, "entered at {early} s");
+}
+
+/// A road `a` into junction `j` (no signal), a 30 m road `b`, and a red light at its end that
+/// never turns green: cars queue on `b` back to its start.
+const BOX: &str = r#"(
+    version: 1,
+    name: "box",
+    seed: 1,
+    duration_s: 60.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (200.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (216.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (246.0, 0.0, 0.0))]),
+        (name: "c", speed_limit_kmh: 50.0, points: [(pos: (262.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (400.0, 0.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Priority(major: ["a"]), connections: [(from: "a", to: "b")]),
+        (name: "k", control: Signal, connections: [(from: "b", to: "c")], signal: (phases: [(duration_s: 1000.0, state: "r")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 2.5, max: 2.5), max_vehicles: 7,
+        profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 40.0)],
+    destroyers: [(name: "c", place: OnRoad(road: "c", s_m: 120.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn nobody_enters_a_junction_whose_exit_is_queued_back_to_its_start() {
+    let (m, rows) = run_text("box", BOX);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    // Four cars fit on `b` before the red light; the queue reaches `b`'s start, and the others
+    // wait before `j`'s line, not in the junction.
+    let stood_inside = rows
+        .iter()
+        .filter(|r| r.2 == "j#0" && r.4 < 0.3 && r.0 > 30.0)
+        .count();
+    assert_eq!(stood_inside, 0, "a car stood in the junction");
+    let on_b: std::collections::BTreeSet<&str> = rows
+        .iter()
+        .filter(|r| r.2 == "b" && r.0 > 55.0)
+        .map(|r| r.1.as_str())
+        .collect();
+    assert!((3..=5).contains(&on_b.len()), "{on_b:?} on b");
+    let waiting_on_a = rows
+        .iter()
+        .filter(|r| r.2 == "a" && r.0 > 55.0 && r.4 < 0.3 && r.3 > 170.0)
+        .count();
+    assert!(waiting_on_a > 0, "the next car waits at j's line");
+}
+
+/// Four arms under right-before-left, one car from each at the same moment, all going
+/// straight on: each gives way to the one on its right, so none may go.
+const STANDOFF: &str = r#"(
+    version: 1,
+    name: "standoff",
+    seed: 1,
+    duration_s: 70.0,
+    roads: [
+        (name: "w in", speed_limit_kmh: 30.0, points: [(pos: (-110.0, -1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-10.0, -1.75, 0.0))]),
+        (name: "e out", speed_limit_kmh: 30.0, points: [(pos: (10.0, -1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (110.0, -1.75, 0.0))]),
+        (name: "e in", speed_limit_kmh: 30.0, points: [(pos: (110.0, 1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (10.0, 1.75, 0.0))]),
+        (name: "w out", speed_limit_kmh: 30.0, points: [(pos: (-10.0, 1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-110.0, 1.75, 0.0))]),
+        (name: "s in", speed_limit_kmh: 30.0, points: [(pos: (1.75, -110.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (1.75, -10.0, 0.0))]),
+        (name: "n out", speed_limit_kmh: 30.0, points: [(pos: (1.75, 10.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (1.75, 110.0, 0.0))]),
+        (name: "n in", speed_limit_kmh: 30.0, points: [(pos: (-1.75, 110.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-1.75, 10.0, 0.0))]),
+        (name: "s out", speed_limit_kmh: 30.0, points: [(pos: (-1.75, -10.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-1.75, -110.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "x", control: RightBeforeLeft, connections: [
+            (from: "w in", to: "e out"), (from: "e in", to: "w out"), (from: "s in", to: "n out"), (from: "n in", to: "s out")]),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [
+        (name: "w", road: "w in", s_m: 50.0, interval_s: (min: 1.0, max: 1.0), max_vehicles: 1, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 30.0),
+        (name: "e", road: "e in", s_m: 50.0, interval_s: (min: 1.0, max: 1.0), max_vehicles: 1, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 30.0),
+        (name: "s", road: "s in", s_m: 50.0, interval_s: (min: 1.0, max: 1.0), max_vehicles: 1, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 30.0),
+        (name: "n", road: "n in", s_m: 50.0, interval_s: (min: 1.0, max: 1.0), max_vehicles: 1, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 30.0),
+    ],
+    destroyers: [
+        (name: "e", place: OnRoad(road: "e out", s_m: 90.0)), (name: "w", place: OnRoad(road: "w out", s_m: 90.0)),
+        (name: "n", place: OnRoad(road: "n out", s_m: 90.0)), (name: "s", place: OnRoad(road: "s out", s_m: 90.0)),
+    ],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_standoff_is_broken_by_the_deadlock_rule_one_car_at_a_time_and_counted() {
+    let (m, rows) = run_text("standoff", STANDOFF);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    assert!(m["deadlocks.x"] >= 1.0, "{m:#?}");
+    // All four are held from about 4 s, as they approach, and wait at the line; 20 s later
+    // one goes, and the others follow it by the rules (each now has a car moving in its way
+    // or none to give way to).
+    let mut entries: Vec<(f64, &str)> = Vec::new();
+    for r in &rows {
+        if r.2.starts_with("x#") && !entries.iter().any(|e| e.1 == r.1) {
+            entries.push((r.0, r.1.as_str()));
+        }
+    }
+    assert_eq!(entries.len(), 4, "{entries:?}");
+    assert!(entries[0].0 > 22.0, "the first went at {} s", entries[0].0);
+    assert!(
+        entries[1].0 > entries[0].0 + 0.5,
+        "two went at once: {entries:?}"
+    );
+}
+
+/// A left turn (`w in` → `n out`) with a permitted green (`g`) across a stream of oncoming
+/// cars (`e in` → `w out`, green), one every 3 s from 0 to 30 s; one left-turner at 10 s.
+const PERMITTED: &str = r#"(
+    version: 1,
+    name: "permitted",
+    seed: 1,
+    duration_s: 70.0,
+    roads: [
+        (name: "w in", speed_limit_kmh: 50.0, points: [(pos: (-210.0, -1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-10.0, -1.75, 0.0))]),
+        (name: "w out", speed_limit_kmh: 50.0, points: [(pos: (-10.0, 1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-210.0, 1.75, 0.0))]),
+        (name: "e in", speed_limit_kmh: 50.0, points: [(pos: (210.0, 1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (10.0, 1.75, 0.0))]),
+        (name: "n out", speed_limit_kmh: 50.0, points: [(pos: (1.75, 10.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (1.75, 210.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "x", control: Signal, connections: [(from: "w in", to: "n out"), (from: "e in", to: "w out")],
+            signal: (phases: [(duration_s: 1000.0, state: "gG")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron", set: {"time_gap_s": 1.5})],
+    spawners: [
+        (name: "oncoming", road: "e in", s_m: 5.0, interval_s: (min: 3.0, max: 3.0), max_vehicles: 11, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 50.0),
+        (name: "left", road: "w in", s_m: 60.0, interval_s: (min: 10.0, max: 10.0), max_vehicles: 1, profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 50.0),
+    ],
+    destroyers: [(name: "w", place: OnRoad(road: "w out", s_m: 190.0)), (name: "n", place: OnRoad(road: "n out", s_m: 190.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_permitted_left_turner_waits_inside_short_of_the_oncoming_stream_then_turns() {
+    let (m, rows) = run_text("permitted", PERMITTED);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    let left: Vec<&Row> = rows.iter().filter(|r| r.2 == "x#0").collect();
+    // It enters (at about 24 s) while the stream still flows and stands inside the junction
+    // on its path, its centre a few metres in: short of where its body would reach the
+    // oncoming lane.
+    let first = left.first().expect("the left-turner enters").0;
+    assert!(first < 30.0, "entered at {first} s");
+    let standing: Vec<f64> = left.iter().filter(|r| r.4 < 0.3).map(|r| r.3).collect();
+    assert!(!standing.is_empty(), "it waits inside");
+    assert!(
+        standing.iter().all(|&s| (0.0..4.5).contains(&s)),
+        "waited at {standing:?}"
+    );
+    // It turns after the last oncoming car (spawned at 30 s, at the junction about 44 s).
+    let last = left.last().expect("rows").0;
+    assert!(last > 40.0, "left the junction at {last} s");
+    assert!(rows.iter().any(|r| r.2 == "n out"), "it reaches n out");
+}

@@ -214,12 +214,14 @@ impl Summary {
             .keys()
             .filter_map(|k| k.strip_prefix("junction_flow_veh_per_h."));
         for j in junctions {
-            let mut line = format!("junction {j:<8}");
+            let mut line = format!("junction {j:<8} ");
             for (key, label, unit) in [
                 ("junction_flow_veh_per_h", "", " veh/h"),
                 ("junction_delay_s", ", delay ", " s"),
                 ("max_queue_m", ", longest queue ", " m"),
                 ("discharge_headway_s", ", discharge headway ", " s"),
+                ("red_entries", ", entered on red ", ""),
+                ("deadlocks", ", deadlocks broken ", ""),
             ] {
                 if let Some(v) = self.metrics.get(&format!("{key}.{j}")) {
                     line.push_str(&format!("{label}{}{unit}", fmt_value(*v)));

@@ -7,7 +7,7 @@
 use crate::perception::{LaneIndex, Seen};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
-use flockway_road::{RoadId, RoadNetwork, SignalState};
+use flockway_road::{Conflict, RoadId, RoadNetwork, SignalState};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
@@ -62,6 +62,10 @@ pub struct JunctionGate {
     pub stopped_tick: Option<u64>,
     /// The tick since which it has been held at the line, if it is.
     pub held_since: Option<u64>,
+    /// It is on the path (it entered): `stop_at_m` is then on the path, short of a conflict.
+    pub inside: bool,
+    /// Let go by the deadlock rule: until it enters, it no longer gives way.
+    pub released: bool,
 }
 
 impl JunctionGate {
@@ -81,26 +85,174 @@ impl JunctionGate {
 /// Junction events counted over a run.
 #[derive(Resource, Debug, Clone, Default, PartialEq)]
 pub struct JunctionStats {
-    /// Deadlocks broken: vehicles that went after waiting [`DEADLOCK_S`] with nothing moving.
-    pub deadlocks: u64,
+    /// Deadlocks broken, per junction (by its index): vehicles that went after waiting
+    /// [`DEADLOCK_S`] with nothing in their way moving.
+    pub deadlocks: BTreeMap<usize, u64>,
     /// Per junction path: the tick the last vehicle entered it (for the follow-up time).
     pub last_entry: BTreeMap<RoadId, u64>,
+    /// Per junction (by its index): the tick the deadlock rule last let a vehicle go.
+    pub last_break: BTreeMap<usize, u64>,
 }
 
-/// One vehicle approaching a junction path this tick.
+/// One vehicle approaching a junction path, or on one, this tick.
 #[derive(Debug, Clone, Copy)]
 struct Approach {
     entity: Entity,
     junction: usize,
     path: usize,
-    /// Front bumper to the line, m.
+    /// Front bumper to the line, m (negative once over it).
     to_line_m: f64,
+    /// Half its body's length, m.
+    half_m: f64,
     speed_mps: f32,
-    /// Held at the line on the tick before.
+    /// Held on the tick before.
     held: bool,
+    /// On the path already (it entered).
+    inside: bool,
+    /// The tick it stopped at the line, as its gate had it on the tick before.
+    stopped_tick: Option<u64>,
+    /// Behind a standing vehicle in its lane or at the start of a path from it: it cannot
+    /// arrive before that one moves.
+    blocked: bool,
 }
 
+/// What a tick's decisions share.
+struct Scene<'a> {
+    network: &'a RoadNetwork,
+    index: &'a LaneIndex,
+    approaches: &'a [Approach],
+    signals: &'a [Option<Vec<SignalState>>],
+}
+
+/// What holds a vehicle back from the next conflict it gives way to, if anything.
+#[derive(Debug, Clone, Copy, Default)]
+struct Blocked {
+    /// Held (by a vehicle in the conflict or one arriving within the critical gap).
+    hold: bool,
+    /// By a vehicle that is moving (a wait that is not a deadlock).
+    by_moving: bool,
+    /// It gives way to a stream that may come (for the follow-up time).
+    yields: bool,
+}
+
+impl Scene<'_> {
+    /// Whether a vehicle on conflicting path `c.other` has its body in the conflict area now
+    /// (whoever has the right of way, nobody drives into a car that is there), and whether one
+    /// is on that path short of clearing the conflict.
+    fn foes_on_path(&self, j: usize, k: usize, c: &Conflict) -> (bool, bool) {
+        let junction = &self.network.junctions()[j];
+        let Some(foe_road) = self.network.path_road(j, c.other) else {
+            return (false, false);
+        };
+        let foe_len = self.network.get(foe_road).map_or(0.0, |g| g.length_m());
+        let foe_clear = junction.paths[c.other]
+            .conflicts
+            .iter()
+            .find(|d| d.other == k)
+            .map_or(foe_len, |d| d.clear_m);
+        let mut occupied = false;
+        let mut short = false;
+        // Conflict positions are a body's centre's; only the cars on that path itself (not
+        // those on paths overlapping it from the same lane).
+        for f in self.index.lane(foe_road, 0) {
+            occupied |= f.s_m > c.other_at_m && f.s_m < foe_clear + CONFLICT_MARGIN_M;
+            short |= f.s_m < foe_clear;
+        }
+        (occupied, short)
+    }
+
+    /// Whether vehicle `a` must wait for the streams it gives way to on conflicts `conflicts`
+    /// of its path (the ones still ahead of it).
+    fn gives_way_now<'c>(
+        &self,
+        a: &Approach,
+        conflicts: impl Iterator<Item = &'c Conflict>,
+        critical_gap_s: f64,
+        all_way: Option<Option<u64>>,
+    ) -> Blocked {
+        let junction = &self.network.junctions()[a.junction];
+        let states = self.signals[a.junction].as_deref();
+        let mut out = Blocked::default();
+        for c in conflicts {
+            if !junction.gives_way(a.path, c.other, states) {
+                continue;
+            }
+            // Inside the junction, short of clearing the conflict.
+            let (_, short) = self.foes_on_path(a.junction, a.path, c);
+            if short {
+                out.hold = true;
+                out.by_moving = true;
+                return out;
+            }
+            // A foe on red is not coming (one already inside was seen above).
+            let foe_state = states.map(|s| s.get(c.other).copied().unwrap_or(SignalState::Red));
+            if matches!(foe_state, Some(SignalState::Red)) {
+                continue;
+            }
+            out.yields = true;
+            // Once going through a gap it took, it goes on unless a foe would now reach the
+            // conflict before it has cleared it (a gap taken is not re-judged by the critical
+            // gap every tick).
+            let centre = -a.to_line_m - a.half_m;
+            let going = !a.held && a.speed_mps > STOPPED_MPS;
+            let needed_s = if going {
+                critical_gap_s.min(arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S)
+            } else {
+                critical_gap_s
+            };
+            // Standing in the conflict already: a foe held at its line waits for it.
+            let in_it = centre > c.at_m;
+            for f in self
+                .approaches
+                .iter()
+                .filter(|f| f.junction == a.junction && f.path == c.other && !f.inside)
+            {
+                if let Some(stopped_tick) = all_way.filter(|_| junction.must_stop(c.other)) {
+                    // Both stop: order of arrival, the earlier stop goes first.
+                    if f.stopped_tick.is_some_and(|t| {
+                        stopped_tick.is_none_or(|mine| (t, f.entity) < (mine, a.entity))
+                    }) {
+                        out.hold = true;
+                    }
+                    continue;
+                }
+                // Stopping at its own line for amber, or behind a standing car: not coming.
+                if f.blocked || (f.held && (in_it || foe_state == Some(SignalState::Amber))) {
+                    continue;
+                }
+                let eta = arrival_s(f.to_line_m + f.half_m + c.other_at_m, f.speed_mps);
+                if eta < needed_s {
+                    out.hold = true;
+                    out.by_moving |= f.speed_mps > STOPPED_MPS;
+                }
+            }
+            if out.hold {
+                return out;
+            }
+        }
+        out
+    }
+}
+
+/// How far past the end of a conflict area a body still counts as in it, m.
+const CONFLICT_MARGIN_M: f64 = 0.5;
+/// How far short of a conflict's start a car waiting inside the junction stops its centre, m
+/// (room for an overshoot: a car a little past it would be in the way).
+const INSIDE_STOP_M: f64 = 1.5;
+/// How far past a conflict's start a car's centre may be and still be waiting short of it
+/// (an overshoot does not entitle it to go on; the others see it in their way), m.
+const WAIT_TOLERANCE_M: f64 = 0.5;
+/// Time a car going through a gap wants between clearing a conflict and a foe reaching it, s.
+const CLEARING_MARGIN_S: f64 = 1.5;
+
 /// Decides every approaching vehicle's [`JunctionGate`].
+///
+/// At the line: the signal, a stop sign, room on the exit lane, and the streams it gives way
+/// to (a gap of its critical gap, its follow-up time behind the car before it). A permitted
+/// movement under a signal (a green that must yield, like a left turn across oncoming traffic)
+/// enters and waits inside, at the first conflict it must give way at, when the path is free.
+/// Inside: it stops short of any conflict whose area a vehicle occupies, and of one it gives way
+/// at while a stream it yields to leaves no gap — unless it is past the point of no return.
 #[allow(clippy::type_complexity)]
 pub fn gate_junctions(
     network: Res<RoadNetwork>,
@@ -127,212 +279,123 @@ pub fn gate_junctions(
         .map(|j| j.signal_at(t_s))
         .collect();
     // Who approaches which path (in the query's order, which the world fixes): by its route's
-    // next road, or where its lane leads for a car that follows the links.
+    // next road, or where its lane leads for a car that follows the links; and who is on one.
     let mut approaches: Vec<Approach> = Vec::new();
     for (entity, track, motion, model, gate) in &vehicles {
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
+        let v = motion.forward_mps.max(0.0);
+        let held = gate.stop_at_m.is_some();
+        if let Some((j, k)) = network.junction_path(track.road) {
+            approaches.push(Approach {
+                entity,
+                junction: j,
+                path: k,
+                to_line_m: -(track.s_m + half),
+                half_m: half,
+                speed_mps: v,
+                held,
+                inside: true,
+                stopped_tick: None,
+                blocked: false,
+            });
+            continue;
+        }
         let Some(ahead) =
             network.junction_ahead(track.road, track.lane, track.s_m, track.next_road, half)
         else {
             continue;
         };
-        let (j, k, to_line) = (ahead.junction, ahead.path, ahead.to_line_m);
-        let v = motion.forward_mps.max(0.0);
         // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
         // for.
         let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
             .max(f64::from(v) * FOE_HORIZON_S);
-        if to_line < horizon {
+        if ahead.to_line_m < horizon {
             approaches.push(Approach {
                 entity,
-                junction: j,
-                path: k,
-                to_line_m: to_line,
+                junction: ahead.junction,
+                path: ahead.path,
+                to_line_m: ahead.to_line_m,
+                half_m: half,
                 speed_mps: v,
-                held: gate.stop_at_m.is_some(),
+                held,
+                inside: false,
+                stopped_tick: gate.stopped_tick,
+                blocked: queued_behind(&network, &index, entity, track),
             });
         }
     }
+    let scene = Scene {
+        network: &network,
+        index: &index,
+        approaches: &approaches,
+        signals: &signals,
+    };
     let mut seen: Vec<Seen> = Vec::new();
-    let mut decided: Vec<(Entity, JunctionGate, bool)> = Vec::with_capacity(approaches.len());
+    let mut decided: Vec<(Entity, JunctionGate, Option<usize>)> =
+        Vec::with_capacity(approaches.len());
+    let mut broken: Vec<usize> = Vec::new();
     for a in &approaches {
-        let junction = &network.junctions()[a.junction];
-        let path = &junction.paths[a.path];
-        let states = signals[a.junction].as_deref();
         let Ok((_, track, _, _, gate)) = vehicles.get(a.entity) else {
             continue;
         };
-        let path_road = network.path_road(a.junction, a.path);
-        let stopped_tick = if gate.path == path_road {
-            gate.stopped_tick
-        } else {
-            None
-        };
-        let stopped_now = a.speed_mps < STOPPED_MPS && a.to_line_m < AT_LINE_M;
-        let stopped_tick = stopped_tick.or(stopped_now.then_some(tick));
         let (critical_gap_s, follow_up_s) = gaps
             .get(a.entity)
             .map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
                 (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
             });
-        let mut hold = false;
-        // The signal.
-        if let Some(states) = states {
-            match states.get(a.path).copied().unwrap_or(SignalState::Red) {
-                SignalState::Red => hold = true,
-                SignalState::Amber => {
-                    // Stop if it can do so comfortably (or was already stopping); else go on.
-                    let need = f64::from(a.speed_mps).powi(2) / (2.0 * a.to_line_m.max(0.1));
-                    hold = a.held || need <= f64::from(AMBER_DECEL_MPS2);
-                }
-                SignalState::Green | SignalState::GreenYield => {}
-            }
-        }
-        let signal_hold = hold;
-        // A stop sign or an all-way stop: a full stop at the line first.
-        if !hold && junction.must_stop(a.path) && stopped_tick.is_none() {
-            hold = true;
-        }
-        // Room to leave: no queue at the start of the exit lane.
-        if !hold {
-            let (to_road, to_lane) = path.to;
-            seen.clear();
-            index.within(RoadId(to_road), to_lane, 0.0, 0.0, 12.0, None, &mut seen);
-            if seen.iter().any(|s| s.entry.speed_mps < 2.0) {
-                hold = true;
-            }
-        }
-        // Right of way: the conflicting streams it gives way to must leave it a gap.
-        let mut blocked_by_moving = false;
-        let mut yields = false;
-        if !hold {
-            for c in &path.conflicts {
-                if !junction.gives_way(a.path, c.other, states) {
-                    continue;
-                }
-                let foe_state = states.map(|s| s.get(c.other).copied().unwrap_or(SignalState::Red));
-                let Some(foe_road) = network.path_road(a.junction, c.other) else {
-                    continue;
-                };
-                // Inside the junction, short of clearing the conflict.
-                seen.clear();
-                let foe_len = network.get(foe_road).map_or(0.0, |g| g.length_m());
-                index.within(foe_road, 0, 0.0, 0.0, foe_len, None, &mut seen);
-                if seen
-                    .iter()
-                    .any(|s| s.gap_m <= foe_len && s.gap_m < c.other_at_m + 6.0)
-                {
-                    hold = true;
-                    blocked_by_moving = true;
-                    break;
-                }
-                // A foe on red is not coming (one already inside was seen above).
-                if matches!(foe_state, Some(SignalState::Red)) {
-                    continue;
-                }
-                yields = true;
-                // Approaching: any foe bound for that path that reaches the conflict sooner than
-                // the critical gap, and is not itself held at its line.
-                let under_all_way = junction.must_stop(a.path) && junction.must_stop(c.other);
-                for f in approaches
-                    .iter()
-                    .filter(|f| f.junction == a.junction && f.path == c.other)
-                {
-                    if under_all_way {
-                        // Order of arrival: the earlier stop goes first.
-                        let foe_stop = vehicles
-                            .get(f.entity)
-                            .ok()
-                            .and_then(|(_, _, _, _, g)| g.stopped_tick);
-                        if foe_stop.is_some_and(|t| {
-                            stopped_tick.is_none_or(|mine| (t, f.entity) < (mine, a.entity))
-                        }) {
-                            hold = true;
-                        }
-                        continue;
-                    }
-                    if f.held {
-                        continue;
-                    }
-                    let eta = (f.to_line_m + c.other_at_m) / f64::from(f.speed_mps.max(0.5));
-                    if eta < critical_gap_s {
-                        hold = true;
-                        blocked_by_moving |= f.speed_mps > STOPPED_MPS;
-                    }
-                }
-                if hold {
-                    break;
-                }
-            }
-        }
-        // Through a gap it gives way for, it follows the car before it on its path no sooner
-        // than its follow-up time.
-        if !hold
-            && yields
-            && path_road.is_some_and(|p| {
-                stats
-                    .last_entry
-                    .get(&p)
-                    .is_some_and(|&t| (tick - t) as f64 * DT_S < follow_up_s)
-            })
-        {
-            hold = true;
-        }
-        // Past the point of no return: a car that was going and can no longer stop before the
-        // line without braking harder than at amber goes on (stopping would leave it across
-        // the line, in the way).
-        let need = f64::from(a.speed_mps).powi(2) / (2.0 * a.to_line_m.max(0.01));
-        if hold
-            && !signal_hold
-            && !a.held
-            && a.speed_mps > COMMITTED_MPS
-            && a.to_line_m > 0.0
-            && need > f64::from(AMBER_DECEL_MPS2)
-        {
-            hold = false;
-        }
-        // Nobody waits forever: held at the line this long with nothing in its way moving.
-        let held_since = if gate.path == path_road {
-            gate.held_since.or(Some(tick))
+        let (mut new, mut deadlock) = if a.inside {
+            decide_inside(&scene, a, gate, critical_gap_s, tick)
         } else {
-            Some(tick)
-        };
-        let mut deadlock = false;
-        if hold
-            && !blocked_by_moving
-            && states.is_none()
-            && held_since.is_some_and(|t| (tick - t) as f64 * DT_S > DEADLOCK_S)
-            && a.to_line_m < AT_LINE_M
-        {
-            hold = false;
-            deadlock = true;
-        }
-        // Held: at the line, or behind the car ahead of it in the queue there (a queue pressed
-        // from behind would otherwise push its first car over the line).
-        let line = network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
-        let queue = index
-            .leader(
-                track.road,
-                track.lane,
-                track.s_m,
-                a.entity,
-                line - track.s_m,
-                None,
+            decide_at_line(
+                &scene,
+                a,
+                track,
+                gate,
+                (critical_gap_s, follow_up_s),
+                &stats,
+                tick,
+                &mut seen,
             )
-            .filter(|l| track.s_m + l.gap_m < line + 5.0)
-            .map_or(f64::INFINITY, |l| {
-                track.s_m + l.gap_m - 0.5 * f64::from(l.entry.length_m) - QUEUE_GAP_M
-            });
-        decided.push((
-            a.entity,
-            JunctionGate {
-                stop_at_m: hold.then_some(line.min(queue)),
-                path: path_road,
-                stopped_tick,
-                held_since: if hold { held_since } else { None },
-            },
-            deadlock,
-        ));
+        };
+        // One vehicle let go at a time: the others wait for it, and the rule lets the next go
+        // no sooner than its wait later.
+        let recent = stats
+            .last_break
+            .get(&a.junction)
+            .is_some_and(|&t| (tick - t) as f64 * DT_S < DEADLOCK_S);
+        if deadlock && (recent || broken.contains(&a.junction)) {
+            deadlock = false;
+            new.held_since = gate.held_since;
+            new.released = false;
+            if new.stop_at_m.is_none() {
+                new.stop_at_m = Some(held_stop(&network, track, a));
+            }
+        }
+        // Behind the car ahead of it in the queue there (a queue pressed from behind would
+        // otherwise push its first car over the line).
+        let new = JunctionGate {
+            stop_at_m: new.stop_at_m.map(|stop| {
+                let queue = index
+                    .leader(
+                        track.road,
+                        track.lane,
+                        track.s_m,
+                        a.entity,
+                        (stop - track.s_m).max(0.0),
+                        None,
+                    )
+                    .filter(|l| track.s_m + l.gap_m < stop + 5.0)
+                    .map_or(f64::INFINITY, |l| {
+                        track.s_m + l.gap_m - 0.5 * f64::from(l.entry.length_m) - QUEUE_GAP_M
+                    });
+                stop.min(queue)
+            }),
+            ..new
+        };
+        decided.push((a.entity, new, deadlock.then_some(a.junction)));
+        if deadlock {
+            broken.push(a.junction);
+        }
     }
     // Write the decisions (in the query's order, as they were made); a vehicle approaching no
     // junction is free.
@@ -340,15 +403,351 @@ pub fn gate_junctions(
     for (entity, track, _, _, mut gate) in &mut vehicles {
         let (new, deadlock) = match d.next_if(|(e, _, _)| *e == entity) {
             Some((_, g, deadlock)) => (g, deadlock),
-            None => (JunctionGate::default(), false),
+            None => (JunctionGate::default(), None),
         };
         // It was approaching this path and is on it now: it entered.
-        if gate.path == Some(track.road) {
+        if gate.path == Some(track.road) && !gate.inside {
             stats.last_entry.insert(track.road, tick);
         }
         if *gate != new {
             *gate = new;
         }
-        stats.deadlocks += u64::from(deadlock);
+        if let Some(j) = deadlock {
+            *stats.deadlocks.entry(j).or_default() += 1;
+            stats.last_break.insert(j, tick);
+        }
     }
+}
+
+/// Below this speed a car at the start of an exit lane is about to stand there, m/s.
+const EXIT_MOVING_MPS: f32 = 5.0;
+
+/// How far into a path a standing vehicle still blocks the lane it came from, m (its centre).
+const BLOCKS_LANE_M: f64 = 10.0;
+
+/// Whether a vehicle approaching a junction stands behind a standing vehicle: one ahead in its
+/// lane before the line, or one at the start of any path from its lane (a turning car waiting
+/// inside).
+fn queued_behind(network: &RoadNetwork, index: &LaneIndex, me: Entity, track: &RoadTrack) -> bool {
+    let to_end = network.get(track.road).map_or(0.0, |g| g.length_m()) - track.s_m;
+    let standing = |speed: f32| speed < STOPPED_MPS;
+    if index
+        .leader(track.road, track.lane, track.s_m, me, to_end, None)
+        .is_some_and(|l| l.gap_m <= to_end && standing(l.entry.speed_mps))
+    {
+        return true;
+    }
+    network
+        .links(track.road)
+        .iter()
+        .filter(|l| l.lane_to(track.lane).is_some() && network.junction_path(l.to).is_some())
+        .any(|l| {
+            index
+                .lane(l.to, 0)
+                .iter()
+                .any(|e| e.s_m < BLOCKS_LANE_M && standing(e.speed_mps))
+        })
+}
+
+/// Speed below which a vehicle is expected to speed up on its way to a conflict, m/s.
+const STARTING_MPS: f32 = 5.0;
+/// The acceleration a starting vehicle is expected to reach a conflict with, m/s².
+const STARTING_ACCEL_MPS2: f64 = 2.0;
+
+/// When a vehicle `d_m` from a point reaches it at `speed_mps`: a slow or standing one is
+/// expected to speed up (a car held at its line a moment ago may be released now).
+fn arrival_s(d_m: f64, speed_mps: f32) -> f64 {
+    let v = f64::from(speed_mps.max(0.0));
+    if speed_mps < STARTING_MPS {
+        let a = STARTING_ACCEL_MPS2;
+        (-v + (v * v + 2.0 * a * d_m.max(0.0)).sqrt()) / a
+    } else {
+        d_m.max(0.0) / v
+    }
+}
+
+/// Where a vehicle held where it is waits: at the line before entering, short of its next
+/// conflict inside (front bumper, on its road).
+fn held_stop(network: &RoadNetwork, track: &RoadTrack, a: &Approach) -> f64 {
+    let junction = &network.junctions()[a.junction];
+    let centre = -a.to_line_m - a.half_m;
+    let inside = junction.paths[a.path]
+        .conflicts
+        .iter()
+        .filter(|c| centre < c.at_m + WAIT_TOLERANCE_M)
+        .map(|c| c.at_m + a.half_m - INSIDE_STOP_M)
+        .fold(f64::INFINITY, f64::min);
+    if a.inside {
+        inside
+    } else {
+        network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M
+    }
+}
+
+/// Whether a vehicle at `speed_mps` with `left_m` to a stop point is past the point of no
+/// return: going, and unable to stop there without braking harder than at amber.
+fn committed(speed_mps: f32, left_m: f64) -> bool {
+    let need = f64::from(speed_mps).powi(2) / (2.0 * left_m.max(0.01));
+    speed_mps > COMMITTED_MPS && left_m > 0.0 && need > f64::from(AMBER_DECEL_MPS2)
+}
+
+/// The nobody-waits-forever rule: since when it has been held here, and whether that is long
+/// enough, with nothing in its way moving and no signal to wait for, to go anyway.
+fn deadlock_rule(
+    gate: &JunctionGate,
+    path_road: Option<RoadId>,
+    hold: bool,
+    waiting_for_moving: bool,
+    signal: bool,
+    tick: u64,
+) -> (Option<u64>, bool) {
+    if !hold {
+        return (None, false);
+    }
+    let since = if gate.path == path_road {
+        gate.held_since.unwrap_or(tick)
+    } else {
+        tick
+    };
+    let broken = !waiting_for_moving && !signal && (tick - since) as f64 * DT_S > DEADLOCK_S;
+    (Some(since), broken)
+}
+
+/// Where on its path (front bumper, m) a vehicle on or entering it must wait, short of the
+/// first conflict ahead whose area a vehicle occupies or whose stream it gives way to leaves no
+/// gap; `INFINITY` when it may go on. With whether what holds it is moving.
+fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool) -> (f64, bool) {
+    let junction = &scene.network.junctions()[a.junction];
+    // Conflict positions are the centre's; the stop is the front bumper's.
+    let centre = -a.to_line_m - a.half_m;
+    let front = -a.to_line_m;
+    let mut stop = f64::INFINITY;
+    let mut occupied_stop = f64::INFINITY;
+    let mut by_moving = false;
+    // A car that has overshot its waiting place a little is still waiting there.
+    for c in junction.paths[a.path]
+        .conflicts
+        .iter()
+        .filter(|c| centre < c.at_m + WAIT_TOLERANCE_M)
+    {
+        let here = c.at_m + a.half_m - INSIDE_STOP_M;
+        if scene.foes_on_path(a.junction, a.path, c).0 {
+            occupied_stop = occupied_stop.min(here);
+            by_moving = true;
+        }
+        if released {
+            continue;
+        }
+        let b = scene.gives_way_now(a, std::iter::once(c), critical_gap_s, None);
+        if b.hold {
+            stop = stop.min(here);
+            by_moving |= b.by_moving;
+        }
+    }
+    // Past the point of no return for a stream's gap it goes on (stopping would leave it in
+    // the way); a body in the conflict area stops it whatever it costs.
+    if stop.is_finite() && !a.held && committed(a.speed_mps, stop - front) {
+        stop = f64::INFINITY;
+    }
+    (stop.min(occupied_stop), by_moving)
+}
+
+/// The decision for a vehicle on its junction path: where it must stop, short of the next
+/// conflict it may not cross yet.
+fn decide_inside(
+    scene: &Scene,
+    a: &Approach,
+    gate: &JunctionGate,
+    critical_gap_s: f64,
+    tick: u64,
+) -> (JunctionGate, bool) {
+    let path_road = scene.network.path_road(a.junction, a.path);
+    let released = gate.released && gate.path == path_road;
+    let (stop, by_moving) = wait_inside(scene, a, critical_gap_s, released);
+    let hold = stop.is_finite();
+    let signal = scene.signals[a.junction].is_some();
+    let (held_since, deadlock) = deadlock_rule(gate, path_road, hold, by_moving, signal, tick);
+    (
+        JunctionGate {
+            // The gate's stop is the front bumper's, on the path.
+            stop_at_m: (hold && !deadlock).then_some(stop),
+            path: path_road,
+            stopped_tick: None,
+            held_since: if deadlock { None } else { held_since },
+            inside: true,
+            released: released || deadlock,
+        },
+        deadlock,
+    )
+}
+
+/// The decision for a vehicle approaching the line of its junction path.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the tick's shared scene and this vehicle's own state"
+)]
+fn decide_at_line(
+    scene: &Scene,
+    a: &Approach,
+    track: &RoadTrack,
+    gate: &JunctionGate,
+    (critical_gap_s, follow_up_s): (f64, f64),
+    stats: &JunctionStats,
+    tick: u64,
+    seen: &mut Vec<Seen>,
+) -> (JunctionGate, bool) {
+    let network = scene.network;
+    let junction = &network.junctions()[a.junction];
+    let path = &junction.paths[a.path];
+    let states = scene.signals[a.junction].as_deref();
+    let path_road = network.path_road(a.junction, a.path);
+    let stopped_tick = if gate.path == path_road {
+        gate.stopped_tick
+    } else {
+        None
+    };
+    let stopped_now = a.speed_mps < STOPPED_MPS && a.to_line_m < AT_LINE_M;
+    let stopped_tick = stopped_tick.or(stopped_now.then_some(tick));
+    // Let go by the deadlock rule: it goes, the others wait for it.
+    let released = gate.released && gate.path == path_road;
+    let line = network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
+    // Its front is over the line already (it went at amber, or crept): it can no longer stop
+    // before it, so it goes in and gives way inside, as a car on the path does.
+    if a.to_line_m < -STOP_LINE_MARGIN_M {
+        let (stop, _) = wait_inside(scene, a, critical_gap_s, released);
+        return (
+            JunctionGate {
+                stop_at_m: stop.is_finite().then_some(line + STOP_LINE_MARGIN_M + stop),
+                path: path_road,
+                stopped_tick,
+                held_since: None,
+                inside: false,
+                released,
+            },
+            false,
+        );
+    }
+    let own = states.map(|s| s.get(a.path).copied().unwrap_or(SignalState::Red));
+    let mut hold = false;
+    // The signal.
+    match own {
+        Some(SignalState::Red) => hold = true,
+        Some(SignalState::Amber) => {
+            // Stop if it can do so comfortably (or was already stopping); else go on.
+            let need = f64::from(a.speed_mps).powi(2) / (2.0 * a.to_line_m.max(0.1));
+            hold = a.held || need <= f64::from(AMBER_DECEL_MPS2);
+        }
+        _ => {}
+    }
+    let signal_hold = hold;
+    // A stop sign or an all-way stop: a full stop at the line first.
+    if !hold && junction.must_stop(a.path) && stopped_tick.is_none() {
+        hold = true;
+    }
+    // Room to leave: a slow car at the start of the exit lane leaves it no room for its own
+    // length there (it would stop in the junction, in the way).
+    let mut no_room = false;
+    if !hold {
+        let (to_road, to_lane) = path.to;
+        // Its own length, and that of the cars in the junction bound for the same lane.
+        let bound: f64 = junction
+            .paths
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.to == path.to)
+            .filter_map(|(k, _)| network.path_road(a.junction, k))
+            .flat_map(|p| scene.index.lane(p, 0))
+            .map(|e| f64::from(e.length_m) + QUEUE_GAP_M)
+            .sum();
+        let need = 2.0 * a.half_m + QUEUE_GAP_M + bound;
+        seen.clear();
+        scene
+            .index
+            .within(RoadId(to_road), to_lane, 0.0, 0.0, need + 10.0, None, seen);
+        no_room = seen.iter().any(|s| {
+            s.entry.speed_mps < EXIT_MOVING_MPS
+                && s.gap_m - 0.5 * f64::from(s.entry.length_m) < need
+        });
+        hold = no_room;
+    }
+    // Nobody drives into a vehicle standing in a conflict area ahead, whoever has the right of
+    // way.
+    let mut occupied = false;
+    if !hold {
+        occupied = path
+            .conflicts
+            .iter()
+            .any(|c| scene.foes_on_path(a.junction, a.path, c).0);
+        hold = occupied;
+    }
+    let mut blocked = Blocked::default();
+    // Where inside it must wait, for a permitted movement (front bumper, on the path).
+    let mut inside_stop = None;
+    if !hold {
+        if own == Some(SignalState::GreenYield) {
+            // A permitted movement enters and waits inside at its conflict, one car at a time:
+            // the path must be clear of a car still standing on it. Where it will wait is
+            // known before it enters, so it arrives there at a speed it can stop from.
+            if let Some(p) = path_road {
+                let len = network.get(p).map_or(0.0, |g| g.length_m());
+                hold = scene
+                    .index
+                    .lane(p, 0)
+                    .iter()
+                    .any(|e| e.s_m <= len && e.speed_mps < 2.0);
+            }
+            if !hold {
+                let (stop, _) = wait_inside(scene, a, critical_gap_s, released);
+                inside_stop = stop.is_finite().then_some(stop);
+            }
+        } else if !released {
+            let all_way = junction.must_stop(a.path).then_some(stopped_tick);
+            blocked = scene.gives_way_now(a, path.conflicts.iter(), critical_gap_s, all_way);
+            hold = blocked.hold;
+        }
+    }
+    // Through a gap it gives way for, it follows the car before it on its path no sooner
+    // than its follow-up time.
+    if !hold
+        && blocked.yields
+        && path_road.is_some_and(|p| {
+            stats
+                .last_entry
+                .get(&p)
+                .is_some_and(|&t| (tick - t) as f64 * DT_S < follow_up_s)
+        })
+    {
+        hold = true;
+    }
+    // Past the point of no return: a car that was going and can no longer stop before the
+    // line without braking harder than at amber goes on (stopping would leave it across
+    // the line, in the way).
+    if hold && !signal_hold && !occupied && !a.held && committed(a.speed_mps, a.to_line_m) {
+        hold = false;
+    }
+    // Waiting for room on the exit is waiting for the traffic beyond, not a deadlock.
+    let (held_since, deadlock) = deadlock_rule(
+        gate,
+        path_road,
+        hold,
+        blocked.by_moving || occupied || no_room,
+        states.is_some(),
+        tick,
+    );
+    let deadlock = deadlock && a.to_line_m < AT_LINE_M;
+    (
+        JunctionGate {
+            stop_at_m: if hold && !deadlock {
+                Some(line)
+            } else {
+                inside_stop.map(|stop| line + STOP_LINE_MARGIN_M + stop)
+            },
+            path: path_road,
+            stopped_tick,
+            held_since: if deadlock { None } else { held_since },
+            inside: false,
+            released: released || deadlock,
+        },
+        deadlock,
+    )
 }

@@ -90,11 +90,15 @@ pub enum Metric {
     JunctionFlowVehPerH,
     /// Mean headway of queued vehicles crossing a signal's line, from the fifth on (s).
     DischargeHeadwayS,
+    /// Vehicles that entered a junction against a red signal.
+    RedEntries,
+    /// Deadlocks broken at a junction.
+    Deadlocks,
 }
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 25] = [
+    pub const ALL: [Metric; 27] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -120,6 +124,8 @@ impl Metric {
         Metric::MaxQueueM,
         Metric::JunctionFlowVehPerH,
         Metric::DischargeHeadwayS,
+        Metric::RedEntries,
+        Metric::Deadlocks,
     ];
 
     /// Its name, unit, qualifier and meaning.
@@ -273,7 +279,19 @@ impl Metric {
                 name: "discharge_headway_s",
                 qualifier: Qualifier::Junction,
                 unit: "s",
-                description: "mean time between queued vehicles crossing a signal's line on one lane in one green, from the fifth of the queue on (3 600 / it is the saturation flow per lane)",
+                description: "mean time between queued vehicles crossing a signal's line on one lane in one green, from the fifth of the queue on, where both go straight on (3 600 / it is the lane's saturation flow for through traffic)",
+            },
+            Metric::RedEntries => MetricInfo {
+                name: "red_entries",
+                qualifier: Qualifier::Junction,
+                unit: "",
+                description: "vehicles whose front crossed a signal's line on red after the warm-up (amber is not red)",
+            },
+            Metric::Deadlocks => MetricInfo {
+                name: "deadlocks",
+                qualifier: Qualifier::Junction,
+                unit: "",
+                description: "vehicles at a junction without a signal that went after waiting 20 s at the line with nothing in their way moving (the deadlock rule), over the whole run",
             },
         }
     }
@@ -301,8 +319,8 @@ impl Metric {
 }
 
 /// Every metric's [`MetricInfo`], in [`Metric::ALL`] order.
-pub const METRICS: [MetricInfo; 25] = {
-    let mut out = [Metric::Ticks.info(); 25];
+pub const METRICS: [MetricInfo; Metric::ALL.len()] = {
+    let mut out = [Metric::Ticks.info(); Metric::ALL.len()];
     let mut i = 0;
     while i < out.len() {
         out[i] = Metric::ALL[i].info();

@@ -190,9 +190,64 @@ impl Turn {
     }
 }
 
-/// Two paths closer than this, centre line to centre line, conflict there, m: two car widths
-/// and a little room.
-pub const CONFLICT_DISTANCE_M: f64 = 2.5;
+/// The body conflicts are found for: a car this long, m.
+pub const BODY_LENGTH_M: f64 = 4.8;
+/// The body conflicts are found for: a car this wide, m.
+pub const BODY_WIDTH_M: f64 = 1.9;
+/// Room a body on one path keeps from the traffic of another, beyond half a car's width, m.
+pub const CONFLICT_CLEARANCE_M: f64 = 0.3;
+
+/// A point along a path with the corners of a car centred there.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    s: f64,
+    pos: DVec3,
+    /// The body's corners and the middle of its front and rear, in the plane.
+    outline: [DVec3; 6],
+}
+
+impl Sample {
+    fn new(s: f64, pos: DVec3, tangent: DVec3) -> Self {
+        let t = flat(tangent);
+        let n = DVec3::new(-t.y, t.x, 0.0);
+        let (l, w) = (0.5 * BODY_LENGTH_M * t, 0.5 * BODY_WIDTH_M * n);
+        Self {
+            s,
+            pos,
+            outline: [
+                pos + l + w,
+                pos + l - w,
+                pos - l + w,
+                pos - l - w,
+                pos + l,
+                pos - l,
+            ],
+        }
+    }
+
+    /// Whether a car here comes within the clearance of a car on the path `other` (its centre
+    /// line plus half a car's width).
+    fn touches(&self, other: &[Sample]) -> bool {
+        let reach = 0.5 * BODY_WIDTH_M + CONFLICT_CLEARANCE_M;
+        self.outline.iter().any(|&p| {
+            other.windows(2).any(|seg| {
+                let (q0, q1) = (seg[0].pos, seg[1].pos);
+                let d = q1 - q0;
+                let u = ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                let q = q0 + u * d;
+                let (dx, dy) = (p.x - q.x, p.y - q.y);
+                dx * dx + dy * dy < reach * reach
+            })
+        })
+    }
+}
+
+/// The first and last centre positions along `a` at which a car there touches path `b`.
+fn touching(a: &[Sample], b: &[Sample]) -> Option<(f64, f64)> {
+    let first = a.iter().find(|x| x.touches(b))?;
+    let last = a.iter().rev().find(|x| x.touches(b))?;
+    Some((first.s, last.s))
+}
 
 /// Spacing of the points two paths are compared at, m.
 const SAMPLE_M: f64 = 0.25;
@@ -204,11 +259,14 @@ pub struct Conflict {
     pub other: usize,
     /// Whether both lead onto the same lane (they merge) rather than cross.
     pub merge: bool,
-    /// Where along this path the conflict area starts, m.
+    /// Where along this path the conflict starts: the first position of a car's centre at
+    /// which its body ([`BODY_LENGTH_M`] × [`BODY_WIDTH_M`]) comes within
+    /// [`CONFLICT_CLEARANCE_M`] of a car on the other path, m.
     pub at_m: f64,
-    /// Where along the other path it starts, m.
+    /// Where along the other path it starts, the same way, m.
     pub other_at_m: f64,
-    /// Where along this path it ends (clear of the other path again), m.
+    /// Where along this path it ends: the last centre position at which a car touches the
+    /// other path, m.
     pub clear_m: f64,
 }
 
@@ -228,8 +286,8 @@ pub struct JunctionPath {
     /// Its conflicts with other paths, by the other's index.
     pub conflicts: Vec<Conflict>,
     /// The other paths from the same lane, each with how far along this path the two still
-    /// overlap (closer than [`CONFLICT_DISTANCE_M`]), m: a car there is in front of a car on
-    /// either.
+    /// overlap (a car's centre short of where its body clears the other), m: a car there is
+    /// in front of a car on either.
     pub siblings: Vec<(usize, f64)>,
 }
 
@@ -453,10 +511,10 @@ impl Junction {
         Ok(junction)
     }
 
-    /// Finds every pair of paths from different lanes that come within
-    /// [`CONFLICT_DISTANCE_M`] of each other, or lead onto the same lane.
+    /// Finds every pair of paths from different lanes where a car on one would come too close
+    /// to a car on the other, or that lead onto the same lane.
     fn find_conflicts(&mut self) {
-        let samples: Vec<Vec<(f64, DVec3)>> = self
+        let samples: Vec<Vec<Sample>> = self
             .paths
             .iter()
             .map(|p| match RoadGeometry::new(&p.spec) {
@@ -465,7 +523,7 @@ impl Junction {
                     (0..=n)
                         .map(|i| {
                             let s = g.length_m() * i as f64 / n as f64;
-                            (s, g.pos_at(s))
+                            Sample::new(s, g.pos_at(s), g.frame_at(s).tangent)
                         })
                         .collect()
                 }
@@ -477,38 +535,24 @@ impl Junction {
                 if i == j {
                     continue;
                 }
+                let (a, b) = (&samples[i], &samples[j]);
                 if self.paths[i].from == self.paths[j].from {
-                    // Siblings: together until the first point where they are apart.
-                    let b = &samples[j];
-                    let part = samples[i]
+                    // Siblings: together until the first point where a body on this one is
+                    // clear of the other.
+                    let part = a
                         .iter()
-                        .find(|(_, p)| {
-                            b.iter()
-                                .all(|(_, q)| (*p - *q).length() >= CONFLICT_DISTANCE_M)
-                        })
-                        .map_or_else(|| samples[i].last().map_or(0.0, |x| x.0), |x| x.0);
+                        .find(|x| !x.touches(b))
+                        .map_or_else(|| a.last().map_or(0.0, |x| x.s), |x| x.s);
                     self.paths[i].siblings.push((j, part));
                     continue;
                 }
                 let merge = self.paths[i].to == self.paths[j].to;
-                let near = |a: &[(f64, DVec3)], b: &[(f64, DVec3)]| {
-                    let close: Vec<f64> = a
-                        .iter()
-                        .filter(|(_, p)| {
-                            b.iter()
-                                .any(|(_, q)| (*p - *q).length() < CONFLICT_DISTANCE_M)
-                        })
-                        .map(|(s, _)| *s)
-                        .collect();
-                    close.first().copied().zip(close.last().copied())
-                };
-                let (a, b) = (&samples[i], &samples[j]);
-                let here = near(a, b);
-                let there = near(b, a);
+                let here = touching(a, b);
+                let there = touching(b, a);
                 let conflict = match (here, there) {
                     (Some((at, clear)), Some((other_at, _))) => Some((at, clear, other_at)),
                     _ if merge => {
-                        let end = |s: &[(f64, DVec3)]| s.last().map_or(0.0, |x| x.0);
+                        let end = |s: &[Sample]| s.last().map_or(0.0, |x| x.s);
                         Some((end(a), end(a), end(b)))
                     }
                     _ => None,
@@ -825,10 +869,13 @@ mod tests {
         let net = crossroads(priority());
         let x = &net.junctions()[0];
         let conflict = |i: usize, j: usize| x.paths[i].conflicts.iter().find(|c| c.other == j);
-        // Straight across each other: near the middle of both, where the lanes cross.
+        // Straight across each other: from where a car's front corner comes within the
+        // clearance of the crossing lane's traffic (its centre 3.5 m before the lanes cross,
+        // which they do 9.5 m in) until its rear has left it.
         let c = conflict(W_STRAIGHT, S_STRAIGHT).expect("they cross");
         assert!(!c.merge);
-        assert!((c.at_m - 7.5).abs() < 1.5, "{c:?}");
+        assert!((c.at_m - 6.0).abs() < 0.5, "{c:?}");
+        assert!((c.clear_m - 13.0).abs() < 0.5, "{c:?}");
         assert!(c.clear_m > c.at_m);
         assert!(conflict(S_STRAIGHT, W_STRAIGHT).is_some());
         // Opposite straights pass 3 m apart; a lane's movements diverge from one point.

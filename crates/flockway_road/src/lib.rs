@@ -26,8 +26,8 @@ pub use geometry::{
     CURVATURE_BIN_M, RoadCursor, RoadFrame, RoadGeometry, RoadProjection, lane_offset,
 };
 pub use junction::{
-    CONFLICT_DISTANCE_M, Conflict, ConnectionSpec, Control, Junction, JunctionError, JunctionPath,
-    JunctionSpec, Phase, SignalProgram, SignalState, Turn, path_name,
+    BODY_LENGTH_M, BODY_WIDTH_M, CONFLICT_CLEARANCE_M, Conflict, ConnectionSpec, Control, Junction,
+    JunctionError, JunctionPath, JunctionSpec, Phase, SignalProgram, SignalState, Turn, path_name,
 };
 pub use mesh::{
     DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,

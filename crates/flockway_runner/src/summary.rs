@@ -133,6 +133,14 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
         if let Some(v) = totals.discharge_headway_s() {
             put(Metric::DischargeHeadwayS.key_for(name), v);
         }
+        if junction.signal.is_some() {
+            put(Metric::RedEntries.key_for(name), totals.red_entries as f64);
+        }
+    }
+    let stats = world.resource::<flockway_drivers::JunctionStats>();
+    for (j, junction) in level.junctions.iter().enumerate() {
+        let broken = stats.deadlocks.get(&j).copied().unwrap_or(0);
+        put(Metric::Deadlocks.key_for(&junction.name), broken as f64);
     }
     let road_lengths: BTreeMap<String, f64> = network
         .iter()

@@ -4,7 +4,7 @@
 use crate::stats::TelemetrySettings;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
-use flockway_road::{Control, RoadId, RoadNetwork};
+use flockway_road::{Control, RoadId, RoadNetwork, SignalState, Turn};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
@@ -31,6 +31,8 @@ pub struct JunctionTotals {
     pub headway_sum_s: f64,
     /// How many headways were summed.
     pub headways: u64,
+    /// Vehicles whose front crossed the line on red.
+    pub red_entries: u64,
 }
 
 impl JunctionTotals {
@@ -58,12 +60,14 @@ struct Approach {
     queued: bool,
 }
 
-/// Per approach lane: the last queued vehicle to cross, in which cycle, and its place.
+/// Per approach lane: the last queued vehicle to cross, in which cycle, its place, and whether
+/// it went straight on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Discharge {
     tick: u64,
     cycle: i64,
     place: u32,
+    straight: bool,
 }
 
 /// Every junction's measures, and what is needed to take them.
@@ -98,7 +102,7 @@ pub fn measure_junctions(
     let mut queue = vec![0.0f64; junctions.len()];
     for (entity, track, motion, model) in &vehicles {
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
-        if let Some((j, _)) = network.junction_path(track.road) {
+        if let Some((j, k)) = network.junction_path(track.road) {
             // Inside: it crossed the line since the last tick, if it was approaching.
             let Some(a) = measures.approaching.remove(&entity) else {
                 continue;
@@ -121,6 +125,13 @@ pub fn measure_junctions(
             };
             if let Some(program) = program.filter(|p| p.cycle_s() > 0.0) {
                 let t = tick as f64 * DT_S;
+                // Its front crossed the line about half a body ago.
+                let v = f64::from(motion.forward_mps.max(0.5));
+                if program.state_at((t - track.s_m.max(0.0) / v - half / v).max(0.0), k)
+                    == SignalState::Red
+                {
+                    totals.red_entries += 1;
+                }
                 let cycle = ((t + program.offset_s) / program.cycle_s()).floor() as i64;
                 let last = measures.discharge.get(&a.lane).copied();
                 let place = match last {
@@ -128,17 +139,29 @@ pub fn measure_junctions(
                     _ if a.queued => 1,
                     _ => 0,
                 };
+                // Saturation flow is a lane's rate for through traffic (a turning car is slower
+                // through the corner, a permitted one may wait for a gap): a headway counts
+                // when both vehicles went straight on.
+                let straight = junctions[j].paths[k].turn == Turn::Straight;
                 if let Some(d) = last
                     && place >= DISCHARGE_FROM
                     && d.place + 1 == place
+                    && d.straight
+                    && straight
                 {
                     totals.headway_sum_s += (tick - d.tick) as f64 * DT_S;
                     totals.headways += 1;
                 }
                 if place > 0 {
-                    measures
-                        .discharge
-                        .insert(a.lane, Discharge { tick, cycle, place });
+                    measures.discharge.insert(
+                        a.lane,
+                        Discharge {
+                            tick,
+                            cycle,
+                            place,
+                            straight,
+                        },
+                    );
                 } else {
                     measures.discharge.remove(&a.lane);
                 }

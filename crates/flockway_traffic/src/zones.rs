@@ -169,6 +169,9 @@ pub fn apply_triggers(
 pub fn count_collisions(
     mut contacts: MessageReader<VehicleContact>,
     labels: Query<&DriverLabel>,
+    places: Query<(&crate::VehicleId, &RoadTrack)>,
+    network: Res<RoadNetwork>,
+    clock: Res<SimClock>,
     mut stats: ResMut<TrafficStats>,
     mut commands: Commands,
 ) {
@@ -193,7 +196,28 @@ pub fn count_collisions(
                     }
                 }
             }
-            ContactWith::Vehicle(_) => stats.collisions_vehicle += 1,
+            ContactWith::Vehicle(other) => {
+                stats.collisions_vehicle += 1;
+                // Where it happened, for whoever tunes a level (`FLOCKWAY_LOG=debug`).
+                let place = |e: Entity| {
+                    places.get(e).map_or_else(
+                        |_| String::from("?"),
+                        |(id, t)| {
+                            let road = network.get(t.road).map_or("?", |g| g.name());
+                            format!(
+                                "vehicle {} on {road:?} lane {} at {:.1} m",
+                                id.0, t.lane, t.s_m
+                            )
+                        },
+                    )
+                };
+                tracing::debug!(
+                    "contact at {:.2} s: {} and {}",
+                    clock.seconds(),
+                    place(c.vehicle),
+                    place(other)
+                );
+            }
             ContactWith::Ground => {}
         }
     }
