@@ -83,7 +83,8 @@ pub enum Command {
         json: bool,
     },
     /// Draw a run's plots from its telemetry CSV: speed_history, space_time, mean_speed and, for
-    /// runs with destroyers, fundamental_diagram.
+    /// runs with destroyers, fundamental_diagram; with the summary of a run with priority
+    /// junctions, capacity.
     ///
     /// Exit status: 0, or 2 if the CSV (or summary) is missing, foreign or malformed.
     Plot {

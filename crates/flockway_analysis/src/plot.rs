@@ -39,6 +39,8 @@ pub struct PlotInfo {
     /// Whether the run had destroyers (then the fundamental diagram is drawn); `None` infers it
     /// from vehicles leaving before the end.
     pub destroyers: Option<bool>,
+    /// The run's junction capacity samples (then the capacity plot is drawn).
+    pub capacity: Vec<crate::CapacitySample>,
 }
 
 impl PlotInfo {
@@ -51,11 +53,12 @@ impl PlotInfo {
 }
 
 /// The plots [`write_plots`] makes, by file stem (a documented contract).
-pub const PLOT_NAMES: [&str; 4] = [
+pub const PLOT_NAMES: [&str; 5] = [
     "speed_history",
     "space_time",
     "mean_speed",
     "fundamental_diagram",
+    "capacity",
 ];
 
 /// Default image size, pixels.
@@ -108,6 +111,9 @@ pub fn render_plot(
     if name == "fundamental_diagram" && !info.destroyers.unwrap_or_else(|| trace.vehicles_leave()) {
         return Ok(false);
     }
+    if name == "capacity" && info.capacity.is_empty() {
+        return Ok(false);
+    }
     if !PLOT_NAMES.contains(&name) {
         return Err(AnalysisError::Plot {
             path: path.to_owned(),
@@ -143,6 +149,7 @@ fn draw<DB: DrawingBackend>(
         "speed_history" => speed_history(root, trace, info),
         "space_time" => space_time(root, trace, info),
         "mean_speed" => mean_speed(root, trace, info),
+        "capacity" => capacity(root, info),
         _ => fundamental_diagram(root, trace, info),
     }
 }
@@ -670,4 +677,94 @@ fn fundamental_diagram<DB: DrawingBackend>(
         legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
     }
+}
+
+/// Capacity of each yielding approach per demand step (points) against the gap-acceptance
+/// formula at the entering drivers' mean critical gap and follow-up time, with ±25 %, and the
+/// HCM 6 single-lane roundabout model.
+fn capacity<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    info: &PlotInfo,
+) -> Result<(), String> {
+    let samples = &info.capacity;
+    let n = samples.len().max(1) as f64;
+    let t_c = samples.iter().map(|c| c.critical_gap_s).sum::<f64>() / n;
+    let t_f = samples.iter().map(|c| c.follow_up_s).sum::<f64>() / n;
+    let qmax = samples
+        .iter()
+        .map(|c| c.conflicting_veh_per_h)
+        .fold(600.0, f64::max)
+        * 1.2;
+    let gap = |q: f64| {
+        let q = q / 3600.0;
+        if q <= 0.0 {
+            3600.0 / t_f
+        } else {
+            3600.0 * q * libm::exp(-q * t_c) / (1.0 - libm::exp(-q * t_f))
+        }
+    };
+    let hcm = |q: f64| 1380.0 * libm::exp(-0.00102 * q);
+    let cmax = samples
+        .iter()
+        .map(|c| c.capacity_veh_per_h)
+        .fold(gap(0.0).max(hcm(0.0)), f64::max)
+        * 1.1;
+    let mut chart = chart_on(
+        root,
+        info.title("capacity of the yielding approaches per demand step"),
+        0.0..qmax,
+        0.0..cmax,
+        ("flow given way to (veh/h)", "capacity (veh/h)"),
+        110,
+    )?;
+    let curve = |f: &dyn Fn(f64) -> f64, scale: f64| -> Vec<(f64, f64)> {
+        (0..=100)
+            .map(|i| {
+                let q = qmax * f64::from(i) / 100.0;
+                (q, f(q) * scale)
+            })
+            .collect()
+    };
+    let blue = RGBColor(31, 119, 180);
+    let grey = RGBColor(120, 120, 120);
+    chart
+        .draw_series(LineSeries::new(curve(&gap, 1.0), blue.stroke_width(3)))
+        .map_err(|e| e.to_string())?
+        .label(format!(
+            "c = q·e^(−q·t_c) / (1 − e^(−q·t_f)), t_c {t_c:.1} s, t_f {t_f:.1} s"
+        ))
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(3)));
+    for scale in [0.75, 1.25] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                curve(&gap, scale),
+                8,
+                6,
+                blue.mix(0.6).stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+    }
+    chart
+        .draw_series(DashedLineSeries::new(
+            curve(&hcm, 1.0),
+            4,
+            6,
+            grey.stroke_width(2),
+        ))
+        .map_err(|e| e.to_string())?
+        .label("HCM 6 roundabout entry: 1 380·e^(−0.00102·v_c)")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(2)));
+    let red = RGBColor(214, 39, 40);
+    chart
+        .draw_series(samples.iter().map(|c| {
+            Circle::new(
+                (c.conflicting_veh_per_h, c.capacity_veh_per_h),
+                7,
+                red.filled(),
+            )
+        }))
+        .map_err(|e| e.to_string())?
+        .label("measured (one demand step of one approach lane)")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 6, red.filled()));
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
 }

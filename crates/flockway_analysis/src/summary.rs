@@ -23,6 +23,36 @@ pub struct ExpectationResult {
     pub value: Option<f64>,
 }
 
+/// The capacity of one yielding approach lane of a junction over one window of the run (a demand
+/// step), against the two reference models.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CapacitySample {
+    /// The junction.
+    pub junction: String,
+    /// The approach road.
+    pub approach: String,
+    /// Its lane.
+    pub lane: u32,
+    /// The window, s from the start.
+    pub from_s: f64,
+    /// Its end, s.
+    pub to_s: f64,
+    /// Share of the window with a vehicle ready at the line (1: saturated throughout).
+    pub saturated_share: f64,
+    /// Vehicles from the lane entering the junction per hour of saturated time.
+    pub capacity_veh_per_h: f64,
+    /// Vehicles per hour entering the paths it gives way to.
+    pub conflicting_veh_per_h: f64,
+    /// Mean critical gap of the vehicles that entered, s.
+    pub critical_gap_s: f64,
+    /// Mean follow-up time of the vehicles that entered, s.
+    pub follow_up_s: f64,
+    /// The gap-acceptance formula c = q·e^(−q·t_c) / (1 − e^(−q·t_f)), veh/h.
+    pub gap_model_veh_per_h: f64,
+    /// The HCM 6 single-lane roundabout entry c = 1 380·e^(−0.00102·v_c), veh/h.
+    pub hcm_model_veh_per_h: f64,
+}
+
 /// What a run measured: the summary JSON of `flockway run --summary`, a documented contract.
 ///
 /// Reading tolerates keys it does not know: a newer Flockway's summary reads in an older one.
@@ -82,6 +112,10 @@ pub struct Summary {
     pub wave_period_s: Option<f64>,
     /// The wave's propagation speed, km/h (negative: against the traffic); `None` without one.
     pub wave_speed_kmh: Option<f64>,
+    /// Capacity of each yielding approach lane per demand step, for levels with priority
+    /// junctions (absent otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub capacity: Vec<CapacitySample>,
 }
 
 /// JSON has no infinity: serde_json writes it as `null`, which reads back as infinity.
@@ -118,6 +152,7 @@ impl Summary {
             wave_detected: None,
             wave_period_s: None,
             wave_speed_kmh: None,
+            capacity: Vec::new(),
         };
         match serde_json::to_value(example) {
             Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
@@ -171,6 +206,7 @@ impl Summary {
                 .filter_map(|(k, v)| Some((k.strip_prefix("road_length_m.")?.to_owned(), *v)))
                 .collect(),
             destroyers: Some(!self.flow_veh_per_h.is_empty()),
+            capacity: self.capacity.clone(),
         }
     }
 

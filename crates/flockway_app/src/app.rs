@@ -734,6 +734,7 @@ impl AppState {
                     routes: Vec::new(),
                     destination: None,
                     schedule: Vec::new(),
+                    arrivals: Default::default(),
                 }));
                 let command = if setup.len() == 1 {
                     setup.remove(0)

@@ -507,6 +507,7 @@ mod tests {
             }],
             destination: None,
             schedule: Vec::new(),
+            arrivals: Default::default(),
         });
         level.destroyers.push(flockway_level::DestroyerSpec {
             name: "end".to_owned(),

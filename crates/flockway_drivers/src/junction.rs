@@ -139,7 +139,12 @@ impl Scene<'_> {
     /// Whether a vehicle on conflicting path `c.other` has its body in the conflict area now
     /// (whoever has the right of way, nobody drives into a car that is there), and whether one
     /// is on that path short of clearing the conflict.
-    fn foes_on_path(&self, j: usize, k: usize, c: &Conflict) -> (bool, bool) {
+    ///
+    /// A foe going at speed that will have cleared the conflict before `a` can reach it (with a
+    /// margin) is neither: it passes first.
+    fn foes_on_path(&self, a: &Approach, c: &Conflict) -> (bool, bool) {
+        let (j, k) = (a.junction, a.path);
+        let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
         let junction = &self.network.junctions()[j];
         let Some(foe_road) = self.network.path_road(j, c.other) else {
             return (false, false);
@@ -155,6 +160,11 @@ impl Scene<'_> {
         // Conflict positions are a body's centre's; only the cars on that path itself (not
         // those on paths overlapping it from the same lane).
         for f in self.index.lane(foe_road, 0) {
+            if f.speed_mps > STARTING_MPS
+                && arrival_s(foe_clear - f.s_m, f.speed_mps) + PASSED_MARGIN_S < mine_there
+            {
+                continue;
+            }
             occupied |= f.s_m > c.other_at_m && f.s_m < foe_clear + CONFLICT_MARGIN_M;
             short |= f.s_m < foe_clear;
         }
@@ -178,7 +188,7 @@ impl Scene<'_> {
                 continue;
             }
             // Inside the junction, short of clearing the conflict.
-            let (_, short) = self.foes_on_path(a.junction, a.path, c);
+            let (_, short) = self.foes_on_path(a, c);
             if short {
                 out.hold = true;
                 out.by_moving = true;
@@ -202,6 +212,8 @@ impl Scene<'_> {
             };
             // Standing in the conflict already: a foe held at its line waits for it.
             let in_it = centre > c.at_m;
+            // When it reaches its place at the line (now, when it waits there).
+            let mine = arrival_s((a.to_line_m - STOP_LINE_MARGIN_M).max(0.0), a.speed_mps);
             for f in self
                 .approaches
                 .iter()
@@ -220,8 +232,21 @@ impl Scene<'_> {
                 if f.blocked || (f.held && (in_it || foe_state == Some(SignalState::Amber))) {
                     continue;
                 }
+                // The gap it would take: from when it reaches the line to when the foe
+                // reaches their conflict. A foe that will have cleared the conflict before it
+                // gets there passes first.
                 let eta = arrival_s(f.to_line_m + f.half_m + c.other_at_m, f.speed_mps);
-                if eta < needed_s {
+                let foe_clear = junction.paths[c.other]
+                    .conflicts
+                    .iter()
+                    .find(|d| d.other == a.path)
+                    .map_or(c.other_at_m, |d| d.clear_m);
+                let foe_gone = arrival_s(f.to_line_m + f.half_m + foe_clear, f.speed_mps);
+                let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
+                if f.speed_mps > STARTING_MPS && foe_gone + PASSED_MARGIN_S < mine_there {
+                    continue;
+                }
+                if eta - mine < needed_s {
                     out.hold = true;
                     out.by_moving |= f.speed_mps > STOPPED_MPS;
                 }
@@ -242,6 +267,9 @@ const INSIDE_STOP_M: f64 = 1.5;
 /// How far past a conflict's start a car's centre may be and still be waiting short of it
 /// (an overshoot does not entitle it to go on; the others see it in their way), m.
 const WAIT_TOLERANCE_M: f64 = 0.5;
+/// Time a foe must have cleared a conflict before a car reaches it for the foe to pass first,
+/// s.
+const PASSED_MARGIN_S: f64 = 1.0;
 /// Time a car going through a gap wants between clearing a conflict and a foe reaching it, s.
 const CLEARING_MARGIN_S: f64 = 1.5;
 
@@ -454,6 +482,10 @@ const STARTING_MPS: f32 = 5.0;
 /// The acceleration a starting vehicle is expected to reach a conflict with, m/s².
 const STARTING_ACCEL_MPS2: f64 = 2.0;
 
+/// The acceleration a car waiting to follow up is expected to start with at most, m/s² (it
+/// may go as soon as it could not arrive sooner than its follow-up time).
+const OWN_START_ACCEL_MPS2: f64 = 3.0;
+
 /// When a vehicle `d_m` from a point reaches it at `speed_mps`: a slow or standing one is
 /// expected to speed up (a car held at its line a moment ago may be released now).
 fn arrival_s(d_m: f64, speed_mps: f32) -> f64 {
@@ -531,7 +563,7 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
         .filter(|c| centre < c.at_m + WAIT_TOLERANCE_M)
     {
         let here = c.at_m + a.half_m - INSIDE_STOP_M;
-        if scene.foes_on_path(a.junction, a.path, c).0 {
+        if scene.foes_on_path(a, c).0 {
             occupied_stop = occupied_stop.min(here);
             by_moving = true;
         }
@@ -674,10 +706,7 @@ fn decide_at_line(
     // way.
     let mut occupied = false;
     if !hold {
-        occupied = path
-            .conflicts
-            .iter()
-            .any(|c| scene.foes_on_path(a.junction, a.path, c).0);
+        occupied = path.conflicts.iter().any(|c| scene.foes_on_path(a, c).0);
         hold = occupied;
     }
     let mut blocked = Blocked::default();
@@ -711,10 +740,15 @@ fn decide_at_line(
     if !hold
         && blocked.yields
         && path_road.is_some_and(|p| {
-            stats
-                .last_entry
-                .get(&p)
-                .is_some_and(|&t| (tick - t) as f64 * DT_S < follow_up_s)
+            stats.last_entry.get(&p).is_some_and(|&t| {
+                // It enters (its centre crosses the line, as the last one's did) that much
+                // later: it need not stop to wait.
+                let d = a.to_line_m.max(0.0) + a.half_m;
+                let v = f64::from(a.speed_mps.max(0.0));
+                let at_line =
+                    (-v + (v * v + 2.0 * OWN_START_ACCEL_MPS2 * d).sqrt()) / OWN_START_ACCEL_MPS2;
+                (tick - t) as f64 * DT_S + at_line < follow_up_s
+            })
         })
     {
         hold = true;

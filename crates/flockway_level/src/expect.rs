@@ -94,11 +94,17 @@ pub enum Metric {
     RedEntries,
     /// Deadlocks broken at a junction.
     Deadlocks,
+    /// Largest relative difference between a yielding approach's capacity and the
+    /// gap-acceptance formula.
+    GapModelError,
+    /// Largest relative difference between a yielding approach's capacity and the HCM 6
+    /// single-lane roundabout model.
+    HcmModelError,
 }
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 27] = [
+    pub const ALL: [Metric; 29] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -126,6 +132,8 @@ impl Metric {
         Metric::DischargeHeadwayS,
         Metric::RedEntries,
         Metric::Deadlocks,
+        Metric::GapModelError,
+        Metric::HcmModelError,
     ];
 
     /// Its name, unit, qualifier and meaning.
@@ -292,6 +300,18 @@ impl Metric {
                 qualifier: Qualifier::Junction,
                 unit: "",
                 description: "vehicles at a junction without a signal that went after waiting 20 s at the line with nothing in their way moving (the deadlock rule), over the whole run",
+            },
+            Metric::GapModelError => MetricInfo {
+                name: "gap_model_error",
+                qualifier: Qualifier::Junction,
+                unit: "",
+                description: "largest relative difference between measured and model capacity (either way) over the demand steps and yielding approach lanes (saturated 90 % of the step or more) of a priority junction, the model the gap-acceptance formula c = q·e^(−q·t_c) / (1 − e^(−q·t_f)) with the entering drivers' critical gap and follow-up time",
+            },
+            Metric::HcmModelError => MetricInfo {
+                name: "hcm_model_error",
+                qualifier: Qualifier::Junction,
+                unit: "",
+                description: "the same against the HCM 6 single-lane roundabout entry capacity c = 1 380·e^(−0.00102·v_c), v_c the flow it gives way to",
             },
         }
     }

@@ -19,9 +19,9 @@ pub use io::{
 };
 pub use locate::{PathStep, Pos, locate};
 pub use schema::{
-    CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec,
-    InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec, TelemetrySpec,
-    TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+    Arrivals, CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel,
+    DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
+    TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,

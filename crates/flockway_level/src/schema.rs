@@ -215,6 +215,27 @@ pub struct SpawnerSpec {
     /// first step, `interval_s`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub schedule: Vec<DemandStep>,
+    /// How intervals are drawn from their range.
+    #[serde(default, skip_serializing_if = "Arrivals::is_uniform")]
+    pub arrivals: Arrivals,
+}
+
+/// How a spawner draws the interval before its next vehicle from a range `(min, max)`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Arrivals {
+    /// Uniformly in the range.
+    #[default]
+    Uniform,
+    /// At random: `min` plus an exponential draw with mean `(max - min) / 2`, so the mean
+    /// interval is the range's and the stream is a Poisson one with a minimum headway (free
+    /// traffic; gap-acceptance capacity formulas assume it).
+    Random,
+}
+
+impl Arrivals {
+    fn is_uniform(&self) -> bool {
+        *self == Arrivals::Uniform
+    }
 }
 
 /// One route a spawner gives its vehicles: the roads in driving order, from the spawner's road.

@@ -90,6 +90,7 @@ impl Template {
                     routes: Vec::new(),
                     destination: None,
                     schedule: Vec::new(),
+                    arrivals: Default::default(),
                 });
                 level.destroyers.push(DestroyerSpec {
                     name: "end".to_owned(),

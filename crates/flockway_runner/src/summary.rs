@@ -1,12 +1,14 @@
 //! The end of a run: every metric measured from the world and the telemetry, the level's
 //! expectations checked against them, the [`Summary`].
 
-use flockway_analysis::{ExpectationResult, Summary, Trace, WaveSettings, measure_wave};
+use flockway_analysis::{
+    CapacitySample, ExpectationResult, Summary, Trace, WaveSettings, measure_wave,
+};
 use flockway_core::{RunStats, Sim, TICKS_PER_SECOND};
 use flockway_drivers::RouteStats;
 use flockway_level::{Expectation, Level, Metric};
 use flockway_road::RoadNetwork;
-use flockway_traffic::{JunctionMeasures, TelemetrySettings, TrafficStats};
+use flockway_traffic::{CapacityWindows, JunctionMeasures, TelemetrySettings, TrafficStats};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Duration;
@@ -137,6 +139,26 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
             put(Metric::RedEntries.key_for(name), totals.red_entries as f64);
         }
     }
+    // How close each junction's yielding approaches came to the capacity models.
+    let samples = capacity_samples(sim, level);
+    for junction in &level.junctions {
+        let mine = || {
+            samples
+                .iter()
+                .filter(|c| c.junction == junction.name && c.saturated_share >= SATURATED_SHARE)
+        };
+        let worst = |model: fn(&CapacitySample) -> f64| {
+            mine()
+                .map(|c| (c.capacity_veh_per_h / model(c) - 1.0).abs())
+                .fold(None, |w: Option<f64>, e| Some(w.map_or(e, |w| w.max(e))))
+        };
+        if let Some(e) = worst(|c| c.gap_model_veh_per_h) {
+            put(Metric::GapModelError.key_for(&junction.name), e);
+        }
+        if let Some(e) = worst(|c| c.hcm_model_veh_per_h) {
+            put(Metric::HcmModelError.key_for(&junction.name), e);
+        }
+    }
     let stats = world.resource::<flockway_drivers::JunctionStats>();
     for (j, junction) in level.junctions.iter().enumerate() {
         let broken = stats.deadlocks.get(&j).copied().unwrap_or(0);
@@ -206,7 +228,99 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
         wave_speed_kmh: get(Metric::WaveSpeedKmh),
         missed_exits: get(Metric::MissedExits),
         metrics,
+        capacity: capacity_samples(sim, level),
     }
+}
+
+/// A capacity sample counts toward the model errors when its lane had a vehicle ready at the
+/// line this share of the window at least (capacity is what a saturated approach gets through).
+pub const SATURATED_SHARE: f64 = 0.9;
+
+/// The capacity of every yielding approach lane (a non-major road of a `Priority` junction) in
+/// every capacity window, with the flow it gives way to and both models' capacity.
+pub fn capacity_samples(sim: &Sim, level: &Level) -> Vec<CapacitySample> {
+    let world = sim.world();
+    let network = world.resource::<RoadNetwork>();
+    let measures = world.resource::<JunctionMeasures>();
+    let windows = &world.resource::<CapacityWindows>().0;
+    let tick_s = 1.0 / f64::from(TICKS_PER_SECOND);
+    let mut out = Vec::new();
+    for ((j, road, lane, w), lw) in &measures.lane_windows {
+        let (Some(junction), Some(spec), Some(&(from, to))) = (
+            network.junctions().get(*j),
+            level.junctions.get(*j),
+            windows.get(*w),
+        ) else {
+            continue;
+        };
+        let flockway_road::Control::Priority { major, .. } = &spec.control else {
+            continue;
+        };
+        let Some(approach) = network.get(*road).map(|g| g.name().to_owned()) else {
+            continue;
+        };
+        if major.contains(&approach) || lw.entries == 0 {
+            continue;
+        }
+        // The paths from this lane, and the major ones they give way to.
+        let mut foes: Vec<usize> = Vec::new();
+        for (k, p) in junction.paths.iter().enumerate() {
+            if p.from != (road.0, *lane) {
+                continue;
+            }
+            for c in &p.conflicts {
+                if junction.gives_way(k, c.other, None) && !foes.contains(&c.other) {
+                    foes.push(c.other);
+                }
+            }
+        }
+        let window_s = (to - from) as f64 * tick_s;
+        let saturated_s = lw.saturated_ticks as f64 * tick_s;
+        let conflicting: u64 = foes
+            .iter()
+            .map(|&k| {
+                measures
+                    .path_windows
+                    .get(&(*j, k, *w))
+                    .copied()
+                    .unwrap_or(0)
+            })
+            .sum();
+        let q = conflicting as f64 / window_s;
+        let n = lw.entries as f64;
+        let (t_c, t_f) = (lw.critical_gap_sum_s / n, lw.follow_up_sum_s / n);
+        out.push(CapacitySample {
+            junction: spec.name.clone(),
+            approach,
+            lane: *lane,
+            from_s: from as f64 * tick_s,
+            to_s: to as f64 * tick_s,
+            saturated_share: saturated_s / window_s,
+            capacity_veh_per_h: n * 3600.0 / saturated_s.max(tick_s),
+            conflicting_veh_per_h: q * 3600.0,
+            critical_gap_s: t_c,
+            follow_up_s: t_f,
+            gap_model_veh_per_h: gap_model_veh_per_h(q * 3600.0, t_c, t_f),
+            hcm_model_veh_per_h: hcm_roundabout_veh_per_h(q * 3600.0),
+        });
+    }
+    out
+}
+
+/// Capacity of a stream giving way to a random major stream of `q_veh_per_h` (Harders'
+/// gap-acceptance formula with critical gap `t_c` and follow-up time `t_f`, s), veh/h.
+pub fn gap_model_veh_per_h(q_veh_per_h: f64, t_c: f64, t_f: f64) -> f64 {
+    let q = q_veh_per_h / 3600.0;
+    if q <= 0.0 {
+        return 3600.0 / t_f;
+    }
+    3600.0 * q * libm::exp(-q * t_c) / (1.0 - libm::exp(-q * t_f))
+}
+
+/// Entry capacity of a single-lane roundabout against a circulating flow of `v_c_veh_per_h`
+/// (Highway Capacity Manual, 6th edition), veh/h.
+pub fn hcm_roundabout_veh_per_h(v_c_veh_per_h: f64) -> f64 {
+    1380.0 * libm::exp(-0.00102 * v_c_veh_per_h)
 }
 
 /// One expectation checked against the measured metrics; a metric the run did not measure
@@ -227,5 +341,28 @@ pub fn level_name(level: &Level, path: &Path) -> String {
             .map_or_else(|| "level".to_owned(), |s| s.to_string_lossy().into_owned())
     } else {
         level.name.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_capacity_models_give_their_textbook_values() {
+        // No major traffic: one car per follow-up time.
+        assert!((gap_model_veh_per_h(0.0, 6.2, 3.3) - 3600.0 / 3.3).abs() < 1e-9);
+        // 600 veh/h, t_c 6.2 s, t_f 3.3 s: q = 1/6 veh/s, c = q e^(−q t_c) / (1 − e^(−q t_f)).
+        let q: f64 = 1.0 / 6.0;
+        let c = 3600.0 * q * (-q * 6.2).exp() / (1.0 - (-q * 3.3).exp());
+        assert!((gap_model_veh_per_h(600.0, 6.2, 3.3) - c).abs() < 1e-6);
+        assert!((c - 504.6).abs() < 0.1, "{c}");
+        // More traffic to give way to, less capacity.
+        assert!(gap_model_veh_per_h(900.0, 6.2, 3.3) < c);
+        // HCM 6 single-lane roundabout: 1 380 veh/h with nothing circulating, about 829 at
+        // 500 veh/h circulating.
+        assert!((hcm_roundabout_veh_per_h(0.0) - 1380.0).abs() < 1e-9);
+        assert!((hcm_roundabout_veh_per_h(500.0) - 1380.0 * (-0.51f64).exp()).abs() < 1e-9);
+        assert!((hcm_roundabout_veh_per_h(500.0) - 828.7).abs() < 0.1);
     }
 }

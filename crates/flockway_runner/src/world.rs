@@ -6,8 +6,8 @@ use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
 use flockway_road::{Junctions, Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
-    Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner, TelemetrySettings, TrafficPlugin,
-    Trigger, TriggerEffect, spawn_driven,
+    CapacityWindows, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner,
+    TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect, spawn_driven,
 };
 use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
 use std::collections::BTreeMap;
@@ -129,6 +129,7 @@ pub fn populate(
         period_ticks: ticks_of(level.telemetry.period_s).max(1),
         stats_from_tick: ticks_of(level.telemetry.stats_from_s),
     });
+    world.insert_resource(capacity_windows(level));
     let streams = *world.resource::<RngStreams>();
     for (i, sp) in level.spawners.iter().enumerate() {
         let choices = sp
@@ -160,7 +161,8 @@ pub fn populate(
                     )
                 })
                 .collect(),
-        );
+        )
+        .with_random_arrivals(sp.arrivals == flockway_level::Arrivals::Random);
         world.spawn((spawner, StableId::new(IdKind::Spawner, i as u32)));
     }
     for (i, d) in level.destroyers.iter().enumerate() {
@@ -229,4 +231,31 @@ pub fn populate(
         }
     }
     Ok(())
+}
+
+/// How long after a change of demand capacity is not measured, s: the new stream has to reach
+/// the junctions first.
+pub const CAPACITY_SETTLE_S: f64 = 30.0;
+
+/// The windows junction capacity is measured over: from the warm-up's end to the run's, split at
+/// every demand step of every spawner, each from [`CAPACITY_SETTLE_S`] after its start.
+pub fn capacity_windows(level: &Level) -> CapacityWindows {
+    let start = level.telemetry.stats_from_s;
+    let mut cuts: Vec<f64> = level
+        .spawners
+        .iter()
+        .flat_map(|sp| sp.schedule.iter().map(|step| step.from_s))
+        .filter(|&t| t > start && t < level.duration_s)
+        .collect();
+    cuts.push(start);
+    cuts.push(level.duration_s);
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    let tick = |s: f64| (s * f64::from(TICKS_PER_SECOND)).round() as u64;
+    CapacityWindows(
+        cuts.windows(2)
+            .filter(|w| w[1] - w[0] > CAPACITY_SETTLE_S)
+            .map(|w| (tick(w[0] + CAPACITY_SETTLE_S), tick(w[1])))
+            .collect(),
+    )
 }

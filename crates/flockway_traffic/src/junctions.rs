@@ -4,6 +4,7 @@
 use crate::stats::TelemetrySettings;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
+use flockway_drivers::{CRITICAL_GAP_S, FOLLOW_UP_S, GapAcceptance};
 use flockway_road::{Control, RoadId, RoadNetwork, SignalState, Turn};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
@@ -70,11 +71,44 @@ struct Discharge {
     straight: bool,
 }
 
+/// A vehicle this close to the line (front bumper) keeps its approach lane saturated: the lane
+/// always has one ready to go, m.
+pub const SATURATED_M: f64 = 25.0;
+
+/// The windows capacity is measured over, in ticks `[from, to)` (the runner takes them from the
+/// level's demand steps).
+#[derive(Resource, Debug, Clone, Default, PartialEq)]
+pub struct CapacityWindows(pub Vec<(u64, u64)>);
+
+impl CapacityWindows {
+    /// The window `tick` falls in.
+    fn at(&self, tick: u64) -> Option<usize> {
+        self.0.iter().position(|&(a, b)| (a..b).contains(&tick))
+    }
+}
+
+/// One approach lane of a junction over one capacity window.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LaneWindow {
+    /// Ticks with a vehicle within [`SATURATED_M`] of the line.
+    pub saturated_ticks: u64,
+    /// Vehicles from the lane that entered the junction.
+    pub entries: u64,
+    /// Sum of their critical gaps, s.
+    pub critical_gap_sum_s: f64,
+    /// Sum of their follow-up times, s.
+    pub follow_up_sum_s: f64,
+}
+
 /// Every junction's measures, and what is needed to take them.
 #[derive(Resource, Debug, Clone, Default, PartialEq)]
 pub struct JunctionMeasures {
     /// Per junction, in the level's order.
     pub totals: Vec<JunctionTotals>,
+    /// Per junction, approach lane and capacity window.
+    pub lane_windows: BTreeMap<(usize, RoadId, u32, usize), LaneWindow>,
+    /// Per junction, path and capacity window: vehicles that entered the path.
+    pub path_windows: BTreeMap<(usize, usize, usize), u64>,
     approaching: BTreeMap<Entity, Approach>,
     discharge: BTreeMap<(RoadId, u32), Discharge>,
 }
@@ -86,8 +120,15 @@ pub fn measure_junctions(
     network: Res<RoadNetwork>,
     clock: Res<SimClock>,
     settings: Res<TelemetrySettings>,
+    windows: Res<CapacityWindows>,
     mut measures: ResMut<JunctionMeasures>,
-    vehicles: Query<(Entity, &RoadTrack, &Motion, &VehicleModel)>,
+    vehicles: Query<(
+        Entity,
+        &RoadTrack,
+        &Motion,
+        &VehicleModel,
+        Option<&GapAcceptance>,
+    )>,
 ) {
     let junctions = network.junctions();
     if junctions.is_empty() {
@@ -100,14 +141,32 @@ pub fn measure_junctions(
     let tick = clock.tick().0;
     let counting = tick >= settings.stats_from_tick;
     let mut queue = vec![0.0f64; junctions.len()];
-    for (entity, track, motion, model) in &vehicles {
+    let window = windows.at(tick);
+    let mut saturated: Vec<(usize, RoadId, u32)> = Vec::new();
+    for (entity, track, motion, model, gaps) in &vehicles {
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
         if let Some((j, k)) = network.junction_path(track.road) {
             // Inside: it crossed the line since the last tick, if it was approaching.
             let Some(a) = measures.approaching.remove(&entity) else {
                 continue;
             };
-            if a.junction != j || !counting {
+            if a.junction != j {
+                continue;
+            }
+            if let Some(w) = window {
+                *measures.path_windows.entry((j, k, w)).or_default() += 1;
+                let lane = measures
+                    .lane_windows
+                    .entry((j, a.lane.0, a.lane.1, w))
+                    .or_default();
+                lane.entries += 1;
+                let (t_c, t_f) = gaps.map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
+                    (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
+                });
+                lane.critical_gap_sum_s += t_c;
+                lane.follow_up_sum_s += t_f;
+            }
+            if !counting {
                 continue;
             }
             let totals = &mut measures.totals[j];
@@ -181,6 +240,9 @@ pub fn measure_junctions(
             continue;
         }
         let queued = motion.forward_mps < QUEUED_MPS;
+        if to_line < SATURATED_M {
+            saturated.push((j, track.road, track.lane));
+        }
         let a = measures.approaching.entry(entity).or_insert(Approach {
             junction: j,
             lane: (track.road, track.lane),
@@ -192,6 +254,17 @@ pub fn measure_junctions(
         a.lane = (track.road, track.lane);
         if queued {
             queue[j] = queue[j].max(to_line + 2.0 * half);
+        }
+    }
+    if let Some(w) = window {
+        saturated.sort_unstable();
+        saturated.dedup();
+        for (j, road, lane) in saturated {
+            measures
+                .lane_windows
+                .entry((j, road, lane, w))
+                .or_default()
+                .saturated_ticks += 1;
         }
     }
     // Vehicles gone (destroyed) are forgotten.

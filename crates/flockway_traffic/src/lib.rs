@@ -12,8 +12,8 @@ mod stats;
 mod zones;
 
 pub use junctions::{
-    APPROACH_ZONE_M, DISCHARGE_FROM, JunctionMeasures, JunctionTotals, QUEUED_MPS,
-    measure_junctions,
+    APPROACH_ZONE_M, CapacityWindows, DISCHARGE_FROM, JunctionMeasures, JunctionTotals, LaneWindow,
+    QUEUED_MPS, SATURATED_M, measure_junctions,
 };
 pub use spawn::{
     SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
@@ -50,6 +50,7 @@ impl SimPlugin for TrafficPlugin {
             (count_collisions, apply_triggers).chain(),
         );
         sim.world_mut().init_resource::<JunctionMeasures>();
+        sim.world_mut().init_resource::<CapacityWindows>();
         sim.add_systems(StepSet::Record, (sample_telemetry, measure_junctions));
         sim.add_systems(StepSet::Despawn, run_destroyers);
     }

@@ -86,6 +86,9 @@ pub struct Spawner {
     pub schedule: Vec<(u64, f64, f64)>,
     /// Ticks it has spent waiting for its spot to clear.
     pub waited_ticks: u64,
+    /// Intervals random beyond the shortest (exponential, with the range's mean) rather than
+    /// uniform in the range.
+    pub random_arrivals: bool,
     next_due: Option<u64>,
     rng: EntityRng,
 }
@@ -120,9 +123,18 @@ impl Spawner {
             routes: Vec::new(),
             schedule: Vec::new(),
             waited_ticks: 0,
+            random_arrivals: false,
             next_due: None,
             rng,
         }
+    }
+
+    /// Draws intervals at random beyond the shortest: the shortest plus an exponential draw
+    /// whose mean makes the mean interval that of the range (arrivals of free traffic, as a
+    /// Poisson stream with a minimum headway).
+    pub fn with_random_arrivals(mut self, random: bool) -> Spawner {
+        self.random_arrivals = random;
+        self
     }
 
     /// Gives its vehicles these routes.
@@ -152,10 +164,14 @@ impl Spawner {
     fn draw_interval_ticks(&mut self, tick: u64) -> u64 {
         let (lo, hi) = self.interval_at(tick);
         let (lo, hi) = (lo.max(0.0), hi.max(0.0));
-        let s = if hi > lo {
-            self.rng.uniform(lo, hi)
-        } else {
+        let s = if hi <= lo {
             lo
+        } else if self.random_arrivals {
+            // Inverse transform of an exponential with mean (hi - lo) / 2 beyond `lo`.
+            let u = self.rng.uniform(0.0, 1.0);
+            lo - 0.5 * (hi - lo) * libm::log(1.0 - u)
+        } else {
+            self.rng.uniform(lo, hi)
         };
         (s * f64::from(TICKS_PER_SECOND)).round().max(1.0) as u64
     }
@@ -288,4 +304,54 @@ pub fn spawn_driven(
     ));
     world.resource_mut::<TrafficStats>().spawned += 1;
     Ok(entity)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use flockway_core::{IdKind, RngStreams, StableId};
+
+    fn spawner(random: bool) -> Spawner {
+        let rng = RngStreams::new(7).stream(StableId::new(IdKind::Spawner, 0));
+        Spawner::new(
+            "s".into(),
+            RoadId(0),
+            0,
+            0.0,
+            (1.5, 10.5),
+            Vec::new(),
+            None,
+            true,
+            None,
+            rng,
+        )
+        .with_random_arrivals(random)
+    }
+
+    #[test]
+    fn random_arrivals_keep_the_mean_interval_and_the_shortest_but_spread_like_a_poisson_stream() {
+        let n = 20_000;
+        let draws = |random: bool| -> Vec<f64> {
+            let mut sp = spawner(random);
+            (0..n)
+                .map(|_| sp.draw_interval_ticks(0) as f64 / f64::from(TICKS_PER_SECOND))
+                .collect()
+        };
+        for random in [false, true] {
+            let d = draws(random);
+            let mean = d.iter().sum::<f64>() / n as f64;
+            // Both have the range's mean, 6 s (the standard error is about 0.03 s).
+            assert!((mean - 6.0).abs() < 0.1, "random {random}: mean {mean}");
+            assert!(d.iter().all(|&x| x >= 1.5 - 1e-9), "random {random}");
+        }
+        // Uniform draws stay in the range; random ones beyond the shortest are exponential:
+        // a share e^(−1) ≈ 0.37 of them exceed the shortest by more than their mean (4.5 s), and
+        // some exceed the range's longest.
+        let uniform = draws(false);
+        assert!(uniform.iter().all(|&x| x <= 10.5 + 1e-9));
+        let random = draws(true);
+        let beyond = random.iter().filter(|&&x| x - 1.5 > 4.5).count() as f64 / n as f64;
+        assert!((beyond - (-1.0f64).exp()).abs() < 0.02, "{beyond}");
+        assert!(random.iter().any(|&x| x > 10.5));
+    }
 }
