@@ -447,8 +447,13 @@ pub fn gate_junctions(
     }
 }
 
-/// Below this speed a car at the start of an exit lane is about to stand there, m/s.
+/// Below this speed a car at the start of an exit lane that closes on a standing one is about
+/// to stand there, m/s.
 const EXIT_MOVING_MPS: f32 = 5.0;
+/// Below this speed a car counts as standing in a queue, m/s.
+const QUEUED_MPS: f32 = 2.0;
+/// How close behind a standing car a slow one is joining its queue, m (centre to centre).
+const JOINING_QUEUE_M: f64 = 15.0;
 
 /// How far into a path a standing vehicle still blocks the lane it came from, m (its centre).
 const BLOCKS_LANE_M: f64 = 10.0;
@@ -693,12 +698,19 @@ fn decide_at_line(
             .sum();
         let need = 2.0 * a.half_m + QUEUE_GAP_M + bound;
         seen.clear();
+        let reach = need + JOINING_QUEUE_M + 10.0;
         scene
             .index
-            .within(RoadId(to_road), to_lane, 0.0, 0.0, need + 10.0, None, seen);
+            .within(RoadId(to_road), to_lane, 0.0, 0.0, reach, None, seen);
+        // Standing, or slow and closing on a standing car (joining a queue): it will not
+        // move on out of the way. A slow car in free flow (round a tight curve) will.
+        let standing = |s: &Seen| s.entry.speed_mps < QUEUED_MPS;
         no_room = seen.iter().any(|s| {
-            s.entry.speed_mps < EXIT_MOVING_MPS
-                && s.gap_m - 0.5 * f64::from(s.entry.length_m) < need
+            let joining = s.entry.speed_mps < EXIT_MOVING_MPS
+                && seen.iter().any(|o| {
+                    o.gap_m > s.gap_m && o.gap_m - s.gap_m < JOINING_QUEUE_M && standing(o)
+                });
+            (standing(s) || joining) && s.gap_m - 0.5 * f64::from(s.entry.length_m) < need
         });
         hold = no_room;
     }

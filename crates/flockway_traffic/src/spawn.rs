@@ -204,6 +204,17 @@ pub fn run_spawners(
         if !sp.active || sp.max_vehicles.is_some_and(|m| sp.spawned >= m) || sp.choices.is_empty() {
             continue;
         }
+        // Random arrivals have no memory: when the demand steps, the wait still drawn at the
+        // old rate is drawn again at the new one (else a long wait drawn at a low demand would
+        // delay the higher one).
+        if sp.random_arrivals
+            && let Some(due) = sp.next_due
+            && sp.schedule.iter().any(|step| step.0 == tick)
+            && due > tick
+        {
+            let redrawn = tick + sp.draw_interval_ticks(tick);
+            sp.next_due = Some(redrawn);
+        }
         let due = match sp.next_due {
             Some(t) => t,
             None => {
