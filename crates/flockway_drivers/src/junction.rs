@@ -5,6 +5,7 @@
 //! vehicle's speed to what stops it at the line, whatever its driver wants.
 
 use crate::perception::{LaneIndex, Seen};
+use crate::route::Route;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
 use flockway_road::{Conflict, RoadId, RoadNetwork, SignalState};
@@ -204,7 +205,13 @@ impl Scene<'_> {
             // conflict before it has cleared it (a gap taken is not re-judged by the critical
             // gap every tick).
             let centre = -a.to_line_m - a.half_m;
-            let going = !a.held && a.speed_mps > STOPPED_MPS;
+            // Going: moving, let go, and too near to stop comfortably before its line any
+            // more (or past it).
+            let v = f64::from(a.speed_mps);
+            let going = !a.held
+                && a.speed_mps > STOPPED_MPS
+                && a.to_line_m
+                    < v * v / (2.0 * f64::from(STOP_LINE_DECEL_MPS2)) + STOP_LINE_MARGIN_M;
             let needed_s = if going {
                 critical_gap_s.min(arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S)
             } else {
@@ -295,6 +302,7 @@ pub fn gate_junctions(
         &mut JunctionGate,
     )>,
     gaps: Query<&GapAcceptance>,
+    routes: Query<&Route>,
 ) {
     if network.junctions().is_empty() {
         return;
@@ -309,10 +317,46 @@ pub fn gate_junctions(
     // Who approaches which path (in the query's order, which the world fixes): by its route's
     // next road, or where its lane leads for a car that follows the links; and who is on one.
     let mut approaches: Vec<Approach> = Vec::new();
+    // Vehicles bound for a junction beyond the next one on their routes (foes only).
+    let mut far: Vec<Approach> = Vec::new();
     for (entity, track, motion, model, gate) in &vehicles {
         let half = 0.5 * f64::from(model.0.params.chassis.length_m);
         let v = motion.forward_mps.max(0.0);
         let held = gate.stop_at_m.is_some();
+        // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
+        // for.
+        let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
+            .max(f64::from(v) * FOE_HORIZON_S);
+        // Junctions further along its route within that distance (round a roundabout, the
+        // next entry's drivers see it coming): foes there, held if it is held before.
+        if let Ok(route) = routes.get(entity) {
+            let mut to_m = network.get(track.road).map_or(0.0, |g| g.length_m()) - track.s_m - half;
+            let mut first = true;
+            for &road in route.ahead().iter().skip(1) {
+                if to_m > horizon {
+                    break;
+                }
+                if let Some((j, k)) = network.junction_path(road) {
+                    let is_first = first && network.junction_path(track.road).is_none();
+                    first = false;
+                    if !is_first {
+                        far.push(Approach {
+                            entity,
+                            junction: j,
+                            path: k,
+                            to_line_m: to_m,
+                            half_m: half,
+                            speed_mps: v,
+                            held: false,
+                            inside: false,
+                            stopped_tick: None,
+                            blocked: held,
+                        });
+                    }
+                }
+                to_m += network.get(road).map_or(f64::INFINITY, |g| g.length_m());
+            }
+        }
         if let Some((j, k)) = network.junction_path(track.road) {
             approaches.push(Approach {
                 entity,
@@ -333,10 +377,6 @@ pub fn gate_junctions(
         else {
             continue;
         };
-        // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
-        // for.
-        let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
-            .max(f64::from(v) * FOE_HORIZON_S);
         if ahead.to_line_m < horizon {
             approaches.push(Approach {
                 entity,
@@ -352,6 +392,8 @@ pub fn gate_junctions(
             });
         }
     }
+    let deciding = approaches.len();
+    approaches.append(&mut far);
     let scene = Scene {
         network: &network,
         index: &index,
@@ -362,7 +404,7 @@ pub fn gate_junctions(
     let mut decided: Vec<(Entity, JunctionGate, Option<usize>)> =
         Vec::with_capacity(approaches.len());
     let mut broken: Vec<usize> = Vec::new();
-    for a in &approaches {
+    for a in &approaches[..deciding] {
         let Ok((_, track, _, _, gate)) = vehicles.get(a.entity) else {
             continue;
         };
