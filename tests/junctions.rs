@@ -49,32 +49,18 @@ fn a_car_stops_at_a_red_light_and_goes_through_the_junction_on_green() {
     assert!((40.0..70.0).contains(&m["max_queue_m.j"]), "{m:#?}");
     assert!((1.0..3.0).contains(&m["discharge_headway_s.j"]), "{m:#?}");
     assert!(m["junction_delay_s.j"] > 10.0, "{m:#?}");
-    let mut reader = csv::Reader::from_path(&csv_path).expect("the CSV");
-    let headers = reader.headers().expect("headers").clone();
-    let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
-    let (time, id, road, s, speed) = (
-        col("time_s"),
-        col("vehicle_id"),
-        col("road"),
-        col("s_m"),
-        col("speed_kmh"),
-    );
     let mut cars = std::collections::BTreeSet::new();
     let (mut stopped_at_line, mut through, mut on_red) = (0, 0, 0);
-    for row in reader.records() {
-        let row = row.expect("a row");
-        let t: f64 = row[time].parse().expect("time_s");
-        let s_m: f64 = row[s].parse().expect("s_m");
-        let v: f64 = row[speed].parse().expect("speed_kmh");
-        cars.insert(row[id].to_owned());
-        match &row[road] {
+    for (t, id, road, s_m, v) in rows(&csv_path) {
+        cars.insert(id);
+        match road.as_str() {
             // Front bumper (half the 4.6 m body ahead of the centre) short of the line.
             "a" if t < 40.0 => {
                 assert!(
                     s_m + 2.3 <= 200.0,
                     "past the line on red at {t} s: s = {s_m}"
                 );
-                if v < 0.5 && s_m > 180.0 {
+                if v < 0.5 / 3.6 && s_m > 180.0 {
                     stopped_at_line += 1;
                 }
             }

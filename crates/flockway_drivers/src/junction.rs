@@ -52,6 +52,15 @@ pub struct GapAcceptance {
     pub follow_up_s: f32,
 }
 
+impl GapAcceptance {
+    /// A vehicle's critical gap and follow-up time, s: its own, or the defaults without one.
+    pub fn seconds(of: Option<&GapAcceptance>) -> (f64, f64) {
+        of.map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
+            (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
+        })
+    }
+}
+
 /// What the junction ahead lets a vehicle do; decided every tick before the drivers.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
 pub struct JunctionGate {
@@ -144,18 +153,12 @@ impl Scene<'_> {
     /// A foe going at speed that will have cleared the conflict before `a` can reach it (with a
     /// margin) is neither: it passes first.
     fn foes_on_path(&self, a: &Approach, c: &Conflict) -> (bool, bool) {
-        let (j, k) = (a.junction, a.path);
+        let j = a.junction;
         let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
-        let junction = &self.network.junctions()[j];
         let Some(foe_road) = self.network.path_road(j, c.other) else {
             return (false, false);
         };
-        let foe_len = self.network.get(foe_road).map_or(0.0, |g| g.length_m());
-        let foe_clear = junction.paths[c.other]
-            .conflicts
-            .iter()
-            .find(|d| d.other == k)
-            .map_or(foe_len, |d| d.clear_m);
+        let foe_clear = c.other_clear_m;
         let mut occupied = false;
         let mut short = false;
         // Conflict positions are a body's centre's; only the cars on that path itself (not
@@ -219,8 +222,10 @@ impl Scene<'_> {
             };
             // Standing in the conflict already: a foe held at its line waits for it.
             let in_it = centre > c.at_m;
-            // When it reaches its place at the line (now, when it waits there).
+            // When it reaches its place at the line (now, when it waits there), and the
+            // conflict.
             let mine = arrival_s((a.to_line_m - STOP_LINE_MARGIN_M).max(0.0), a.speed_mps);
+            let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
             for f in self
                 .approaches
                 .iter()
@@ -243,13 +248,7 @@ impl Scene<'_> {
                 // reaches their conflict. A foe that will have cleared the conflict before it
                 // gets there passes first.
                 let eta = arrival_s(f.to_line_m + f.half_m + c.other_at_m, f.speed_mps);
-                let foe_clear = junction.paths[c.other]
-                    .conflicts
-                    .iter()
-                    .find(|d| d.other == a.path)
-                    .map_or(c.other_at_m, |d| d.clear_m);
-                let foe_gone = arrival_s(f.to_line_m + f.half_m + foe_clear, f.speed_mps);
-                let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
+                let foe_gone = arrival_s(f.to_line_m + f.half_m + c.other_clear_m, f.speed_mps);
                 if f.speed_mps > STARTING_MPS && foe_gone + PASSED_MARGIN_S < mine_there {
                     continue;
                 }
@@ -331,28 +330,28 @@ pub fn gate_junctions(
         // next entry's drivers see it coming): foes there, held if it is held before.
         if let Ok(route) = routes.get(entity) {
             let mut to_m = network.get(track.road).map_or(0.0, |g| g.length_m()) - track.s_m - half;
-            let mut first = true;
+            // The first path ahead of a car not yet in a junction is the one it approaches,
+            // decided below; the others are foes' information only.
+            let mut skip = network.junction_path(track.road).is_none();
             for &road in route.ahead().iter().skip(1) {
                 if to_m > horizon {
                     break;
                 }
-                if let Some((j, k)) = network.junction_path(road) {
-                    let is_first = first && network.junction_path(track.road).is_none();
-                    first = false;
-                    if !is_first {
-                        far.push(Approach {
-                            entity,
-                            junction: j,
-                            path: k,
-                            to_line_m: to_m,
-                            half_m: half,
-                            speed_mps: v,
-                            held: false,
-                            inside: false,
-                            stopped_tick: None,
-                            blocked: held,
-                        });
-                    }
+                if let Some((j, k)) = network.junction_path(road)
+                    && !std::mem::take(&mut skip)
+                {
+                    far.push(Approach {
+                        entity,
+                        junction: j,
+                        path: k,
+                        to_line_m: to_m,
+                        half_m: half,
+                        speed_mps: v,
+                        held: false,
+                        inside: false,
+                        stopped_tick: None,
+                        blocked: held,
+                    });
                 }
                 to_m += network.get(road).map_or(f64::INFINITY, |g| g.length_m());
             }
@@ -408,11 +407,7 @@ pub fn gate_junctions(
         let Ok((_, track, _, _, gate)) = vehicles.get(a.entity) else {
             continue;
         };
-        let (critical_gap_s, follow_up_s) = gaps
-            .get(a.entity)
-            .map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
-                (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
-            });
+        let (critical_gap_s, follow_up_s) = GapAcceptance::seconds(gaps.get(a.entity).ok());
         let (mut new, mut deadlock) = if a.inside {
             decide_inside(&scene, a, gate, critical_gap_s, tick)
         } else {
@@ -548,19 +543,26 @@ fn arrival_s(d_m: f64, speed_mps: f32) -> f64 {
 /// Where a vehicle held where it is waits: at the line before entering, short of its next
 /// conflict inside (front bumper, on its road).
 fn held_stop(network: &RoadNetwork, track: &RoadTrack, a: &Approach) -> f64 {
-    let junction = &network.junctions()[a.junction];
-    let centre = -a.to_line_m - a.half_m;
-    let inside = junction.paths[a.path]
+    if !a.inside {
+        return network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
+    }
+    network.junctions()[a.junction].paths[a.path]
         .conflicts
         .iter()
-        .filter(|c| centre < c.at_m + WAIT_TOLERANCE_M)
-        .map(|c| c.at_m + a.half_m - INSIDE_STOP_M)
-        .fold(f64::INFINITY, f64::min);
-    if a.inside {
-        inside
-    } else {
-        network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M
-    }
+        .filter(|c| still_short_of(a, c))
+        .map(|c| waiting_place(a, c))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Whether a vehicle's centre is short of conflict `c` (or only a little past it, an
+/// overshoot that does not entitle it to go on).
+fn still_short_of(a: &Approach, c: &Conflict) -> bool {
+    -a.to_line_m - a.half_m < c.at_m + WAIT_TOLERANCE_M
+}
+
+/// Where on its path a vehicle waits short of conflict `c` (its front bumper), m.
+fn waiting_place(a: &Approach, c: &Conflict) -> f64 {
+    c.at_m + a.half_m - INSIDE_STOP_M
 }
 
 /// Whether a vehicle at `speed_mps` with `left_m` to a stop point is past the point of no
@@ -597,8 +599,7 @@ fn deadlock_rule(
 /// gap; `INFINITY` when it may go on. With whether what holds it is moving.
 fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool) -> (f64, bool) {
     let junction = &scene.network.junctions()[a.junction];
-    // Conflict positions are the centre's; the stop is the front bumper's.
-    let centre = -a.to_line_m - a.half_m;
+    // The stop is the front bumper's.
     let front = -a.to_line_m;
     let mut stop = f64::INFINITY;
     let mut occupied_stop = f64::INFINITY;
@@ -607,9 +608,9 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
     for c in junction.paths[a.path]
         .conflicts
         .iter()
-        .filter(|c| centre < c.at_m + WAIT_TOLERANCE_M)
+        .filter(|c| still_short_of(a, c))
     {
-        let here = c.at_m + a.half_m - INSIDE_STOP_M;
+        let here = waiting_place(a, c);
         if scene.foes_on_path(a, c).0 {
             occupied_stop = occupied_stop.min(here);
             by_moving = true;

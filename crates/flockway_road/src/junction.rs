@@ -268,6 +268,8 @@ pub struct Conflict {
     /// Where along this path it ends: the last centre position at which a car touches the
     /// other path, m.
     pub clear_m: f64,
+    /// Where along the other path it ends, the same way, m.
+    pub other_clear_m: f64,
 }
 
 /// One movement through a built junction.
@@ -550,20 +552,21 @@ impl Junction {
                 let here = touching(a, b);
                 let there = touching(b, a);
                 let conflict = match (here, there) {
-                    (Some((at, clear)), Some((other_at, _))) => Some((at, clear, other_at)),
+                    (Some(mine), Some(theirs)) => Some((mine, theirs)),
                     _ if merge => {
                         let end = |s: &[Sample]| s.last().map_or(0.0, |x| x.s);
-                        Some((end(a), end(a), end(b)))
+                        Some(((end(a), end(a)), (end(b), end(b))))
                     }
                     _ => None,
                 };
-                if let Some((at_m, clear_m, other_at_m)) = conflict {
+                if let Some(((at_m, clear_m), (other_at_m, other_clear_m))) = conflict {
                     self.paths[i].conflicts.push(Conflict {
                         other: j,
                         merge,
                         at_m,
                         other_at_m,
                         clear_m,
+                        other_clear_m,
                     });
                 }
             }

@@ -16,6 +16,16 @@ use std::time::Duration;
 /// Every metric of a finished run, keyed as expectations and the summary name them
 /// ([`Metric::key`], [`Metric::key_for`]).
 pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64> {
+    metrics_with(sim, level, trace, &capacity_samples(sim, level))
+}
+
+/// [`metrics`], with the run's capacity samples already taken.
+fn metrics_with(
+    sim: &Sim,
+    level: &Level,
+    trace: &Trace,
+    samples: &[CapacitySample],
+) -> BTreeMap<String, f64> {
     let world = sim.world();
     let ticks = sim.tick().0;
     let stats = *world.resource::<RunStats>();
@@ -140,7 +150,6 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
         }
     }
     // How close each junction's yielding approaches came to the capacity models.
-    let samples = capacity_samples(sim, level);
     for junction in &level.junctions {
         let mine = || {
             samples
@@ -187,7 +196,8 @@ pub fn metrics(sim: &Sim, level: &Level, trace: &Trace) -> BTreeMap<String, f64>
 /// The summary of a finished run: its metrics, the level's expectations checked against them,
 /// and the contract keys taken from the metrics.
 pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Duration) -> Summary {
-    let metrics = metrics(sim, level, trace);
+    let capacity = capacity_samples(sim, level);
+    let metrics = metrics_with(sim, level, trace, &capacity);
     let expectations: Vec<ExpectationResult> =
         level.expect.iter().map(|e| evaluate(e, &metrics)).collect();
     let settings = *sim.world().resource::<TelemetrySettings>();
@@ -228,7 +238,7 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
         wave_speed_kmh: get(Metric::WaveSpeedKmh),
         missed_exits: get(Metric::MissedExits),
         metrics,
-        capacity: capacity_samples(sim, level),
+        capacity,
     }
 }
 

@@ -4,7 +4,7 @@
 use crate::stats::TelemetrySettings;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
-use flockway_drivers::{CRITICAL_GAP_S, FOLLOW_UP_S, GapAcceptance};
+use flockway_drivers::GapAcceptance;
 use flockway_road::{Control, RoadId, RoadNetwork, SignalState, Turn};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
@@ -160,9 +160,7 @@ pub fn measure_junctions(
                     .entry((j, a.lane.0, a.lane.1, w))
                     .or_default();
                 lane.entries += 1;
-                let (t_c, t_f) = gaps.map_or((CRITICAL_GAP_S, FOLLOW_UP_S), |g| {
-                    (f64::from(g.critical_gap_s), f64::from(g.follow_up_s))
-                });
+                let (t_c, t_f) = GapAcceptance::seconds(gaps);
                 lane.critical_gap_sum_s += t_c;
                 lane.follow_up_sum_s += t_f;
             }
