@@ -458,3 +458,22 @@ fn the_minor_road_capacity_follows_the_gap_acceptance_formula_on_unseen_seeds() 
         assert!(m["gap_model_error.tee"] <= 0.25, "seed {seed}: {m:#?}");
     }
 }
+
+#[test]
+fn the_roundabout_entry_capacity_follows_the_hcm_model_on_an_unseen_seed() {
+    // Every step of the circulating flow: the always-queued east entry's capacity within ±25 %
+    // of 1 380·e^(−0.00102·v_c) at the circulating flow measured past it; nobody collides,
+    // nobody waits forever, and the cars leave the ring at their exits.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/roundabout.ron");
+    let level = flockway_level::load_level(&path).expect("the shipped level");
+    let m = run(level, &path, 2024, None, None);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    assert!(m["hcm_model_error.east"] <= 0.25, "{m:#?}");
+    for j in ["east", "north", "west", "south"] {
+        assert_eq!(m[&format!("deadlocks.{j}")], 0.0, "{j}: {m:#?}");
+    }
+    // The north exit takes the east entry and the circulating flow; the west exit the north
+    // arm's cars.
+    assert!(m["junction_flow_veh_per_h.north"] > 1_000.0, "{m:#?}");
+    assert!(m["junction_flow_veh_per_h.west"] > 100.0, "{m:#?}");
+}

@@ -18,7 +18,9 @@ pub use plot::{
     write_plots, write_plots_sized,
 };
 pub use report::write_report;
-pub use summary::{CapacitySample, ExpectationResult, Summary, plot_info, wave_of};
+pub use summary::{
+    CapacitySample, ExpectationResult, SATURATED_SHARE, Summary, plot_info, wave_of,
+};
 pub use telemetry::{CSV_COLUMNS, Column, TelemetryRow, TelemetryWriter};
 pub use trace::{REQUIRED, REQUIRED_COLUMNS, Sample, Trace};
 pub use wave::{Wave, WaveSettings, measure_wave};

@@ -686,7 +686,12 @@ fn capacity<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     info: &PlotInfo,
 ) -> Result<(), String> {
-    let samples = &info.capacity;
+    // Only saturated approaches show their capacity (an unsaturated one shows its demand).
+    let samples: Vec<&crate::CapacitySample> = info
+        .capacity
+        .iter()
+        .filter(|c| c.saturated_share >= crate::SATURATED_SHARE)
+        .collect();
     let n = samples.len().max(1) as f64;
     let t_c = samples.iter().map(|c| c.critical_gap_s).sum::<f64>() / n;
     let t_f = samples.iter().map(|c| c.follow_up_s).sum::<f64>() / n;
@@ -754,6 +759,16 @@ fn capacity<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?
         .label("HCM 6 roundabout entry: 1 380·e^(−0.00102·v_c)")
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(2)));
+    for scale in [0.75, 1.25] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                curve(&hcm, scale),
+                2,
+                8,
+                grey.mix(0.6).stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+    }
     let red = RGBColor(214, 39, 40);
     chart
         .draw_series(samples.iter().map(|c| {
@@ -764,7 +779,7 @@ fn capacity<DB: DrawingBackend>(
             )
         }))
         .map_err(|e| e.to_string())?
-        .label("measured (one demand step of one approach lane)")
+        .label("measured (one demand step of one saturated approach lane)")
         .legend(move |(x, y)| Circle::new((x + 10, y), 6, red.filled()));
     legend(&mut chart, SeriesLabelPosition::UpperRight)
 }

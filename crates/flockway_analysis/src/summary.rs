@@ -23,6 +23,11 @@ pub struct ExpectationResult {
     pub value: Option<f64>,
 }
 
+/// A capacity sample counts toward the model errors (and is plotted) when its lane had a vehicle
+/// ready at the line this share of the window at least (capacity is what a saturated approach
+/// gets through).
+pub const SATURATED_SHARE: f64 = 0.9;
+
 /// The capacity of one yielding approach lane of a junction over one window of the run (a demand
 /// step), against the two reference models.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -132,6 +132,8 @@ struct Scene<'a> {
     index: &'a LaneIndex,
     approaches: &'a [Approach],
     signals: &'a [Option<Vec<SignalState>>],
+    /// Per junction and path: the speed vehicles take through it, m/s ([`through_mps`]).
+    through: &'a [Vec<f64>],
 }
 
 /// What holds a vehicle back from the next conflict it gives way to, if anything.
@@ -151,28 +153,41 @@ impl Scene<'_> {
     /// is on that path short of clearing the conflict.
     ///
     /// A foe going at speed that will have cleared the conflict before `a` can reach it (with a
-    /// margin) is neither: it passes first.
-    fn foes_on_path(&self, a: &Approach, c: &Conflict) -> (bool, bool) {
+    /// margin) is neither: it passes first. With when the last of those reached (or reaches)
+    /// the conflict, s from now (negative: it is in it already).
+    fn foes_on_path(&self, a: &Approach, c: &Conflict) -> (bool, bool, Option<f64>) {
         let j = a.junction;
         let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
         let Some(foe_road) = self.network.path_road(j, c.other) else {
-            return (false, false);
+            return (false, false, None);
         };
         let foe_clear = c.other_clear_m;
         let mut occupied = false;
         let mut short = false;
+        let mut lead: Option<f64> = None;
         // Conflict positions are a body's centre's; only the cars on that path itself (not
         // those on paths overlapping it from the same lane).
+        let through = self.through[j][c.other];
         for f in self.index.lane(foe_road, 0) {
-            if f.speed_mps > STARTING_MPS
-                && arrival_s(foe_clear - f.s_m, f.speed_mps) + PASSED_MARGIN_S < mine_there
+            if f.speed_mps > PASSING_MPS
+                && expected_arrival_s(0.0, foe_clear - f.s_m, f.speed_mps, through)
+                    + PASSED_MARGIN_S
+                    < mine_there
             {
+                if f.s_m < foe_clear {
+                    let at = if f.s_m > c.other_at_m {
+                        -(f.s_m - c.other_at_m) / f64::from(f.speed_mps)
+                    } else {
+                        expected_arrival_s(0.0, c.other_at_m - f.s_m, f.speed_mps, through)
+                    };
+                    lead = Some(lead.map_or(at, |l: f64| l.max(at)));
+                }
                 continue;
             }
             occupied |= f.s_m > c.other_at_m && f.s_m < foe_clear + CONFLICT_MARGIN_M;
             short |= f.s_m < foe_clear;
         }
-        (occupied, short)
+        (occupied, short, lead)
     }
 
     /// Whether vehicle `a` must wait for the streams it gives way to on conflicts `conflicts`
@@ -192,7 +207,7 @@ impl Scene<'_> {
                 continue;
             }
             // Inside the junction, short of clearing the conflict.
-            let (_, short) = self.foes_on_path(a, c);
+            let (_, short, mut lead) = self.foes_on_path(a, c);
             if short {
                 out.hold = true;
                 out.by_moving = true;
@@ -215,17 +230,17 @@ impl Scene<'_> {
                 && a.speed_mps > STOPPED_MPS
                 && a.to_line_m
                     < v * v / (2.0 * f64::from(STOP_LINE_DECEL_MPS2)) + STOP_LINE_MARGIN_M;
-            let needed_s = if going {
-                critical_gap_s.min(arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S)
-            } else {
-                critical_gap_s
-            };
+            let clear_by =
+                going.then(|| arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S);
             // Standing in the conflict already: a foe held at its line waits for it.
             let in_it = centre > c.at_m;
             // When it reaches its place at the line (now, when it waits there), and the
             // conflict.
             let mine = arrival_s((a.to_line_m - STOP_LINE_MARGIN_M).max(0.0), a.speed_mps);
             let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
+            // The foes still coming: when they reach the conflict, how long they take through
+            // it, their speed.
+            let mut coming: Vec<(f64, f64, f32)> = Vec::new();
             for f in self
                 .approaches
                 .iter()
@@ -247,14 +262,32 @@ impl Scene<'_> {
                 // The gap it would take: from when it reaches the line to when the foe
                 // reaches their conflict. A foe that will have cleared the conflict before it
                 // gets there passes first.
-                let eta = arrival_s(f.to_line_m + f.half_m + c.other_at_m, f.speed_mps);
-                let foe_gone = arrival_s(f.to_line_m + f.half_m + c.other_clear_m, f.speed_mps);
-                if f.speed_mps > STARTING_MPS && foe_gone + PASSED_MARGIN_S < mine_there {
+                let through = self.through[a.junction][c.other];
+                let eta =
+                    expected_arrival_s(f.to_line_m, f.half_m + c.other_at_m, f.speed_mps, through);
+                let foe_gone = expected_arrival_s(
+                    f.to_line_m,
+                    f.half_m + c.other_clear_m,
+                    f.speed_mps,
+                    through,
+                );
+                if f.speed_mps > PASSING_MPS && foe_gone + PASSED_MARGIN_S < mine_there {
+                    lead = Some(lead.map_or(eta, |l| l.max(eta)));
                     continue;
                 }
-                if eta - mine < needed_s {
+                coming.push((eta, foe_gone - eta, f.speed_mps));
+            }
+            for &(eta, through_s, speed) in &coming {
+                // The critical gap is a headway, front to front: the foe's own time through
+                // the conflict area is part of it; behind a foe that passes first, the gap is
+                // from that one to this one.
+                let gap_s = critical_gap_s - through_s.max(0.0);
+                let needed_s = clear_by.map_or(gap_s, |c| gap_s.min(c));
+                let behind_lead =
+                    clear_by.is_none() && lead.is_some_and(|l| l < eta && eta - l < critical_gap_s);
+                if eta - mine < needed_s || behind_lead {
                     out.hold = true;
-                    out.by_moving |= f.speed_mps > STOPPED_MPS;
+                    out.by_moving |= speed > STOPPED_MPS;
                 }
             }
             if out.hold {
@@ -393,11 +426,23 @@ pub fn gate_junctions(
     }
     let deciding = approaches.len();
     approaches.append(&mut far);
+    let through: Vec<Vec<f64>> = (0..network.junctions().len())
+        .map(|j| {
+            (0..network.junctions()[j].paths.len())
+                .map(|k| {
+                    network
+                        .path_road(j, k)
+                        .map_or(f64::INFINITY, |p| through_mps(&network, p))
+                })
+                .collect()
+        })
+        .collect();
     let scene = Scene {
         network: &network,
         index: &index,
         approaches: &approaches,
         signals: &signals,
+        through: &through,
     };
     let mut seen: Vec<Seen> = Vec::new();
     let mut decided: Vec<(Entity, JunctionGate, Option<usize>)> =
@@ -519,6 +564,9 @@ fn queued_behind(network: &RoadNetwork, index: &LaneIndex, me: Entity, track: &R
         })
 }
 
+/// Speed above which a foe is taken to keep moving through (and may pass first), m/s: a
+/// slower one may be about to stop.
+const PASSING_MPS: f32 = 2.0;
 /// Speed below which a vehicle is expected to speed up on its way to a conflict, m/s.
 const STARTING_MPS: f32 = 5.0;
 /// The acceleration a starting vehicle is expected to reach a conflict with, m/s².
@@ -537,6 +585,50 @@ fn arrival_s(d_m: f64, speed_mps: f32) -> f64 {
         (-v + (v * v + 2.0 * a * d_m.max(0.0)).sqrt()) / a
     } else {
         d_m.max(0.0) / v
+    }
+}
+
+/// Comfortable lateral acceleration foes are expected to take a junction path's bends with,
+/// m/s² (a driver reading the road ahead keeps to about this).
+const THROUGH_LATERAL_MPS2: f64 = 2.0;
+/// Deceleration foes are expected to slow for a junction path's bends with, m/s².
+const THROUGH_DECEL_MPS2: f64 = 1.5;
+
+/// The speed vehicles take through a junction path: its speed limit, or less where its
+/// sharpest bend asks for less at a comfortable lateral acceleration, m/s.
+fn through_mps(network: &RoadNetwork, path: RoadId) -> f64 {
+    network.get(path).map_or(f64::INFINITY, |g| {
+        let sharpest = g
+            .curvature_bins()
+            .iter()
+            .fold(0.0_f64, |m, &k| m.max(f64::from(k.abs())));
+        let bend = (THROUGH_LATERAL_MPS2 / sharpest.max(1e-6)).sqrt();
+        (g.speed_limit_kmh() / 3.6).min(bend)
+    })
+}
+
+/// When a foe `to_line_m` from the line of its path, at `speed_mps`, reaches a point
+/// `inside_m` past it, going through the path at `through_mps`: a slower one speeds up to that
+/// speed (from a stop, or out of a bend before it), a faster one slows to it by the line.
+fn expected_arrival_s(to_line_m: f64, inside_m: f64, speed_mps: f32, through_mps: f64) -> f64 {
+    let v = f64::from(speed_mps.max(0.0));
+    let d = (to_line_m + inside_m).max(0.0);
+    if v < through_mps {
+        let a = STARTING_ACCEL_MPS2;
+        let d_up = (through_mps * through_mps - v * v) / (2.0 * a);
+        if d <= d_up {
+            (-v + (v * v + 2.0 * a * d).sqrt()) / a
+        } else {
+            (through_mps - v) / a + (d - d_up) / through_mps
+        }
+    } else {
+        // At its speed until it must brake, braking to the path's speed by the line, then
+        // through at that speed.
+        let b = THROUGH_DECEL_MPS2;
+        let to_line = to_line_m.max(0.0);
+        let d_brake = ((v * v - through_mps * through_mps) / (2.0 * b)).min(to_line);
+        let v_line = (v * v - 2.0 * b * d_brake).max(0.0).sqrt();
+        (to_line - d_brake) / v + (v - v_line) / b + (d - to_line) / v_line.max(0.1)
     }
 }
 
@@ -615,7 +707,9 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
             occupied_stop = occupied_stop.min(here);
             by_moving = true;
         }
-        if released {
+        // Past the start of the conflict area it is in the streams' way: they wait for it
+        // (they see the area occupied), so it goes on.
+        if released || -a.to_line_m - a.half_m > c.at_m {
             continue;
         }
         let b = scene.gives_way_now(a, std::iter::once(c), critical_gap_s, None);
@@ -839,4 +933,71 @@ fn decide_at_line(
         },
         deadlock,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_foe_is_expected_to_take_its_path_at_the_speed_the_path_allows() {
+        // At the path's speed already: distance over speed.
+        assert!((expected_arrival_s(40.0, 10.0, 10.0, 10.0) - 5.0).abs() < 1e-9);
+        // Faster: at its speed until it must brake (at 1.5 m/s²) to the path's 6 m/s by the
+        // line, then through at 6 m/s: 40 m − 21.33 m at 10 m/s, 2.67 s braking, 10 m at 6 m/s.
+        let braking = (100.0 - 36.0) / 3.0;
+        let t = (40.0 - braking) / 10.0 + 4.0 / 1.5 + 10.0 / 6.0;
+        assert!((expected_arrival_s(40.0, 10.0, 10.0, 6.0) - t).abs() < 1e-9);
+        // Slower (out of a bend before it, or standing): speeds up at 2 m/s² to the path's
+        // speed, no further.
+        let up = (36.0 - 4.0) / 4.0;
+        let t = (6.0 - 2.0) / 2.0 + (30.0 - up) / 6.0;
+        assert!((expected_arrival_s(20.0, 10.0, 2.0, 6.0) - t).abs() < 1e-9);
+        // A short way from a stop, still speeding up when it gets there.
+        assert!((expected_arrival_s(0.0, 4.0, 0.0, 6.0) - 2.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_junction_path_is_taken_at_its_limit_or_its_bends_comfortable_speed() {
+        use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
+        use glam::DVec3;
+        // A straight on and a right turn of about 10 m radius, under a 50 km/h limit.
+        let w = RoadSpec::through(
+            "w",
+            1,
+            50.0,
+            &[DVec3::new(-100.0, 0.0, 0.0), DVec3::new(-10.0, 0.0, 0.0)],
+        );
+        let e = RoadSpec::through(
+            "e",
+            1,
+            50.0,
+            &[DVec3::new(10.0, 0.0, 0.0), DVec3::new(100.0, 0.0, 0.0)],
+        );
+        let s = RoadSpec::through(
+            "s",
+            1,
+            50.0,
+            &[DVec3::new(0.0, -10.0, 0.0), DVec3::new(0.0, -100.0, 0.0)],
+        );
+        let from_w = |to: &str| ConnectionSpec {
+            from: "w".into(),
+            from_lane: 0,
+            to: to.into(),
+            to_lane: 0,
+        };
+        let junction = JunctionSpec {
+            name: "j".into(),
+            control: Control::RightBeforeLeft,
+            connections: vec![from_w("e"), from_w("s")],
+            signal: None,
+        };
+        let network = RoadNetwork::build_with(&[w, e, s], std::slice::from_ref(&junction))
+            .expect("a junction");
+        let straight = through_mps(&network, network.id("j#0").expect("straight"));
+        let right = through_mps(&network, network.id("j#1").expect("right"));
+        assert!((straight - 50.0 / 3.6).abs() < 1e-9, "{straight}");
+        // √(2 m/s² × ~10 m) ≈ 4.5 m/s, well under the limit.
+        assert!(right > 3.5 && right < 5.5, "{right}");
+    }
 }

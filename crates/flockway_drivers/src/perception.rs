@@ -43,8 +43,44 @@ struct RoadLanes {
     /// Per lane: the `(road, lane)` pairs leading onto it.
     prev: Vec<Vec<(RoadId, u32)>>,
     lanes: Vec<Vec<LaneEntry>>,
-    /// For a junction path: the other paths from the same lane, with how far they overlap, m.
-    siblings: Vec<(RoadId, f64)>,
+    /// For a junction path: the other paths whose vehicles are in this one's lane somewhere —
+    /// those from the same lane while they overlap, those merging into the same lane once they
+    /// meet.
+    beside: Vec<Beside>,
+}
+
+/// A junction path sharing part of another's lane: its vehicles between `from_m` and `to_m`
+/// (on their own path) are at `s + offset_m` on the other.
+#[derive(Debug, Clone, Copy)]
+struct Beside {
+    road: RoadId,
+    offset_m: f64,
+    from_m: f64,
+    to_m: f64,
+}
+
+impl Beside {
+    /// Its vehicles that count on the other path, at their positions there, from `lo` on.
+    fn entries<'a>(
+        &self,
+        index: &'a LaneIndex,
+        lo: f64,
+    ) -> impl Iterator<Item = LaneEntry> + use<'a> {
+        let entries = index
+            .roads
+            .get(&self.road)
+            .and_then(|r| r.lanes.first())
+            .map_or(&[][..], Vec::as_slice);
+        let (offset, to) = (self.offset_m, self.to_m);
+        let a = entries.partition_point(|e| e.s_m < self.from_m.max(lo - offset));
+        entries[a..]
+            .iter()
+            .take_while(move |e| e.s_m < to)
+            .map(move |e| LaneEntry {
+                s_m: e.s_m + offset,
+                ..*e
+            })
+    }
 }
 
 impl RoadLanes {
@@ -103,14 +139,31 @@ impl LaneIndex {
                 }
             }
             road.lanes.resize_with(g.lanes() as usize, Vec::new);
-            road.siblings.clear();
+            road.beside.clear();
             if let Some((j, k)) = network.junction_path(id) {
                 let path = &network.junctions()[j].paths[k];
-                road.siblings.extend(
-                    path.siblings
-                        .iter()
-                        .filter_map(|&(o, part)| network.path_road(j, o).map(|r| (r, part))),
-                );
+                road.beside
+                    .extend(path.siblings.iter().filter_map(|&(o, part)| {
+                        Some(Beside {
+                            road: network.path_road(j, o)?,
+                            offset_m: 0.0,
+                            from_m: f64::NEG_INFINITY,
+                            to_m: part,
+                        })
+                    }));
+                // Paths merging into its lane: aligned at their common end, from where they
+                // meet.
+                let length = g.length_m();
+                road.beside
+                    .extend(path.conflicts.iter().filter(|c| c.merge).filter_map(|c| {
+                        let other = network.path_road(j, c.other)?;
+                        Some(Beside {
+                            road: other,
+                            offset_m: length - network.get(other)?.length_m(),
+                            from_m: c.other_at_m,
+                            to_m: f64::INFINITY,
+                        })
+                    }));
             }
         }
         self.vehicles = 0;
@@ -235,8 +288,9 @@ impl LaneIndex {
                 push(e, e.s_m + r.length_m - s_m);
             }
         }
-        // Inside a junction, the cars on paths from the same lane where they overlap this one.
-        self.push_siblings(r, lo, hi, -s_m, lane, exclude, out);
+        // Inside a junction, the cars on paths sharing this one's lane (from the same lane while
+        // they overlap, merging into the same lane once they meet).
+        self.push_beside(r, lo, hi, -s_m, lane, exclude, out);
         if !r.closed && hi > r.length_m {
             // Traffic continues onto its lane's link.
             if let Some((next, lane2)) = r.lane_next(lane, None)
@@ -253,7 +307,7 @@ impl LaneIndex {
                         });
                     }
                 }
-                self.push_siblings(
+                self.push_beside(
                     r2,
                     f64::NEG_INFINITY,
                     hi - r.length_m,
@@ -311,8 +365,8 @@ impl LaneIndex {
         };
         let i = entries.partition_point(|e| !ahead(e));
         // Inside a junction a car on a path from the same lane is still in front while the
-        // two paths overlap.
-        let sibling = self.sibling_ahead(r, s_m, me).map(|e| Seen {
+        // two paths overlap, and one merging into the same lane once they meet.
+        let sibling = self.beside_ahead(r, s_m, me).map(|e| Seen {
             gap_m: e.s_m - s_m,
             lane,
             entry: e,
@@ -343,9 +397,9 @@ impl LaneIndex {
             }
             let r = self.roads.get(&road)?;
             let first = r.lanes.get(lane as usize)?.first();
-            // Into a junction: a car on a path from the same lane, where they overlap, counts.
+            // Into a junction: a car on a path sharing its lane there counts.
             let sibling = if hop == 0 {
-                self.sibling_ahead(r, f64::NEG_INFINITY, me)
+                self.beside_ahead(r, f64::NEG_INFINITY, me)
             } else {
                 None
             };
@@ -366,13 +420,13 @@ impl LaneIndex {
         None
     }
 
-    /// On a junction path `r`: every vehicle on a path from the same lane between `lo` and `hi`
-    /// (arc positions on `r`) while that path overlaps `r`, at gap `s + offset`.
+    /// On a junction path `r`: every vehicle on a path sharing its lane between `lo` and `hi`
+    /// (arc positions on `r`), at gap `s + offset`.
     #[expect(
         clippy::too_many_arguments,
         reason = "a query's coordinates, each one number"
     )]
-    fn push_siblings(
+    fn push_beside(
         &self,
         r: &RoadLanes,
         lo: f64,
@@ -382,39 +436,25 @@ impl LaneIndex {
         exclude: Option<Entity>,
         out: &mut Vec<Seen>,
     ) {
-        for &(road, part) in &r.siblings {
-            let Some(entries) = self.roads.get(&road).and_then(|r| r.lanes.first()) else {
-                continue;
-            };
-            let a = entries.partition_point(|e| e.s_m < lo);
-            for e in entries[a..]
-                .iter()
-                .take_while(|e| e.s_m <= hi && e.s_m < part)
-            {
+        for b in &r.beside {
+            for e in b.entries(self, lo).take_while(|e| e.s_m <= hi) {
                 if Some(e.entity) != exclude {
                     out.push(Seen {
                         gap_m: e.s_m + offset,
                         lane,
-                        entry: *e,
+                        entry: e,
                     });
                 }
             }
         }
     }
 
-    /// On a junction path `r`, the nearest vehicle ahead of `s_m` on a path from the same lane
-    /// while that path still overlaps `r`.
-    fn sibling_ahead(&self, r: &RoadLanes, s_m: f64, me: Entity) -> Option<LaneEntry> {
-        r.siblings
+    /// On a junction path `r`, the nearest vehicle ahead of `s_m` on a path sharing its lane
+    /// there (at its position on `r`).
+    fn beside_ahead(&self, r: &RoadLanes, s_m: f64, me: Entity) -> Option<LaneEntry> {
+        r.beside
             .iter()
-            .filter_map(|&(road, part)| {
-                let entries = self.roads.get(&road)?.lanes.first()?;
-                let i = entries.partition_point(|e| e.s_m <= s_m);
-                entries
-                    .get(i)
-                    .filter(|e| e.s_m < part && e.entity != me)
-                    .copied()
-            })
+            .filter_map(|b| b.entries(self, s_m).find(|e| e.s_m > s_m && e.entity != me))
             .min_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)))
     }
 
@@ -859,6 +899,91 @@ mod tests {
         assert_eq!(f.map(|f| f.entry.entity), Some(cars[2].0));
         let f = index.follower(north, 1, 0.0, Entity::PLACEHOLDER, 100.0);
         assert_eq!(f.map(|f| f.entry.entity), Some(cars[3].0));
+    }
+
+    #[test]
+    fn in_a_junction_a_car_merging_into_the_same_lane_is_in_front_once_the_paths_meet() {
+        use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
+        use glam::DVec3;
+        // `w` from the west and `s` from the south both lead onto `e`, east of the junction.
+        let w = RoadSpec::through(
+            "w",
+            1,
+            50.0,
+            &[DVec3::new(-100.0, 0.0, 0.0), DVec3::new(-10.0, 0.0, 0.0)],
+        );
+        let s = RoadSpec::through(
+            "s",
+            1,
+            50.0,
+            &[DVec3::new(10.0, -100.0, 0.0), DVec3::new(10.0, -10.0, 0.0)],
+        );
+        let e = RoadSpec::through(
+            "e",
+            1,
+            50.0,
+            &[DVec3::new(10.0, 0.0, 0.0), DVec3::new(100.0, 0.0, 0.0)],
+        );
+        let to_e = |from: &str| ConnectionSpec {
+            from: from.into(),
+            from_lane: 0,
+            to: "e".into(),
+            to_lane: 0,
+        };
+        let junction = JunctionSpec {
+            name: "j".into(),
+            control: Control::Priority {
+                major: vec!["w".into()],
+                stop: false,
+            },
+            connections: vec![to_e("w"), to_e("s")],
+            signal: None,
+        };
+        let build = || {
+            RoadNetwork::build_with(
+                &[w.clone(), s.clone(), e.clone()],
+                std::slice::from_ref(&junction),
+            )
+            .expect("a junction")
+        };
+        let network = build();
+        let (straight, turn) = (
+            network.id("j#0").expect("straight"),
+            network.id("j#1").expect("turn"),
+        );
+        let length = |r: RoadId| network.get(r).expect("a path").length_m();
+        let (l_straight, l_turn) = (length(straight), length(turn));
+        let merge = network.junctions()[0].paths[1]
+            .conflicts
+            .iter()
+            .find(|c| c.merge)
+            .copied()
+            .expect("they merge");
+        // The turning car 1 m short of its path's end; the straight car 3 m into its own.
+        let (_, index, cars) = crate::perception::fixtures::index_over(
+            network,
+            &[(turn, 0, l_turn - 1.0, 3.0), (straight, 0, 3.0, 8.0)],
+        );
+        let (turning, _) = cars[0];
+        let (me, track) = &cars[1];
+        let ahead = index
+            .leader(straight, 0, track.s_m, *me, 50.0, None)
+            .expect("the merged car");
+        assert_eq!(ahead.entry.entity, turning);
+        // As far ahead as it is nearer the common end.
+        let gap = (l_straight - 1.0) - 3.0;
+        assert!((ahead.gap_m - gap).abs() < 1e-9, "{} vs {gap}", ahead.gap_m);
+        // Short of where the paths meet it is not in the lane yet.
+        let (_, index, cars) = crate::perception::fixtures::index_over(
+            build(),
+            &[(turn, 0, merge.at_m - 1.0, 3.0), (straight, 0, 0.5, 8.0)],
+        );
+        let (me, track) = &cars[1];
+        assert!(
+            index
+                .leader(straight, 0, track.s_m, *me, 50.0, None)
+                .is_none_or(|l| l.entry.entity != cars[0].0)
+        );
     }
 
     #[test]

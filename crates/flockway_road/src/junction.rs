@@ -249,6 +249,15 @@ fn touching(a: &[Sample], b: &[Sample]) -> Option<(f64, f64)> {
     Some((first.s, last.s))
 }
 
+/// Where a car merging from another path is behind one on this path: a body length and a
+/// metre past where the paths meet (or where they stop touching, if sooner).
+fn merged_ahead((at_m, clear_m): (f64, f64)) -> (f64, f64) {
+    (at_m, clear_m.min(at_m + BODY_LENGTH_M + MERGE_GAP_M))
+}
+
+/// The gap a car that merged ahead of another leaves it, m (with the clearance on each side).
+const MERGE_GAP_M: f64 = 1.0;
+
 /// Spacing of the points two paths are compared at, m.
 const SAMPLE_M: f64 = 0.25;
 
@@ -266,7 +275,8 @@ pub struct Conflict {
     /// Where along the other path it starts, the same way, m.
     pub other_at_m: f64,
     /// Where along this path it ends: the last centre position at which a car touches the
-    /// other path, m.
+    /// other path, m; for a merge, where a car is far enough past the meeting point that one
+    /// on the other path falls in behind it.
     pub clear_m: f64,
     /// Where along the other path it ends, the same way, m.
     pub other_clear_m: f64,
@@ -552,6 +562,11 @@ impl Junction {
                 let here = touching(a, b);
                 let there = touching(b, a);
                 let conflict = match (here, there) {
+                    // Merging: a car a body and a gap past where the two meet is ahead of
+                    // whoever comes along the other path, which follows it from then on.
+                    (Some(mine), Some(theirs)) if merge => {
+                        Some((merged_ahead(mine), merged_ahead(theirs)))
+                    }
                     (Some(mine), Some(theirs)) => Some((mine, theirs)),
                     _ if merge => {
                         let end = |s: &[Sample]| s.last().map_or(0.0, |x| x.s);
@@ -889,6 +904,16 @@ mod tests {
         // The right turn and the straight from the north both lead onto `s out`: a merge.
         let m = conflict(W_RIGHT, N_STRAIGHT).expect("they merge");
         assert!(m.merge);
+        // Merged a body and a metre past where they meet, it is ahead: no longer in the way.
+        assert!(
+            (m.clear_m - m.at_m - (BODY_LENGTH_M + MERGE_GAP_M)).abs() < 1e-9,
+            "{m:?}"
+        );
+        let right = net
+            .path_road(0, W_RIGHT)
+            .and_then(|r| net.get(r))
+            .expect("path");
+        assert!(m.clear_m < right.length_m(), "{m:?}");
         // The straight and the right turn from one lane overlap for their first metres.
         let part = |i: usize, j: usize| {
             x.paths[i]

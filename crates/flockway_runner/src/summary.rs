@@ -242,9 +242,7 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
     }
 }
 
-/// A capacity sample counts toward the model errors when its lane had a vehicle ready at the
-/// line this share of the window at least (capacity is what a saturated approach gets through).
-pub const SATURATED_SHARE: f64 = 0.9;
+pub use flockway_analysis::SATURATED_SHARE;
 
 /// The capacity of every yielding approach lane (a non-major road of a `Priority` junction) in
 /// every capacity window, with the flow it gives way to and both models' capacity.
