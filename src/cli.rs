@@ -38,6 +38,21 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = TemplateArg::Straight)]
         template: TemplateArg,
     },
+    /// Turn a SUMO network (`.net.xml`, as netconvert writes it) into a level that runs.
+    ///
+    /// Edges become roads (lanes, widths, shapes, speed limits), junctions keep their
+    /// connections and right of way, traffic lights their fixed-time programs; a spawner on each
+    /// lane of every edge nothing leads onto sends cars to every edge that leads nowhere, where a
+    /// destroyer takes them. Never overwrites a file. Exit status: 0, or 2 if the network cannot
+    /// be read (FILE:LINE:COLUMN: what was expected) or the level cannot be written.
+    Import {
+        /// The SUMO network file.
+        #[arg(value_name = "NET.net.xml")]
+        net: PathBuf,
+        /// The level file to write.
+        #[arg(short, long, value_name = "LEVEL.ron")]
+        output: PathBuf,
+    },
     /// Check that level files load and validate, without running them.
     ///
     /// Prints each problem as FILE:LINE:COLUMN: message. Exit status: 0 if all are valid, 2 if not.

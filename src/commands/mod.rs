@@ -4,6 +4,7 @@
 pub mod analysis;
 pub mod check;
 pub mod dyno;
+pub mod import;
 pub mod new;
 pub mod run;
 pub mod test;

@@ -9,6 +9,7 @@ mod expect;
 mod io;
 mod locate;
 mod schema;
+mod sumo;
 mod template;
 mod validate;
 
@@ -23,6 +24,7 @@ pub use schema::{
     DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
     TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
+pub use sumo::{ImportError, import_sumo_net};
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,
     reference_vehicle_types,

@@ -1,0 +1,282 @@
+//! SUMO networks in: `flockway import` on networks made with SUMO's `netconvert` (the node and
+//! edge files they were made from are beside them in `tests/fixtures/sumo/`), element by element,
+//! and the imported signalised crossroads run.
+
+#[allow(dead_code, reason = "shared with the tests that run shipped levels")]
+mod common;
+
+use common::run;
+use flockway::level::{Level, import_sumo_net, load_level};
+use flockway_road::{Control, SignalState};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/sumo")
+        .join(name)
+}
+
+fn import(name: &str) -> Level {
+    let path = fixture(name);
+    let text = std::fs::read_to_string(&path).expect("the fixture");
+    import_sumo_net(&text, &path, "imported").expect("the network imports")
+}
+
+#[test]
+fn edges_become_roads_with_their_lanes_shapes_and_speeds() {
+    let level = import("tee.net.xml");
+    let road = |name: &str| {
+        level
+            .roads
+            .iter()
+            .find(|r| r.name == name)
+            .unwrap_or_else(|| panic!("road {name}"))
+    };
+    // Six edges, no internal ones.
+    assert_eq!(level.roads.len(), 6);
+    // `WT`: two lanes at 13.89 m/s, 3.2 m wide (SUMO's default), its centre line midway
+    // between the lanes' (SUMO: lane 0 at y = 145.2, lane 1 at y = 148.4, from x = 0 east to
+    // the junction's edge at x = 142.8).
+    let wt = road("WT");
+    assert_eq!(wt.lanes, 2);
+    assert!((wt.speed_limit_kmh - 13.89 * 3.6).abs() < 1e-9);
+    assert!((wt.lane_width_m - 3.2).abs() < 1e-9);
+    let (first, last) = (wt.points[0].pos, wt.points[wt.points.len() - 1].pos);
+    assert!(
+        first.x.abs() < 1e-9 && (first.y - 146.8).abs() < 1e-9,
+        "{first}"
+    );
+    assert!(
+        (last.x - 142.8).abs() < 1e-9 && (last.y - 146.8).abs() < 1e-9,
+        "{last}"
+    );
+    // The minor road: one lane at 40 km/h.
+    let st = road("ST");
+    assert_eq!(st.lanes, 1);
+    assert!((st.speed_limit_kmh - 11.11 * 3.6).abs() < 1e-9);
+    assert!(level.roads.iter().all(|r| {
+        !r.points
+            .iter()
+            .any(|p| p.guardrail_left || p.guardrail_right)
+    }));
+}
+
+#[test]
+fn connections_and_right_of_way_come_from_the_junction() {
+    let level = import("tee.net.xml");
+    assert_eq!(level.junctions.len(), 1);
+    let t = &level.junctions[0];
+    assert_eq!(t.name, "T");
+    // A priority junction: the edges of the highest priority (3) have right of way.
+    assert_eq!(
+        t.control,
+        Control::Priority {
+            major: vec!["ET".to_owned(), "WT".to_owned()],
+            stop: false
+        }
+    );
+    // Every connection, lane to lane, as SUMO has them (lane 0 the rightmost in both).
+    let got: Vec<(&str, u32, &str, u32)> = t
+        .connections
+        .iter()
+        .map(|c| (c.from.as_str(), c.from_lane, c.to.as_str(), c.to_lane))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            ("ET", 0, "TW", 0),
+            ("ET", 1, "TW", 1),
+            ("ET", 1, "TS", 0),
+            ("ST", 0, "TE", 0),
+            ("ST", 0, "TW", 1),
+            ("WT", 0, "TS", 0),
+            ("WT", 0, "TE", 0),
+            ("WT", 1, "TE", 1),
+        ]
+    );
+    // Traffic enters where nothing leads in (a spawner per lane) and leaves where nothing
+    // leads on, routed there.
+    let mut sources: Vec<(&str, u32)> = level
+        .spawners
+        .iter()
+        .map(|s| (s.road.as_str(), s.lane))
+        .collect();
+    sources.sort();
+    assert_eq!(
+        sources,
+        vec![("ET", 0), ("ET", 1), ("ST", 0), ("WT", 0), ("WT", 1)]
+    );
+    let st = level.spawners.iter().find(|s| s.road == "ST").expect("ST");
+    let mut routes: Vec<Vec<&str>> = st
+        .routes
+        .iter()
+        .map(|r| r.roads.iter().map(String::as_str).collect())
+        .collect();
+    routes.sort();
+    assert_eq!(routes, vec![vec!["ST", "TE"], vec!["ST", "TW"]]);
+    let mut sinks: Vec<&str> = level.destroyers.iter().map(|d| d.name.as_str()).collect();
+    sinks.sort();
+    assert_eq!(sinks, vec!["TE", "TS", "TW"]);
+}
+
+#[test]
+fn a_traffic_light_keeps_its_program_letter_for_letter_in_link_order() {
+    let level = import("cross.net.xml");
+    let c = &level.junctions[0];
+    assert_eq!(c.control, Control::Signal);
+    // SUMO's link indices 0–11: from the north, east, south, west, each right, straight, left.
+    let got: Vec<(&str, &str)> = c
+        .connections
+        .iter()
+        .map(|c| (c.from.as_str(), c.to.as_str()))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            ("NC", "CW"),
+            ("NC", "CS"),
+            ("NC", "CE"),
+            ("EC", "CN"),
+            ("EC", "CW"),
+            ("EC", "CS"),
+            ("SC", "CE"),
+            ("SC", "CN"),
+            ("SC", "CW"),
+            ("WC", "CS"),
+            ("WC", "CE"),
+            ("WC", "CN"),
+        ]
+    );
+    let program = c.signal.as_ref().expect("a program");
+    let phases: Vec<(f64, &str)> = program
+        .phases
+        .iter()
+        .map(|p| (p.duration_s, p.state.as_str()))
+        .collect();
+    assert_eq!(
+        phases,
+        vec![
+            (42.0, "rrrGGgrrrGGg"),
+            (3.0, "rrryyyrrryyy"),
+            (42.0, "GGgrrrGGgrrr"),
+            (3.0, "yyyrrryyyrrr"),
+        ]
+    );
+    assert_eq!(program.offset_s, 0.0);
+    // East–west straight on is green from the start, north–south after 45 s.
+    assert_eq!(program.state_at(10.0, 4), SignalState::Green);
+    assert_eq!(program.state_at(10.0, 1), SignalState::Red);
+    assert_eq!(program.state_at(50.0, 1), SignalState::Green);
+}
+
+#[test]
+fn a_sumo_offset_starts_the_program_that_much_early() {
+    // SUMO runs a program with offset 10 as if it had started 10 s before time 0.
+    let path = fixture("cross.net.xml");
+    let text = std::fs::read_to_string(&path)
+        .expect("the fixture")
+        .replace(
+            r#"programID="0" offset="0""#,
+            r#"programID="0" offset="10""#,
+        );
+    let level = import_sumo_net(&text, &path, "offset").expect("imports");
+    let program = level.junctions[0].signal.as_ref().expect("a program");
+    assert_eq!(program.offset_s, 80.0);
+    // At time 0 it is 10 s before the cycle's end (80 s into its 90): north–south green, then
+    // their amber from 7 s, and east–west green again from 10 s.
+    assert_eq!(program.state_at(0.0, 1), SignalState::Green);
+    assert_eq!(program.state_at(7.5, 1), SignalState::Amber);
+    assert_eq!(program.state_at(10.5, 4), SignalState::Green);
+}
+
+#[test]
+fn the_imported_crossroads_runs_without_a_collision_or_a_red_entry() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("cross.ron");
+    let status = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(["import"])
+        .arg(fixture("cross.net.xml"))
+        .arg("-o")
+        .arg(&out)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("flockway runs");
+    assert!(status.status.success(), "{status:?}");
+    // It never overwrites.
+    let again = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(["import"])
+        .arg(fixture("cross.net.xml"))
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .expect("flockway runs");
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("never overwrites"));
+    let level = load_level(&out).expect("the written level loads");
+    let m = run(level, &out, 2, None, None);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    assert_eq!(m["red_entries.C"], 0.0, "{m:#?}");
+    // The demand (a car every 8–12 s from each arm) gets through.
+    assert!(m["junction_flow_veh_per_h.C"] > 1_100.0, "{m:#?}");
+    let headway = m["discharge_headway_s.C"];
+    // Queued cars discharge at a saturation flow of 1 500–2 250 veh/h of green.
+    assert!((1.6..2.4).contains(&headway), "{m:#?}");
+}
+
+#[test]
+fn a_broken_network_is_an_error_at_its_line_and_column() {
+    let path = fixture("cross.net.xml");
+    let text = std::fs::read_to_string(&path).expect("the fixture");
+    let line_of = |needle: &str| {
+        text.lines()
+            .position(|l| l.contains(needle))
+            .map(|i| i as u32 + 1)
+            .expect(needle)
+    };
+    let cases = [
+        // Not XML at all where it breaks off.
+        (
+            text.replace("</net>", "</nte>"),
+            line_of("</net>"),
+            "not a well-formed XML file",
+        ),
+        // A connection to an edge the network does not have.
+        (
+            text.replace(
+                r#"<connection from="EC" to="CN""#,
+                r#"<connection from="EC" to="XX""#,
+            ),
+            line_of(r#"<connection from="EC" to="CN""#),
+            "connection to unknown edge `XX`",
+        ),
+        // A signal state SUMO does not write.
+        (
+            text.replace(r#"state="rrrGGgrrrGGg""#, r#"state="rrrGGgrrrGGq""#),
+            line_of(r#"state="rrrGGgrrrGGg""#),
+            "unknown signal state letter 'q'",
+        ),
+        // A lane shape that is not points.
+        (
+            text.replace(
+                r#"shape="207.20,198.40 400.00,198.40""#,
+                r#"shape="207.20""#,
+            ),
+            line_of(r#"shape="207.20,198.40 400.00,198.40""#),
+            "`shape` must be at least two points",
+        ),
+    ];
+    for (broken, line, words) in cases {
+        let e = import_sumo_net(&broken, &path, "broken").expect_err(words);
+        assert_eq!(e.line, line, "{e}");
+        assert!(e.to_string().contains(words), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{}:{line}:", path.display())),
+            "{e}"
+        );
+    }
+    // Something that is not a SUMO network.
+    let e = import_sumo_net("<routes/>", &path, "x").expect_err("not a net");
+    assert!(e.to_string().contains("expected a SUMO network"), "{e}");
+}
