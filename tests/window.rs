@@ -611,8 +611,10 @@ fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
     x.click(destroyer_tool);
     // (Between the control points of the road's last piece, which would take the click.)
     x.click(screen(128.0, 40.0));
+    shoot(&x, "roundabout_markers.png");
     x.click(play_button);
     x.click(max_speed);
+    shoot(&x, "roundabout_play.png");
     let streamed = dir
         .path()
         .join(format!("flockway-play-{}.csv", editor.id()));
@@ -676,5 +678,111 @@ fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
     assert!(
         merged >= 3 && through >= 3,
         "{merged} ramp cars and {through} main-road cars drove through: {roads:?}"
+    );
+}
+
+#[test]
+fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let mut editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+    let spawner_tool = widget_centre(new_app(), "Spawner");
+    let destroyer_tool = widget_centre(new_app(), "Destroyer");
+    let play_button = widget_centre(new_app(), "Play");
+    let mut playing = AppState::new(
+        Editor::with_level(flockway::level::Template::Ring.level("r"), None),
+        std::fs::canonicalize("assets").expect("assets"),
+    );
+    playing.play();
+    let max_speed = widget_centre(playing, "max");
+
+    // The Roundabout tool by its key, then one click where the ring's centre goes.
+    x.xdotool(&["key", "o"]);
+    let here = camera
+        .to_screen(Vec3::ZERO, size)
+        .expect("the middle of the view is on screen");
+    x.click((here.x, here.y));
+    let centre = camera
+        .ground_point(here, size, 0.0)
+        .expect("on the ground")
+        .as_dvec3();
+    let centre = (centre * 1000.0).round() / 1000.0;
+    shoot(&x, "roundabout_placed.png");
+    // A spawner on the east arm's way in, a destroyer on the north arm's way out (the first
+    // exit: a car without a route takes it).
+    let prefab = flockway::level::roundabout("roundabout 1", centre);
+    let on = |name: &str, s: f64| {
+        let spec = prefab
+            .roads
+            .iter()
+            .find(|r| r.name == name)
+            .expect("a prefab road");
+        let g = RoadGeometry::new(spec).expect("a road");
+        let p = camera
+            .to_screen(g.frame_at(s).pos.as_vec3(), size)
+            .expect("on screen");
+        (p.x, p.y)
+    };
+    x.click(spawner_tool);
+    x.click(on("roundabout 1 east in", 15.0));
+    x.click(destroyer_tool);
+    x.click(on("roundabout 1 north out", 45.0));
+    shoot(&x, "roundabout_markers.png");
+    x.click(play_button);
+    x.click(max_speed);
+    shoot(&x, "roundabout_play.png");
+    let streamed = dir
+        .path()
+        .join(format!("flockway-play-{}.csv", editor.id()));
+    play_until(&streamed, 61.0, Duration::from_secs(240));
+    shoot(&x, "roundabout_playing.png");
+    x.xdotool(&["mousemove", "500", "780"]);
+    x.xdotool(&["key", "Escape"]);
+    x.xdotool(&["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let saved = dir.path().join("level.ron");
+    let exported = dir.path().join("untitled_run.csv");
+    let (saved_exists, exported_exists) = (saved.exists(), exported.exists());
+    let _ = editor.kill();
+    let output = editor.wait_with_output().expect("editor output");
+    let _ = std::fs::remove_file(&streamed);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
+    assert!(exported_exists, "Esc did not export the run: {stderr}");
+
+    // The level: the roundabout's twelve roads and four junctions where the click was.
+    let level = load_level(&saved).expect("the saved level loads");
+    assert_eq!(level.roads, prefab.roads);
+    assert_eq!(level.junctions, prefab.junctions);
+    assert_eq!(level.spawners.len(), 1);
+    assert_eq!(level.spawners[0].road, "roundabout 1 east in");
+    assert_eq!(level.destroyers.len(), 1);
+
+    // The run: cars came in from the east, onto the ring, out at the north and were removed.
+    let csv = std::fs::read_to_string(&exported).expect("exported csv");
+    let mut roads_of: std::collections::BTreeMap<u32, Vec<String>> = Default::default();
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let roads = roads_of.entry(f[1].parse().expect("id")).or_default();
+        if roads.last().map(String::as_str) != Some(f[3]) {
+            roads.push(f[3].to_owned());
+        }
+    }
+    assert!(roads_of.len() >= 5, "only {} vehicles", roads_of.len());
+    let through = roads_of
+        .values()
+        .filter(|r| {
+            r.first().map(String::as_str) == Some("roundabout 1 east in")
+                && r.iter().any(|x| x == "roundabout 1 ring east-north")
+                && r.iter().any(|x| x == "roundabout 1 north out")
+        })
+        .count();
+    assert!(through >= 3, "cars through the ring: {roads_of:?}");
+    assert!(
+        !roads_of
+            .values()
+            .any(|r| r.iter().any(|x| x == "roundabout 1 ring north-west")),
+        "a car without a route went past its first exit: {roads_of:?}"
     );
 }

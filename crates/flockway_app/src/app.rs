@@ -30,6 +30,8 @@ pub enum Tool {
     Destroyer,
     /// Click on a road to place a speed-limit trigger.
     Trigger,
+    /// Click on the ground to place a four-arm roundabout centred there.
+    Roundabout,
 }
 
 /// What is selected.
@@ -396,6 +398,9 @@ impl AppState {
             Tool::Spawner => "Spawner: click on a lane to place a spawner.",
             Tool::Destroyer => "Destroyer: click on a road where vehicles should leave.",
             Tool::Trigger => "Trigger: click on a road to place a speed-limit stretch.",
+            Tool::Roundabout => {
+                "Roundabout: click on the ground to place a four-arm roundabout centred there."
+            }
         }
         .to_owned();
     }
@@ -655,6 +660,32 @@ impl AppState {
                             self.selection = Selection::Point(r, 0);
                         }
                     }
+                }
+            }
+            Tool::Roundabout => {
+                let Some(at) = ground else { return };
+                let level = self.editor.level();
+                let taken = |n: &str| {
+                    let prefix = format!("{n} ");
+                    level.roads.iter().any(|r| r.name.starts_with(&prefix))
+                        || level.junctions.iter().any(|j| j.name.starts_with(&prefix))
+                };
+                let Some(name) = (1..).map(|n| format!("roundabout {n}")).find(|n| !taken(n))
+                else {
+                    return;
+                };
+                let prefab = flockway_level::roundabout(&name, at);
+                let command = Command::AddPrefab {
+                    roads: prefab.roads,
+                    junctions: prefab.junctions,
+                };
+                if self.edit(command, false) {
+                    self.selection = Selection::None;
+                    self.status = format!(
+                        "Placed `{name}`: a ring with four arms, each entry giving way to the \
+                         ring. Put spawners on its `… in` roads and destroyers on its `… out` \
+                         roads."
+                    );
                 }
             }
             Tool::Spawner | Tool::Destroyer | Tool::Trigger => {

@@ -11,7 +11,7 @@ use flockway_level::{
     LevelError, SpawnerSpec, TelemetrySpec, Template, TriggerSpec, VehicleTypeSpec,
     level_to_string, parse_level, validate, write_atomic,
 };
-use flockway_road::{ControlPoint, LinkSpec, RoadSpec};
+use flockway_road::{ControlPoint, JunctionSpec, LinkSpec, RoadSpec};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -203,6 +203,13 @@ pub enum Command {
     SetVehicles(usize, InitialVehiclesSpec),
     /// Deletes a group of initial vehicles.
     DeleteVehicles(usize),
+    /// Places roads and the junctions between them together (a roundabout).
+    AddPrefab {
+        /// The roads.
+        roads: Vec<RoadSpec>,
+        /// The junctions.
+        junctions: Vec<JunctionSpec>,
+    },
     /// Several edits as one undo step (all or none).
     Batch {
         /// What the undo menu calls it.
@@ -248,6 +255,7 @@ impl Command {
             Command::AddVehicles(_) => "add vehicle group",
             Command::SetVehicles(..) => "edit vehicle group",
             Command::DeleteVehicles(_) => "delete vehicle group",
+            Command::AddPrefab { .. } => "place roundabout",
             Command::Batch { label, .. } => label,
         }
     }
@@ -927,6 +935,10 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             for c in commands {
                 apply(level, c)?;
             }
+        }
+        Command::AddPrefab { roads, junctions } => {
+            level.roads.extend(roads.iter().cloned());
+            level.junctions.extend(junctions.iter().cloned());
         }
         Command::AddSpawner(s) => level.spawners.push(s.clone()),
         Command::AddDestroyer(d) => level.destroyers.push(d.clone()),

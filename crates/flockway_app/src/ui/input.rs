@@ -198,7 +198,7 @@ fn is_shortcut(key: Key, m: Modifiers, typing: bool) -> bool {
     if m.command {
         return matches!(key, Key::Z | Key::Y | Key::S);
     }
-    let letters = matches!(key, Key::R | Key::V | Key::F | Key::Escape);
+    let letters = matches!(key, Key::R | Key::O | Key::V | Key::F | Key::Escape);
     let scene_keys = matches!(
         key,
         Key::Space
@@ -229,6 +229,7 @@ fn shortcut(app: &mut AppState, key: Key, m: Modifiers, aspect: f32) {
             let _ = app.save();
         }
         Key::R => app.set_tool(Tool::Road),
+        Key::O => app.set_tool(Tool::Roundabout),
         Key::V => app.set_tool(Tool::Select),
         Key::F => app.follow = !app.follow,
         Key::Space => {

@@ -55,6 +55,10 @@ fn overview(ui: &mut egui::Ui, app: &AppState, level: &Level) {
         Tool::Spawner => "Click on a lane to place a spawner there.",
         Tool::Destroyer => "Click on a road to place a destroyer: vehicles that reach it leave.",
         Tool::Trigger => "Click on a road to place a trigger stretch (a new speed limit).",
+        Tool::Roundabout => {
+            "Click on the ground to place a single-lane roundabout there: a ring of 24 m radius \
+             with four arms, each entry giving way to the ring."
+        }
     };
     ui.add(egui::Label::new(egui::RichText::new(hint).weak()).wrap());
 }

@@ -126,6 +126,11 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
                     "Trigger",
                     "click on a road to place a speed-limit trigger",
                 ),
+                (
+                    Tool::Roundabout,
+                    "Roundabout",
+                    "O: click on the ground to place a four-arm roundabout",
+                ),
             ] {
                 if ui
                     .selectable_label(app.tool == tool, label)

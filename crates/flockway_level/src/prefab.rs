@@ -1,0 +1,217 @@
+//! Pieces of road network placed whole: what the editor's Roundabout tool drops where it is
+//! clicked.
+
+use flockway_road::{ConnectionSpec, Control, ControlPoint, JunctionSpec, RoadSpec};
+use glam::DVec3;
+
+/// Roads and the junctions between them, placed together.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prefab {
+    /// The roads, in the order they join the level.
+    pub roads: Vec<RoadSpec>,
+    /// The junctions, in the order they join the level.
+    pub junctions: Vec<JunctionSpec>,
+}
+
+/// Radius of a roundabout's ring, to its lane's centre, m.
+pub const RING_RADIUS_M: f64 = 24.0;
+/// How far either side of an arm's axis its entry and exit meet the ring, degrees.
+const ARM_SPREAD_DEG: f64 = 35.0;
+/// Where an arm's roads end at the ring side, m from the centre.
+const ARM_NEAR_M: f64 = 38.0;
+/// Where they end away from it, m from the centre.
+const ARM_FAR_M: f64 = 100.0;
+/// How far each of an arm's two roads runs from its axis, m (a lane each way).
+const ARM_OFFSET_M: f64 = 1.75;
+/// The ring's speed limit, km/h.
+const RING_KMH: f64 = 30.0;
+/// The arms' speed limit, km/h.
+const ARM_KMH: f64 = 50.0;
+/// The arms, by the compass, counter-clockwise from the east (the ring's direction).
+const ARMS: [(&str, f64); 4] = [
+    ("east", 0.0),
+    ("north", 90.0),
+    ("west", 180.0),
+    ("south", 270.0),
+];
+
+/// A single-lane, four-arm roundabout centred on `centre`, its names starting with `name`
+/// (`NAME east in`, `NAME ring east-north`, junction `NAME east`, …; no prefix when `name` is
+/// empty): a ring driven counter-clockwise, each arm a road in and a road out, and at each arm a
+/// junction where the entry gives way to the ring (the ring through, the entry merging onto the
+/// ring, the exit leaving it) — the layout of `levels/roundabout.ron`. A car without a route
+/// leaves at the first exit it comes to.
+pub fn roundabout(name: &str, centre: DVec3) -> Prefab {
+    let named = |what: String| {
+        if name.is_empty() {
+            what
+        } else {
+            format!("{name} {what}")
+        }
+    };
+    let point = |p: DVec3, tangent: Option<DVec3>| ControlPoint {
+        guardrail_left: false,
+        guardrail_right: false,
+        tangent,
+        ..ControlPoint::at(centre + p)
+    };
+    let road = |name: String, kmh: f64, points: Vec<ControlPoint>| RoadSpec {
+        points,
+        ..RoadSpec::through(&name, 1, kmh, &[DVec3::ZERO, DVec3::X])
+    };
+    let mut roads = Vec::new();
+    for (arm, deg) in ARMS {
+        let a = deg.to_radians();
+        let u = DVec3::new(libm::cos(a), libm::sin(a), 0.0);
+        let n = DVec3::new(-u.y, u.x, 0.0);
+        // Into the ring on the right of a car heading for the centre.
+        roads.push(road(
+            named(format!("{arm} in")),
+            ARM_KMH,
+            vec![
+                point(u * ARM_FAR_M + n * ARM_OFFSET_M, None),
+                point(u * ARM_NEAR_M + n * ARM_OFFSET_M, None),
+            ],
+        ));
+        roads.push(road(
+            named(format!("{arm} out")),
+            ARM_KMH,
+            vec![
+                point(u * ARM_NEAR_M - n * ARM_OFFSET_M, None),
+                point(u * ARM_FAR_M - n * ARM_OFFSET_M, None),
+            ],
+        ));
+    }
+    for (i, (arm, deg)) in ARMS.iter().enumerate() {
+        let (next, _) = ARMS[(i + 1) % ARMS.len()];
+        let (from, to) = (
+            (deg + ARM_SPREAD_DEG).to_radians(),
+            (deg + 90.0 - ARM_SPREAD_DEG).to_radians(),
+        );
+        let points = (0..=4)
+            .map(|k| {
+                let a = from + (to - from) * f64::from(k) / 4.0;
+                let (s, c) = (libm::sin(a), libm::cos(a));
+                point(
+                    DVec3::new(c, s, 0.0) * RING_RADIUS_M,
+                    Some(DVec3::new(-s, c, 0.0)),
+                )
+            })
+            .collect();
+        roads.push(road(named(format!("ring {arm}-{next}")), RING_KMH, points));
+    }
+    let junctions = ARMS
+        .iter()
+        .enumerate()
+        .map(|(i, (arm, _))| {
+            let (prev, _) = ARMS[(i + ARMS.len() - 1) % ARMS.len()];
+            let (next, _) = ARMS[(i + 1) % ARMS.len()];
+            let ring_in = named(format!("ring {prev}-{arm}"));
+            let ring_out = named(format!("ring {arm}-{next}"));
+            let connect = |from: &str, to: String| ConnectionSpec {
+                from: from.to_owned(),
+                from_lane: 0,
+                to,
+                to_lane: 0,
+            };
+            JunctionSpec {
+                name: named((*arm).to_owned()),
+                control: Control::Priority {
+                    major: vec![ring_in.clone()],
+                    stop: false,
+                },
+                // The exit first: a car without a route takes the first link it finds, so
+                // it leaves at the next exit rather than circling for ever.
+                connections: vec![
+                    connect(&ring_in, named(format!("{arm} out"))),
+                    connect(&ring_in, ring_out.clone()),
+                    connect(&named(format!("{arm} in")), ring_out),
+                ],
+                signal: None,
+            }
+        })
+        .collect();
+    Prefab { roads, junctions }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{load_level, validate};
+    use flockway_road::RoadNetwork;
+    use std::path::Path;
+
+    #[test]
+    fn a_roundabout_builds_every_entry_giving_way_by_merging_onto_the_ring() {
+        let p = roundabout("r1", DVec3::new(100.0, -50.0, 0.0));
+        assert_eq!((p.roads.len(), p.junctions.len()), (12, 4));
+        let net = RoadNetwork::build_with(&p.roads, &p.junctions).expect("it builds");
+        for j in net.junctions() {
+            // The entry (connection 2) merges with the ring through (connection 1) and gives
+            // way to it; the exit (0) leaves from the ring's lane, beside the through path.
+            let entry = &j.paths[2];
+            let merge = entry
+                .conflicts
+                .iter()
+                .find(|c| c.other == 1)
+                .expect("the entry meets the ring");
+            assert!(merge.merge);
+            assert!(j.gives_way(2, 1, None) && !j.gives_way(1, 2, None));
+            assert!(j.paths[0].siblings.iter().any(|(o, _)| *o == 1));
+        }
+        // It sits where it was put.
+        let ring = RoadNetwork::build_with(&p.roads, &p.junctions)
+            .expect("it builds")
+            .id("r1 ring east-north")
+            .expect("the ring");
+        let g = net.get(ring).expect("geometry");
+        let mid = g.pos_at(0.5 * g.length_m());
+        let centre = DVec3::new(100.0, -50.0, 0.0);
+        assert!(
+            ((mid - centre).length() - RING_RADIUS_M).abs() < 0.2,
+            "{mid}"
+        );
+    }
+
+    #[test]
+    fn the_shipped_roundabout_level_has_the_prefab_layout() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../levels/roundabout.ron");
+        let level = load_level(&path).expect("the shipped level");
+        let p = roundabout("", DVec3::ZERO);
+        // The same junctions (the level lists each one's connections in another order).
+        assert_eq!(level.junctions.len(), p.junctions.len());
+        for (shipped, j) in level.junctions.iter().zip(&p.junctions) {
+            assert_eq!((&shipped.name, &shipped.control), (&j.name, &j.control));
+            let mut a = shipped.connections.clone();
+            let mut b = j.connections.clone();
+            a.sort_by(|x, y| (&x.from, &x.to).cmp(&(&y.from, &y.to)));
+            b.sort_by(|x, y| (&x.from, &x.to).cmp(&(&y.from, &y.to)));
+            assert_eq!(a, b, "{}", j.name);
+        }
+        for road in &p.roads {
+            let shipped = level
+                .roads
+                .iter()
+                .find(|r| r.name == road.name)
+                .expect("the same roads");
+            // The ring the same; the arms the same where they meet the ring (longer there).
+            let near = |r: &RoadSpec| {
+                if r.name.ends_with(" in") {
+                    r.points[r.points.len() - 1].pos
+                } else {
+                    r.points[0].pos
+                }
+            };
+            assert!(
+                (near(shipped) - near(road)).length() < 0.01,
+                "{}",
+                road.name
+            );
+        }
+        let mut level = level;
+        level.roads = p.roads;
+        level.spawners.clear();
+        level.destroyers.clear();
+        assert!(validate(&level).is_empty(), "{:?}", validate(&level));
+    }
+}
