@@ -786,3 +786,92 @@ fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
         "a car without a route went past its first exit: {roads_of:?}"
     );
 }
+
+#[test]
+fn a_crossroads_placed_by_mouse_gets_cars_through_its_signal() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let mut editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+    let spawner_tool = widget_centre(new_app(), "Spawner");
+    let destroyer_tool = widget_centre(new_app(), "Destroyer");
+    let play_button = widget_centre(new_app(), "Play");
+    let mut playing = AppState::new(
+        Editor::with_level(flockway::level::Template::Ring.level("r"), None),
+        std::fs::canonicalize("assets").expect("assets"),
+    );
+    playing.play();
+    let max_speed = widget_centre(playing, "max");
+
+    // The Crossroads tool by its key, one click where its centre goes.
+    x.xdotool(&["key", "c"]);
+    let here = camera
+        .to_screen(Vec3::new(20.0, -10.0, 0.0), size)
+        .expect("on screen");
+    x.click((here.x, here.y));
+    let centre = camera
+        .ground_point(here, size, 0.0)
+        .expect("on the ground")
+        .as_dvec3();
+    let centre = (centre * 1000.0).round() / 1000.0;
+    shoot(&x, "crossroads_placed.png");
+    let prefab = flockway::level::crossroads("crossroads 1", centre);
+    let on = |name: &str, s: f64| {
+        let spec = prefab
+            .roads
+            .iter()
+            .find(|r| r.name == name)
+            .expect("a prefab road");
+        let g = RoadGeometry::new(spec).expect("a road");
+        let p = camera
+            .to_screen(g.frame_at(s).pos.as_vec3(), size)
+            .expect("on screen");
+        (p.x, p.y)
+    };
+    // Cars from the west, straight on (no route) through the signal to the east.
+    x.click(spawner_tool);
+    x.click(on("crossroads 1 west in", 10.0));
+    x.click(destroyer_tool);
+    x.click(on("crossroads 1 east out", 60.0));
+    x.click(play_button);
+    x.click(max_speed);
+    let streamed = dir
+        .path()
+        .join(format!("flockway-play-{}.csv", editor.id()));
+    play_until(&streamed, 121.0, Duration::from_secs(240));
+    shoot(&x, "crossroads_playing.png");
+    x.xdotool(&["mousemove", "500", "780"]);
+    x.xdotool(&["key", "Escape"]);
+    x.xdotool(&["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let saved = dir.path().join("level.ron");
+    let exported = dir.path().join("untitled_run.csv");
+    let (saved_exists, exported_exists) = (saved.exists(), exported.exists());
+    let _ = editor.kill();
+    let output = editor.wait_with_output().expect("editor output");
+    let _ = std::fs::remove_file(&streamed);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
+    assert!(exported_exists, "Esc did not export the run: {stderr}");
+
+    let level = load_level(&saved).expect("the saved level loads");
+    assert_eq!(level.roads, prefab.roads);
+    assert_eq!(level.junctions, prefab.junctions);
+
+    // Cars queued at red and went through on green: some stood still at the line, and more
+    // than one reached the road beyond.
+    let csv = std::fs::read_to_string(&exported).expect("exported csv");
+    let mut through = std::collections::BTreeSet::new();
+    let mut stood = false;
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (road, s, speed): (&str, f64, f64) =
+            (f[3], f[5].parse().expect("s"), f[9].parse().expect("speed"));
+        if road == "crossroads 1 east out" {
+            through.insert(f[1].to_owned());
+        }
+        stood |= road == "crossroads 1 west in" && s > 80.0 && speed.abs() < 1.0;
+    }
+    assert!(through.len() >= 5, "only {} cars crossed", through.len());
+    assert!(stood, "no car waited at the line");
+}

@@ -32,6 +32,8 @@ pub enum Tool {
     Trigger,
     /// Click on the ground to place a four-arm roundabout centred there.
     Roundabout,
+    /// Click on the ground to place a four-arm signalised crossroads centred there.
+    Crossroads,
 }
 
 /// What is selected.
@@ -401,6 +403,9 @@ impl AppState {
             Tool::Roundabout => {
                 "Roundabout: click on the ground to place a four-arm roundabout centred there."
             }
+            Tool::Crossroads => {
+                "Crossroads: click on the ground to place a four-arm signalised crossroads there."
+            }
         }
         .to_owned();
     }
@@ -662,19 +667,38 @@ impl AppState {
                     }
                 }
             }
-            Tool::Roundabout => {
+            Tool::Roundabout | Tool::Crossroads => {
                 let Some(at) = ground else { return };
+                let kind = if self.tool == Tool::Roundabout {
+                    "roundabout"
+                } else {
+                    "crossroads"
+                };
                 let level = self.editor.level();
                 let taken = |n: &str| {
                     let prefix = format!("{n} ");
                     level.roads.iter().any(|r| r.name.starts_with(&prefix))
-                        || level.junctions.iter().any(|j| j.name.starts_with(&prefix))
+                        || level
+                            .junctions
+                            .iter()
+                            .any(|j| j.name == n || j.name.starts_with(&prefix))
                 };
-                let Some(name) = (1..).map(|n| format!("roundabout {n}")).find(|n| !taken(n))
-                else {
+                let Some(name) = (1..).map(|n| format!("{kind} {n}")).find(|n| !taken(n)) else {
                     return;
                 };
-                let prefab = flockway_level::roundabout(&name, at);
+                let (prefab, what) = if self.tool == Tool::Roundabout {
+                    (
+                        flockway_level::roundabout(&name, at),
+                        "a ring with four arms, each entry giving way to the ring; a car \
+                         without a route leaves at the first exit",
+                    )
+                } else {
+                    (
+                        flockway_level::crossroads(&name, at),
+                        "four arms under a two-phase signal with permitted left turns; a car \
+                         without a route goes straight on",
+                    )
+                };
                 let command = Command::AddPrefab {
                     roads: prefab.roads,
                     junctions: prefab.junctions,
@@ -682,9 +706,8 @@ impl AppState {
                 if self.edit(command, false) {
                     self.selection = Selection::None;
                     self.status = format!(
-                        "Placed `{name}`: a ring with four arms, each entry giving way to the \
-                         ring. Put spawners on its `… in` roads and destroyers on its `… out` \
-                         roads."
+                        "Placed `{name}`: {what}. Put spawners on its `… in` roads and \
+                         destroyers on its `… out` roads."
                     );
                 }
             }

@@ -203,7 +203,7 @@ pub enum Command {
     SetVehicles(usize, InitialVehiclesSpec),
     /// Deletes a group of initial vehicles.
     DeleteVehicles(usize),
-    /// Places roads and the junctions between them together (a roundabout).
+    /// Places roads and the junctions between them together (a roundabout, a crossroads).
     AddPrefab {
         /// The roads.
         roads: Vec<RoadSpec>,
@@ -255,7 +255,7 @@ impl Command {
             Command::AddVehicles(_) => "add vehicle group",
             Command::SetVehicles(..) => "edit vehicle group",
             Command::DeleteVehicles(_) => "delete vehicle group",
-            Command::AddPrefab { .. } => "place roundabout",
+            Command::AddPrefab { .. } => "place junction",
             Command::Batch { label, .. } => label,
         }
     }

@@ -20,7 +20,7 @@ pub use io::{
     parse_level, save_level, write_atomic,
 };
 pub use locate::{PathStep, Pos, locate};
-pub use prefab::{Prefab, RING_RADIUS_M, roundabout};
+pub use prefab::{Prefab, RING_RADIUS_M, crossroads, roundabout};
 pub use schema::{
     Arrivals, CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel,
     DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,

@@ -1,5 +1,5 @@
-//! Pieces of road network placed whole: what the editor's Roundabout tool drops where it is
-//! clicked.
+//! Pieces of road network placed whole: what the editor's Roundabout and Crossroads tools drop
+//! where they are clicked.
 
 use flockway_road::{ConnectionSpec, Control, ControlPoint, JunctionSpec, RoadSpec};
 use glam::DVec3;
@@ -134,6 +134,103 @@ pub fn roundabout(name: &str, centre: DVec3) -> Prefab {
     Prefab { roads, junctions }
 }
 
+/// Where a crossroads' roads end, m from its centre.
+const CROSSROADS_NEAR_M: f64 = 10.0;
+/// The arms of a crossroads, in the order its connections list them.
+const CROSSROADS_ARMS: [(&str, f64); 4] = [
+    ("west", 180.0),
+    ("east", 0.0),
+    ("south", 270.0),
+    ("north", 90.0),
+];
+
+/// A four-arm signalised crossroads centred on `centre` (a lane each way, 50 km/h), named
+/// `name` (`crossroads` when empty; its roads `NAME west in`, …): per arm straight on, left and
+/// right, under a fixed-time two-phase signal with permitted left turns (35 s green, 3 s amber,
+/// 2 s all-red for east–west, then north–south) — the layout of `levels/crossroads_signal.ron`.
+/// A car without a route goes straight on.
+pub fn crossroads(name: &str, centre: DVec3) -> Prefab {
+    let named = |what: &str| {
+        if name.is_empty() {
+            what.to_owned()
+        } else {
+            format!("{name} {what}")
+        }
+    };
+    let point = |p: DVec3| ControlPoint {
+        guardrail_left: false,
+        guardrail_right: false,
+        ..ControlPoint::at(centre + p)
+    };
+    let mut roads = Vec::new();
+    for (arm, deg) in CROSSROADS_ARMS {
+        let a = deg.to_radians();
+        let u = DVec3::new(libm::cos(a), libm::sin(a), 0.0);
+        let n = DVec3::new(-u.y, u.x, 0.0);
+        let road = |what: String, from: DVec3, to: DVec3| RoadSpec {
+            points: vec![point(from), point(to)],
+            ..RoadSpec::through(&what, 1, ARM_KMH, &[DVec3::ZERO, DVec3::X])
+        };
+        roads.push(road(
+            named(&format!("{arm} in")),
+            u * ARM_FAR_M + n * ARM_OFFSET_M,
+            u * CROSSROADS_NEAR_M + n * ARM_OFFSET_M,
+        ));
+        roads.push(road(
+            named(&format!("{arm} out")),
+            u * CROSSROADS_NEAR_M - n * ARM_OFFSET_M,
+            u * ARM_FAR_M - n * ARM_OFFSET_M,
+        ));
+    }
+    // Each arm's exits by the compass: straight on is the arm opposite (180° round), left the
+    // arm 270° round (counter-clockwise), right the one 90° round.
+    let arm_at = |deg: f64| {
+        CROSSROADS_ARMS
+            .iter()
+            .find(|(_, d)| (d - deg.rem_euclid(360.0)).abs() < 1e-9)
+            .map_or("", |(a, _)| a)
+    };
+    let mut connections = Vec::new();
+    for (arm, deg) in CROSSROADS_ARMS {
+        for turn in [180.0, 270.0, 90.0] {
+            connections.push(ConnectionSpec {
+                from: named(&format!("{arm} in")),
+                from_lane: 0,
+                to: named(&format!("{} out", arm_at(deg + turn))),
+                to_lane: 0,
+            });
+        }
+    }
+    let phase = |duration_s: f64, state: &str| flockway_road::Phase {
+        duration_s,
+        state: state.to_owned(),
+    };
+    let junction = JunctionSpec {
+        name: if name.is_empty() {
+            "crossroads".to_owned()
+        } else {
+            name.to_owned()
+        },
+        control: Control::Signal,
+        connections,
+        signal: Some(flockway_road::SignalProgram {
+            offset_s: 0.0,
+            phases: vec![
+                phase(35.0, "GgGGgGrrrrrr"),
+                phase(3.0, "yyyyyyrrrrrr"),
+                phase(2.0, "rrrrrrrrrrrr"),
+                phase(35.0, "rrrrrrGgGGgG"),
+                phase(3.0, "rrrrrryyyyyy"),
+                phase(2.0, "rrrrrrrrrrrr"),
+            ],
+        }),
+    };
+    Prefab {
+        roads,
+        junctions: vec![junction],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,5 +310,35 @@ mod tests {
         level.spawners.clear();
         level.destroyers.clear();
         assert!(validate(&level).is_empty(), "{:?}", validate(&level));
+    }
+
+    #[test]
+    fn the_shipped_signalised_crossroads_has_the_prefab_layout() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../levels/crossroads_signal.ron");
+        let level = load_level(&path).expect("the shipped level");
+        let p = crossroads("", DVec3::ZERO);
+        assert_eq!(level.junctions, p.junctions);
+        for road in &p.roads {
+            let shipped = level
+                .roads
+                .iter()
+                .find(|r| r.name == road.name)
+                .expect("the same roads");
+            let near = |r: &RoadSpec| {
+                if r.name.ends_with(" in") {
+                    r.points[r.points.len() - 1].pos
+                } else {
+                    r.points[0].pos
+                }
+            };
+            assert!(
+                (near(shipped) - near(road)).length() < 1e-9,
+                "{}",
+                road.name
+            );
+        }
+        let q = crossroads("x 1", DVec3::new(-300.0, 40.0, 0.0));
+        RoadNetwork::build_with(&q.roads, &q.junctions).expect("it builds anywhere");
+        assert_eq!(q.junctions[0].name, "x 1");
     }
 }

@@ -198,7 +198,10 @@ fn is_shortcut(key: Key, m: Modifiers, typing: bool) -> bool {
     if m.command {
         return matches!(key, Key::Z | Key::Y | Key::S);
     }
-    let letters = matches!(key, Key::R | Key::O | Key::V | Key::F | Key::Escape);
+    let letters = matches!(
+        key,
+        Key::R | Key::O | Key::C | Key::V | Key::F | Key::Escape
+    );
     let scene_keys = matches!(
         key,
         Key::Space
@@ -230,6 +233,7 @@ fn shortcut(app: &mut AppState, key: Key, m: Modifiers, aspect: f32) {
         }
         Key::R => app.set_tool(Tool::Road),
         Key::O => app.set_tool(Tool::Roundabout),
+        Key::C => app.set_tool(Tool::Crossroads),
         Key::V => app.set_tool(Tool::Select),
         Key::F => app.follow = !app.follow,
         Key::Space => {

@@ -59,6 +59,10 @@ fn overview(ui: &mut egui::Ui, app: &AppState, level: &Level) {
             "Click on the ground to place a single-lane roundabout there: a ring of 24 m radius \
              with four arms, each entry giving way to the ring."
         }
+        Tool::Crossroads => {
+            "Click on the ground to place a crossroads there: four arms, a lane each way, under \
+             a fixed-time two-phase signal with permitted left turns."
+        }
     };
     ui.add(egui::Label::new(egui::RichText::new(hint).weak()).wrap());
 }

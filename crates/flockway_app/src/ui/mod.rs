@@ -68,7 +68,7 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
             app.request(Pending::New);
         }
         let label = ui.label("file");
-        ui.add(egui::TextEdit::singleline(&mut app.file_field).desired_width(220.0))
+        ui.add(egui::TextEdit::singleline(&mut app.file_field).desired_width(150.0))
             .labelled_by(label.id);
         if ui.button("Open").clicked() {
             let path = PathBuf::from(app.file_field.trim());
@@ -130,6 +130,11 @@ fn top_bar(ui: &mut egui::Ui, app: &mut AppState) {
                     Tool::Roundabout,
                     "Roundabout",
                     "O: click on the ground to place a four-arm roundabout",
+                ),
+                (
+                    Tool::Crossroads,
+                    "Crossroads",
+                    "C: click on the ground to place a four-arm signalised crossroads",
                 ),
             ] {
                 if ui
