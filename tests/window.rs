@@ -611,10 +611,8 @@ fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
     x.click(destroyer_tool);
     // (Between the control points of the road's last piece, which would take the click.)
     x.click(screen(128.0, 40.0));
-    shoot(&x, "roundabout_markers.png");
     x.click(play_button);
     x.click(max_speed);
-    shoot(&x, "roundabout_play.png");
     let streamed = dir
         .path()
         .join(format!("flockway-play-{}.csv", editor.id()));
@@ -681,68 +679,66 @@ fn a_ramp_drawn_and_dragged_onto_a_road_side_joins_it_and_its_cars_merge() {
     );
 }
 
-#[test]
-fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let x = Xvfb::start();
-    let mut editor = x.editor(dir.path());
-    let (camera, size) = empty_level_camera();
-    let spawner_tool = widget_centre(new_app(), "Spawner");
-    let destroyer_tool = widget_centre(new_app(), "Destroyer");
-    let play_button = widget_centre(new_app(), "Play");
+/// The Play controls' `max` speed button, where it is while a level plays.
+fn max_speed_button() -> (f32, f32) {
     let mut playing = AppState::new(
         Editor::with_level(flockway::level::Template::Ring.level("r"), None),
         std::fs::canonicalize("assets").expect("assets"),
     );
     playing.play();
-    let max_speed = widget_centre(playing, "max");
+    widget_centre(playing, "max")
+}
 
-    // The Roundabout tool by its key, then one click where the ring's centre goes.
-    x.xdotool(&["key", "o"]);
-    let here = camera
-        .to_screen(Vec3::ZERO, size)
-        .expect("the middle of the view is on screen");
+/// Chooses a placing tool by its `key` and clicks where `at` is on screen; returns the ground
+/// point the click met (mm-rounded, as the editor stores it).
+fn place_by_key(x: &Xvfb, key: &str, camera: &Camera, size: Vec2, at: Vec3) -> DVec3 {
+    x.xdotool(&["key", key]);
+    let here = camera.to_screen(at, size).expect("on screen");
     x.click((here.x, here.y));
     let centre = camera
         .ground_point(here, size, 0.0)
         .expect("on the ground")
         .as_dvec3();
-    let centre = (centre * 1000.0).round() / 1000.0;
-    shoot(&x, "roundabout_placed.png");
-    // A spawner on the east arm's way in, a destroyer on the north arm's way out (the first
-    // exit: a car without a route takes it).
-    let prefab = flockway::level::roundabout("roundabout 1", centre);
-    let on = |name: &str, s: f64| {
-        let spec = prefab
-            .roads
-            .iter()
-            .find(|r| r.name == name)
-            .expect("a prefab road");
-        let g = RoadGeometry::new(spec).expect("a road");
-        let p = camera
-            .to_screen(g.frame_at(s).pos.as_vec3(), size)
-            .expect("on screen");
-        (p.x, p.y)
-    };
-    x.click(spawner_tool);
-    x.click(on("roundabout 1 east in", 15.0));
-    x.click(destroyer_tool);
-    x.click(on("roundabout 1 north out", 45.0));
-    shoot(&x, "roundabout_markers.png");
-    x.click(play_button);
-    x.click(max_speed);
-    shoot(&x, "roundabout_play.png");
-    let streamed = dir
-        .path()
-        .join(format!("flockway-play-{}.csv", editor.id()));
-    play_until(&streamed, 61.0, Duration::from_secs(240));
-    shoot(&x, "roundabout_playing.png");
+    (centre * 1000.0).round() / 1000.0
+}
+
+/// Where on screen road `name` of `prefab` is, `s` metres along it.
+fn on_prefab(
+    prefab: &flockway::level::Prefab,
+    (camera, size): (&Camera, Vec2),
+    name: &str,
+    s: f64,
+) -> (f32, f32) {
+    let spec = prefab
+        .roads
+        .iter()
+        .find(|r| r.name == name)
+        .expect("a prefab road");
+    let g = RoadGeometry::new(spec).expect("a road");
+    let p = camera
+        .to_screen(g.frame_at(s).pos.as_vec3(), size)
+        .expect("on screen");
+    (p.x, p.y)
+}
+
+/// Plays until `sim_s` simulated seconds, ends the run (Esc exports its CSV) and saves
+/// (Ctrl+S), then closes the editor; returns the saved level and the exported CSV.
+fn play_export_and_save(
+    x: &Xvfb,
+    mut editor: Child,
+    dir: &Path,
+    sim_s: f64,
+    shot: &str,
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let streamed = dir.join(format!("flockway-play-{}.csv", editor.id()));
+    play_until(&streamed, sim_s, Duration::from_secs(240));
+    shoot(x, shot);
     x.xdotool(&["mousemove", "500", "780"]);
     x.xdotool(&["key", "Escape"]);
     x.xdotool(&["key", "ctrl+s"]);
     std::thread::sleep(Duration::from_millis(1000));
-    let saved = dir.path().join("level.ron");
-    let exported = dir.path().join("untitled_run.csv");
+    let saved = dir.join("level.ron");
+    let exported = dir.join("untitled_run.csv");
     let (saved_exists, exported_exists) = (saved.exists(), exported.exists());
     let _ = editor.kill();
     let output = editor.wait_with_output().expect("editor output");
@@ -750,6 +746,36 @@ fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
     assert!(exported_exists, "Esc did not export the run: {stderr}");
+    (saved, exported)
+}
+
+#[test]
+fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+    let spawner_tool = widget_centre(new_app(), "Spawner");
+    let destroyer_tool = widget_centre(new_app(), "Destroyer");
+    let play_button = widget_centre(new_app(), "Play");
+    let max_speed = max_speed_button();
+
+    // The Roundabout tool by its key, then one click where the ring's centre goes.
+    let centre = place_by_key(&x, "o", &camera, size, Vec3::ZERO);
+    shoot(&x, "roundabout_placed.png");
+    // A spawner on the east arm's way in, a destroyer on the north arm's way out (the first
+    // exit: a car without a route takes it).
+    let prefab = flockway::level::roundabout("roundabout 1", centre);
+    let on = |name: &str, s: f64| on_prefab(&prefab, (&camera, size), name, s);
+    x.click(spawner_tool);
+    x.click(on("roundabout 1 east in", 15.0));
+    x.click(destroyer_tool);
+    x.click(on("roundabout 1 north out", 45.0));
+    shoot(&x, "roundabout_markers.png");
+    x.click(play_button);
+    x.click(max_speed);
+    let (saved, exported) =
+        play_export_and_save(&x, editor, dir.path(), 61.0, "roundabout_playing.png");
 
     // The level: the roundabout's twelve roads and four junctions where the click was.
     let level = load_level(&saved).expect("the saved level loads");
@@ -791,43 +817,18 @@ fn a_roundabout_placed_by_mouse_in_an_empty_editor_gets_cars_round_it() {
 fn a_crossroads_placed_by_mouse_gets_cars_through_its_signal() {
     let dir = tempfile::tempdir().expect("tempdir");
     let x = Xvfb::start();
-    let mut editor = x.editor(dir.path());
+    let editor = x.editor(dir.path());
     let (camera, size) = empty_level_camera();
     let spawner_tool = widget_centre(new_app(), "Spawner");
     let destroyer_tool = widget_centre(new_app(), "Destroyer");
     let play_button = widget_centre(new_app(), "Play");
-    let mut playing = AppState::new(
-        Editor::with_level(flockway::level::Template::Ring.level("r"), None),
-        std::fs::canonicalize("assets").expect("assets"),
-    );
-    playing.play();
-    let max_speed = widget_centre(playing, "max");
+    let max_speed = max_speed_button();
 
     // The Crossroads tool by its key, one click where its centre goes.
-    x.xdotool(&["key", "c"]);
-    let here = camera
-        .to_screen(Vec3::new(20.0, -10.0, 0.0), size)
-        .expect("on screen");
-    x.click((here.x, here.y));
-    let centre = camera
-        .ground_point(here, size, 0.0)
-        .expect("on the ground")
-        .as_dvec3();
-    let centre = (centre * 1000.0).round() / 1000.0;
+    let centre = place_by_key(&x, "c", &camera, size, Vec3::new(20.0, -10.0, 0.0));
     shoot(&x, "crossroads_placed.png");
     let prefab = flockway::level::crossroads("crossroads 1", centre);
-    let on = |name: &str, s: f64| {
-        let spec = prefab
-            .roads
-            .iter()
-            .find(|r| r.name == name)
-            .expect("a prefab road");
-        let g = RoadGeometry::new(spec).expect("a road");
-        let p = camera
-            .to_screen(g.frame_at(s).pos.as_vec3(), size)
-            .expect("on screen");
-        (p.x, p.y)
-    };
+    let on = |name: &str, s: f64| on_prefab(&prefab, (&camera, size), name, s);
     // Cars from the west, straight on (no route) through the signal to the east.
     x.click(spawner_tool);
     x.click(on("crossroads 1 west in", 10.0));
@@ -835,24 +836,8 @@ fn a_crossroads_placed_by_mouse_gets_cars_through_its_signal() {
     x.click(on("crossroads 1 east out", 60.0));
     x.click(play_button);
     x.click(max_speed);
-    let streamed = dir
-        .path()
-        .join(format!("flockway-play-{}.csv", editor.id()));
-    play_until(&streamed, 121.0, Duration::from_secs(240));
-    shoot(&x, "crossroads_playing.png");
-    x.xdotool(&["mousemove", "500", "780"]);
-    x.xdotool(&["key", "Escape"]);
-    x.xdotool(&["key", "ctrl+s"]);
-    std::thread::sleep(Duration::from_millis(1000));
-    let saved = dir.path().join("level.ron");
-    let exported = dir.path().join("untitled_run.csv");
-    let (saved_exists, exported_exists) = (saved.exists(), exported.exists());
-    let _ = editor.kill();
-    let output = editor.wait_with_output().expect("editor output");
-    let _ = std::fs::remove_file(&streamed);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(saved_exists, "Ctrl+S did not save the level: {stderr}");
-    assert!(exported_exists, "Esc did not export the run: {stderr}");
+    let (saved, exported) =
+        play_export_and_save(&x, editor, dir.path(), 121.0, "crossroads_playing.png");
 
     let level = load_level(&saved).expect("the saved level loads");
     assert_eq!(level.roads, prefab.roads);

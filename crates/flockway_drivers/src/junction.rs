@@ -321,6 +321,10 @@ const CLEARING_MARGIN_S: f64 = 1.5;
 /// Inside: it stops short of any conflict whose area a vehicle occupies, and of one it gives way
 /// at while a stream it yields to leaves no gap — unless it is past the point of no return.
 #[allow(clippy::type_complexity)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a system: the resources and queries it reads, and its cache of path speeds"
+)]
 pub fn gate_junctions(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
@@ -335,6 +339,7 @@ pub fn gate_junctions(
     )>,
     gaps: Query<&GapAcceptance>,
     routes: Query<&Route>,
+    mut through: Local<Vec<Vec<f64>>>,
 ) {
     if network.junctions().is_empty() {
         return;
@@ -426,23 +431,26 @@ pub fn gate_junctions(
     }
     let deciding = approaches.len();
     approaches.append(&mut far);
-    let through: Vec<Vec<f64>> = (0..network.junctions().len())
-        .map(|j| {
-            (0..network.junctions()[j].paths.len())
-                .map(|k| {
-                    network
-                        .path_road(j, k)
-                        .map_or(f64::INFINITY, |p| through_mps(&network, p))
-                })
-                .collect()
-        })
-        .collect();
+    // The paths' speeds change only with the network.
+    if network.is_changed() || through.len() != network.junctions().len() {
+        *through = (0..network.junctions().len())
+            .map(|j| {
+                (0..network.junctions()[j].paths.len())
+                    .map(|k| {
+                        network
+                            .path_road(j, k)
+                            .map_or(f64::INFINITY, |p| through_mps(&network, p))
+                    })
+                    .collect()
+            })
+            .collect();
+    }
     let scene = Scene {
         network: &network,
         index: &index,
         approaches: &approaches,
         signals: &signals,
-        through: &through,
+        through: through.as_slice(),
     };
     let mut seen: Vec<Seen> = Vec::new();
     let mut decided: Vec<(Entity, JunctionGate, Option<usize>)> =

@@ -42,46 +42,11 @@ const ARMS: [(&str, f64); 4] = [
 /// ring, the exit leaving it) — the layout of `levels/roundabout.ron`. A car without a route
 /// leaves at the first exit it comes to.
 pub fn roundabout(name: &str, centre: DVec3) -> Prefab {
-    let named = |what: String| {
-        if name.is_empty() {
-            what
-        } else {
-            format!("{name} {what}")
-        }
-    };
-    let point = |p: DVec3, tangent: Option<DVec3>| ControlPoint {
-        guardrail_left: false,
-        guardrail_right: false,
-        tangent,
-        ..ControlPoint::at(centre + p)
-    };
-    let road = |name: String, kmh: f64, points: Vec<ControlPoint>| RoadSpec {
-        points,
-        ..RoadSpec::through(&name, 1, kmh, &[DVec3::ZERO, DVec3::X])
-    };
-    let mut roads = Vec::new();
-    for (arm, deg) in ARMS {
-        let a = deg.to_radians();
-        let u = DVec3::new(libm::cos(a), libm::sin(a), 0.0);
-        let n = DVec3::new(-u.y, u.x, 0.0);
-        // Into the ring on the right of a car heading for the centre.
-        roads.push(road(
-            named(format!("{arm} in")),
-            ARM_KMH,
-            vec![
-                point(u * ARM_FAR_M + n * ARM_OFFSET_M, None),
-                point(u * ARM_NEAR_M + n * ARM_OFFSET_M, None),
-            ],
-        ));
-        roads.push(road(
-            named(format!("{arm} out")),
-            ARM_KMH,
-            vec![
-                point(u * ARM_NEAR_M - n * ARM_OFFSET_M, None),
-                point(u * ARM_FAR_M - n * ARM_OFFSET_M, None),
-            ],
-        ));
-    }
+    let named = |what: String| prefixed(name, &what);
+    let mut roads: Vec<RoadSpec> = ARMS
+        .iter()
+        .flat_map(|&(arm, deg)| arm_roads(name, centre, arm, deg, ARM_NEAR_M))
+        .collect();
     for (i, (arm, deg)) in ARMS.iter().enumerate() {
         let (next, _) = ARMS[(i + 1) % ARMS.len()];
         let (from, to) = (
@@ -92,13 +57,17 @@ pub fn roundabout(name: &str, centre: DVec3) -> Prefab {
             .map(|k| {
                 let a = from + (to - from) * f64::from(k) / 4.0;
                 let (s, c) = (libm::sin(a), libm::cos(a));
-                point(
-                    DVec3::new(c, s, 0.0) * RING_RADIUS_M,
+                flat_point(
+                    centre + DVec3::new(c, s, 0.0) * RING_RADIUS_M,
                     Some(DVec3::new(-s, c, 0.0)),
                 )
             })
             .collect();
-        roads.push(road(named(format!("ring {arm}-{next}")), RING_KMH, points));
+        roads.push(one_lane(
+            &named(format!("ring {arm}-{next}")),
+            RING_KMH,
+            points,
+        ));
     }
     let junctions = ARMS
         .iter()
@@ -150,38 +119,11 @@ const CROSSROADS_ARMS: [(&str, f64); 4] = [
 /// 2 s all-red for east–west, then north–south) — the layout of `levels/crossroads_signal.ron`.
 /// A car without a route goes straight on.
 pub fn crossroads(name: &str, centre: DVec3) -> Prefab {
-    let named = |what: &str| {
-        if name.is_empty() {
-            what.to_owned()
-        } else {
-            format!("{name} {what}")
-        }
-    };
-    let point = |p: DVec3| ControlPoint {
-        guardrail_left: false,
-        guardrail_right: false,
-        ..ControlPoint::at(centre + p)
-    };
-    let mut roads = Vec::new();
-    for (arm, deg) in CROSSROADS_ARMS {
-        let a = deg.to_radians();
-        let u = DVec3::new(libm::cos(a), libm::sin(a), 0.0);
-        let n = DVec3::new(-u.y, u.x, 0.0);
-        let road = |what: String, from: DVec3, to: DVec3| RoadSpec {
-            points: vec![point(from), point(to)],
-            ..RoadSpec::through(&what, 1, ARM_KMH, &[DVec3::ZERO, DVec3::X])
-        };
-        roads.push(road(
-            named(&format!("{arm} in")),
-            u * ARM_FAR_M + n * ARM_OFFSET_M,
-            u * CROSSROADS_NEAR_M + n * ARM_OFFSET_M,
-        ));
-        roads.push(road(
-            named(&format!("{arm} out")),
-            u * CROSSROADS_NEAR_M - n * ARM_OFFSET_M,
-            u * ARM_FAR_M - n * ARM_OFFSET_M,
-        ));
-    }
+    let named = |what: &str| prefixed(name, what);
+    let roads: Vec<RoadSpec> = CROSSROADS_ARMS
+        .iter()
+        .flat_map(|&(arm, deg)| arm_roads(name, centre, arm, deg, CROSSROADS_NEAR_M))
+        .collect();
     // Each arm's exits by the compass: straight on is the arm opposite (180° round), left the
     // arm 270° round (counter-clockwise), right the one 90° round.
     let arm_at = |deg: f64| {
@@ -231,12 +173,85 @@ pub fn crossroads(name: &str, centre: DVec3) -> Prefab {
     }
 }
 
+/// `what`, after `name` and a space when there is a name.
+fn prefixed(name: &str, what: &str) -> String {
+    if name.is_empty() {
+        what.to_owned()
+    } else {
+        format!("{name} {what}")
+    }
+}
+
+/// A control point at `pos` without guardrails (junctions and their arms are open).
+fn flat_point(pos: DVec3, tangent: Option<DVec3>) -> ControlPoint {
+    ControlPoint {
+        guardrail_left: false,
+        guardrail_right: false,
+        tangent,
+        ..ControlPoint::at(pos)
+    }
+}
+
+/// A one-lane road through `points`.
+fn one_lane(name: &str, kmh: f64, points: Vec<ControlPoint>) -> RoadSpec {
+    RoadSpec {
+        points,
+        ..RoadSpec::through(name, 1, kmh, &[DVec3::ZERO, DVec3::X])
+    }
+}
+
+/// An arm at compass angle `deg` of a junction centred on `centre`: `NAME ARM in` towards the
+/// centre (on the right of a car heading there) and `NAME ARM out` away from it, both straight
+/// from [`ARM_FAR_M`] to `near_m` from the centre.
+fn arm_roads(name: &str, centre: DVec3, arm: &str, deg: f64, near_m: f64) -> [RoadSpec; 2] {
+    let a = deg.to_radians();
+    let u = DVec3::new(libm::cos(a), libm::sin(a), 0.0);
+    let n = DVec3::new(-u.y, u.x, 0.0) * ARM_OFFSET_M;
+    let at = |d: f64, side: DVec3| flat_point(centre + u * d + side, None);
+    [
+        one_lane(
+            &prefixed(name, &format!("{arm} in")),
+            ARM_KMH,
+            vec![at(ARM_FAR_M, n), at(near_m, n)],
+        ),
+        one_lane(
+            &prefixed(name, &format!("{arm} out")),
+            ARM_KMH,
+            vec![at(near_m, -n), at(ARM_FAR_M, -n)],
+        ),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::{load_level, validate};
     use flockway_road::RoadNetwork;
     use std::path::Path;
+
+    /// The level has the prefab's roads, the same where they meet the junction (their far ends
+    /// may differ: a level's arms are longer).
+    fn assert_same_roads_at_the_junction(level: &crate::Level, p: &Prefab, tolerance_m: f64) {
+        let near = |r: &RoadSpec| {
+            if r.name.ends_with(" in") {
+                r.points[r.points.len() - 1].pos
+            } else {
+                r.points[0].pos
+            }
+        };
+        for road in &p.roads {
+            let shipped = level
+                .roads
+                .iter()
+                .find(|r| r.name == road.name)
+                .expect("the same roads");
+            assert!(
+                (near(shipped) - near(road)).length() < tolerance_m,
+                "{}",
+                road.name
+            );
+        }
+    }
 
     #[test]
     fn a_roundabout_builds_every_entry_giving_way_by_merging_onto_the_ring() {
@@ -285,26 +300,7 @@ mod tests {
             b.sort_by(|x, y| (&x.from, &x.to).cmp(&(&y.from, &y.to)));
             assert_eq!(a, b, "{}", j.name);
         }
-        for road in &p.roads {
-            let shipped = level
-                .roads
-                .iter()
-                .find(|r| r.name == road.name)
-                .expect("the same roads");
-            // The ring the same; the arms the same where they meet the ring (longer there).
-            let near = |r: &RoadSpec| {
-                if r.name.ends_with(" in") {
-                    r.points[r.points.len() - 1].pos
-                } else {
-                    r.points[0].pos
-                }
-            };
-            assert!(
-                (near(shipped) - near(road)).length() < 0.01,
-                "{}",
-                road.name
-            );
-        }
+        assert_same_roads_at_the_junction(&level, &p, 0.01);
         let mut level = level;
         level.roads = p.roads;
         level.spawners.clear();
@@ -318,25 +314,7 @@ mod tests {
         let level = load_level(&path).expect("the shipped level");
         let p = crossroads("", DVec3::ZERO);
         assert_eq!(level.junctions, p.junctions);
-        for road in &p.roads {
-            let shipped = level
-                .roads
-                .iter()
-                .find(|r| r.name == road.name)
-                .expect("the same roads");
-            let near = |r: &RoadSpec| {
-                if r.name.ends_with(" in") {
-                    r.points[r.points.len() - 1].pos
-                } else {
-                    r.points[0].pos
-                }
-            };
-            assert!(
-                (near(shipped) - near(road)).length() < 1e-9,
-                "{}",
-                road.name
-            );
-        }
+        assert_same_roads_at_the_junction(&level, &p, 1e-9);
         let q = crossroads("x 1", DVec3::new(-300.0, 40.0, 0.0));
         RoadNetwork::build_with(&q.roads, &q.junctions).expect("it builds anywhere");
         assert_eq!(q.junctions[0].name, "x 1");
