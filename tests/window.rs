@@ -859,4 +859,117 @@ fn a_crossroads_placed_by_mouse_gets_cars_through_its_signal() {
     }
     assert!(through.len() >= 5, "only {} cars crossed", through.len());
     assert!(stood, "no car waited at the line");
+    // The signals CSV was exported beside it: the program's changes, as a headless run writes.
+    let signals = std::fs::read_to_string(dir.path().join("untitled_run.signals.csv"))
+        .expect("the signals CSV beside the exported run");
+    let mut lines = signals.lines();
+    assert_eq!(
+        lines.next(),
+        Some(flockway::run::SIGNAL_COLUMNS.join(",").as_str())
+    );
+    // Twelve connections at the start, then changes through the phases of 120 s.
+    assert!(lines.count() > 40, "{signals}");
+}
+
+#[test]
+fn a_junctions_phase_table_is_edited_by_mouse_and_saved() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let x = Xvfb::start();
+    let mut editor = x.editor(dir.path());
+    let (camera, size) = empty_level_camera();
+
+    // A crossroads placed, the Select tool (V), a click on the junction's middle.
+    let centre = place_by_key(&x, "c", &camera, size, Vec3::new(10.0, 5.0, 0.0));
+    let prefab = flockway::level::crossroads("crossroads 1", centre);
+    x.xdotool(&["key", "v"]);
+    let middle = camera.to_screen(centre.as_vec3(), size).expect("on screen");
+    x.click((middle.x, middle.y));
+    // Where the inspector's cells are, laid out for the same level and selection.
+    let cell = |label: &str| {
+        let mut state = AppState::new(
+            Editor::with_level(
+                flockway::level::Level {
+                    roads: prefab.roads.clone(),
+                    junctions: prefab.junctions.clone(),
+                    ..Editor::new().level().clone()
+                },
+                None,
+            ),
+            std::fs::canonicalize("assets").expect("assets"),
+        );
+        state.selection = flockway::app::Selection::Junction(0);
+        // The harness draws 8 px inside its edges: the side panel, held to the right edge,
+        // is 8 px further right in the window and starts 8 px higher.
+        let (x, y) = widget_centre(state, label);
+        (x + 8.0, y - 8.0)
+    };
+    // The west arm's left turn (g) made amber in phase 0; the north arm's left turn in phase
+    // 3 stepped back with a right click, from green-giving-way to green.
+    x.click(cell("phase 0 connection 1"));
+    let (cx, cy) = cell("phase 3 connection 10");
+    x.xdotool(&[
+        "mousemove",
+        &format!("{}", cx.round()),
+        &format!("{}", cy.round()),
+        "click",
+        "3",
+    ]);
+    // Closer, to see the numbered paths (the docs' picture of the phase table).
+    // (The view zooms about the window's middle: the junction is dragged there first with the
+    // middle button.)
+    let (mx, my) = (
+        format!("{}", middle.x.round()),
+        format!("{}", middle.y.round()),
+    );
+    x.xdotool(&["mousemove", &mx, &my, "mousedown", "2"]);
+    for k in 1..=10 {
+        let f = k as f32 / 10.0;
+        let (px, py) = (
+            middle.x + f * (700.0 - middle.x),
+            middle.y + f * (430.0 - middle.y),
+        );
+        x.xdotool(&[
+            "mousemove",
+            &format!("{}", px.round()),
+            &format!("{}", py.round()),
+        ]);
+    }
+    x.xdotool(&["mouseup", "2"]);
+    for _ in 0..6 {
+        x.xdotool(&["click", "4"]);
+    }
+    shoot(&x, "phase_table.png");
+    x.xdotool(&["mousemove", "500", "780"]);
+    x.xdotool(&["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let saved = dir.path().join("level.ron");
+    let saved_exists = saved.exists();
+    let _ = editor.kill();
+    let output = editor.wait_with_output().expect("editor output");
+    assert!(
+        saved_exists,
+        "Ctrl+S did not save the level: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let level = load_level(&saved).expect("the saved level loads");
+    let phases: Vec<String> = level.junctions[0]
+        .signal
+        .as_ref()
+        .expect("a signal")
+        .phases
+        .iter()
+        .map(|p| p.state.clone())
+        .collect();
+    let mut expected: Vec<String> = prefab.junctions[0]
+        .signal
+        .as_ref()
+        .expect("a signal")
+        .phases
+        .iter()
+        .map(|p| p.state.clone())
+        .collect();
+    expected[0] = "GyGGgGrrrrrr".to_owned();
+    expected[3] = "rrrrrrGgGGGG".to_owned();
+    assert_eq!(phases, expected);
+    assert!(flockway::level::validate(&level).is_empty());
 }

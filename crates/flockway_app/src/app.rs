@@ -50,6 +50,8 @@ pub enum Selection {
     Marker(MarkerKind, usize),
     /// A vehicle in play mode, by its index in the frame.
     Vehicle(usize),
+    /// A junction, by its index in the level.
+    Junction(usize),
 }
 
 /// Something the user asked for that would lose unsaved changes, waiting for a yes.
@@ -463,6 +465,46 @@ impl AppState {
             .map(|g| g.length_m())
     }
 
+    /// The junction with this name as built from the level as drawn (its paths, how each
+    /// turns), if it can be built.
+    pub fn built_junction(&self, name: &str) -> Option<&flockway_road::Junction> {
+        self.network
+            .junctions()
+            .iter()
+            .find(|j| j.spec.name == name)
+    }
+
+    /// The selected junction's paths as drawn, in connection order: each as points along its
+    /// centre line (every 2 m), to outline them and number them in the scene.
+    pub fn selected_junction_paths(&self) -> Vec<Vec<Vec3>> {
+        let Selection::Junction(i) = self.selection else {
+            return Vec::new();
+        };
+        let Some(spec) = self.editor.level().junctions.get(i) else {
+            return Vec::new();
+        };
+        let Some(j) = self.built_junction(&spec.name) else {
+            return Vec::new();
+        };
+        j.paths
+            .iter()
+            .filter_map(|p| {
+                self.network
+                    .id(&p.spec.name)
+                    .and_then(|id| self.network.get(id))
+            })
+            .map(|g| {
+                let n = (g.length_m() / 2.0).ceil().max(1.0) as usize;
+                (0..=n)
+                    .map(|k| {
+                        let s = g.length_m() * k as f64 / n as f64;
+                        (g.frame_at(s).pos + DVec3::Z * 0.05).as_vec3()
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Why road `r` does not form a road as drawn, if it does not.
     pub fn road_problem(&self, r: usize) -> Option<String> {
         let mut spec = self.editor.level().roads.get(r)?.clone();
@@ -614,6 +656,41 @@ impl AppState {
         best.map(|(_, p)| p)
     }
 
+    /// The junction under a pixel, by its index in the level: the one with a path (as drawn)
+    /// nearest the pointer, within the path's half width and a metre.
+    pub fn pick_junction(&self, px: Vec2, size: Vec2) -> Option<usize> {
+        let g = self.camera.ground_point(px, size, 0.0)?.as_dvec3();
+        let mut best: Option<(f64, usize)> = None;
+        for j in self.network.junctions() {
+            let Some(index) = self
+                .editor
+                .level()
+                .junctions
+                .iter()
+                .position(|s| s.name == j.spec.name)
+            else {
+                continue;
+            };
+            for path in &j.paths {
+                let Some(geom) = self
+                    .network
+                    .id(&path.spec.name)
+                    .and_then(|id| self.network.get(id))
+                else {
+                    continue;
+                };
+                let proj = geom.project(g);
+                let d = proj.distance_m;
+                if d <= 0.5 * geom.frame_at(proj.s_m).width_m + 1.0
+                    && best.is_none_or(|(bd, _)| d < bd)
+                {
+                    best = Some((d, index));
+                }
+            }
+        }
+        best.map(|(_, j)| j)
+    }
+
     /// The left button went down in the scene at `px`.
     pub fn press(&mut self, px: Vec2, size: Vec2) {
         if self.play.is_some() {
@@ -638,7 +715,9 @@ impl AppState {
             Tool::Select => {
                 self.selection = match self.pick_road(px, size) {
                     Some(pick) => Selection::Road(pick.road),
-                    None => Selection::None,
+                    None => self
+                        .pick_junction(px, size)
+                        .map_or(Selection::None, Selection::Junction),
                 }
             }
             Tool::Road => {
@@ -1045,6 +1124,7 @@ impl AppState {
             Selection::Point(road, index) => Command::DeletePoint { road, index },
             Selection::Road(road) => Command::DeleteRoad { road },
             Selection::Marker(kind, index) => Command::DeleteMarker { kind, index },
+            Selection::Junction(index) => Command::DeleteJunction(index),
             _ => return,
         };
         if self.edit(command, false) {
@@ -1280,11 +1360,16 @@ impl AppState {
         }
     }
 
-    /// Writes the run's telemetry CSV to `path`.
+    /// Writes the run's telemetry CSV to `path` (and its signals CSV beside it).
     pub fn export(&mut self, path: &Path) {
         self.status = match &self.play {
             Some(p) => match p.export_csv(path) {
-                Ok(_) => format!("exported {}", path.display()),
+                Ok(false) => format!("exported {}", path.display()),
+                Ok(true) => format!(
+                    "exported {} and {}",
+                    path.display(),
+                    flockway_runner::signals_path(path).display()
+                ),
                 Err(e) => format!("{}: {e}", path.display()),
             },
             None => "nothing is playing".to_owned(),
@@ -1481,6 +1566,40 @@ mod tests {
         let network = network_as_drawn(roads, app.editor.level().junctions.clone());
         assert_eq!(network.len(), 1);
         assert!(network.junctions().is_empty());
+    }
+
+    #[test]
+    fn a_click_on_a_junction_selects_it_and_del_deletes_it_in_one_undo_step() {
+        let mut app = app_on("../../levels/crossroads_signal.ron");
+        let size = Vec2::new(1600.0, 900.0);
+        app.camera = Camera::Top {
+            centre: Vec3::ZERO,
+            half_height_m: 30.0,
+        };
+        // Its centre, where the paths cross: no road there, the junction.
+        let px = app.camera.to_screen(Vec3::ZERO, size).expect("on screen");
+        app.press(px, size);
+        app.release();
+        assert_eq!(app.selection, Selection::Junction(0));
+        assert_eq!(app.selected_junction_paths().len(), 12);
+        // An arm's road is still the road, not the junction.
+        let arm = app
+            .camera
+            .to_screen(Vec3::new(-40.0, -1.75, 0.0), size)
+            .expect("on screen");
+        app.press(arm, size);
+        app.release();
+        assert!(
+            matches!(app.selection, Selection::Road(_)),
+            "{:?}",
+            app.selection
+        );
+        app.selection = Selection::Junction(0);
+        app.delete_selected();
+        assert!(app.editor.level().junctions.is_empty());
+        assert_eq!(app.selection, Selection::None);
+        app.undo();
+        assert_eq!(app.editor.level().junctions.len(), 1);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use flockway_level::{
     LevelError, SpawnerSpec, TelemetrySpec, Template, TriggerSpec, VehicleTypeSpec,
     level_to_string, parse_level, validate, write_atomic,
 };
-use flockway_road::{ControlPoint, JunctionSpec, LinkSpec, RoadSpec};
+use flockway_road::{Control, ControlPoint, JunctionSpec, LinkSpec, RoadSpec};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -210,6 +210,10 @@ pub enum Command {
         /// The junctions.
         junctions: Vec<JunctionSpec>,
     },
+    /// Replaces a junction: its name, control, connections and signal program.
+    SetJunction(usize, JunctionSpec),
+    /// Deletes a junction (its roads stay, no longer connected through it).
+    DeleteJunction(usize),
     /// Several edits as one undo step (all or none).
     Batch {
         /// What the undo menu calls it.
@@ -256,6 +260,8 @@ impl Command {
             Command::SetVehicles(..) => "edit vehicle group",
             Command::DeleteVehicles(_) => "delete vehicle group",
             Command::AddPrefab { .. } => "place junction",
+            Command::SetJunction(..) => "edit junction",
+            Command::DeleteJunction(_) => "delete junction",
             Command::Batch { label, .. } => label,
         }
     }
@@ -280,7 +286,8 @@ impl Command {
             | Command::DeleteMarker { .. }
             | Command::DeleteVehicleType(_)
             | Command::DeleteDriverProfile(_)
-            | Command::DeleteVehicles(_) => false,
+            | Command::DeleteVehicles(_)
+            | Command::DeleteJunction(_) => false,
             Command::Batch { commands, .. } => commands.iter().any(Command::is_checked),
             _ => true,
         }
@@ -301,6 +308,7 @@ impl Command {
             Command::SetVehicleType(i, _) => Some((10, *i, 0)),
             Command::SetDriverProfile(i, _) => Some((11, *i, 0)),
             Command::SetVehicles(i, _) => Some((12, *i, 0)),
+            Command::SetJunction(i, _) => Some((13, *i, 0)),
             _ => None,
         }
     }
@@ -940,6 +948,34 @@ fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
             level.roads.extend(roads.iter().cloned());
             level.junctions.extend(junctions.iter().cloned());
         }
+        Command::SetJunction(i, j) => {
+            let taken = level
+                .junctions
+                .iter()
+                .enumerate()
+                .any(|(k, o)| k != *i && o.name == j.name);
+            if j.name.trim().is_empty() || taken {
+                return Err(EditError::BadName(format!(
+                    "a junction needs a name of its own, and `{}` is {}",
+                    j.name,
+                    if taken { "taken" } else { "empty" }
+                )));
+            }
+            let old = junction(level, *i)?.name.clone();
+            *junction(level, *i)? = j.clone();
+            // Expectations on the junction follow its new name.
+            for e in &mut level.expect {
+                let on_junction = flockway_level::metric_info(&e.metric)
+                    .is_some_and(|m| m.qualifier == flockway_level::Qualifier::Junction);
+                if on_junction && e.qualifier.as_deref() == Some(old.as_str()) {
+                    e.qualifier = Some(j.name.clone());
+                }
+            }
+        }
+        Command::DeleteJunction(i) => {
+            junction(level, *i)?;
+            level.junctions.remove(*i);
+        }
         Command::AddSpawner(s) => level.spawners.push(s.clone()),
         Command::AddDestroyer(d) => level.destroyers.push(d.clone()),
         Command::AddTrigger(t) => level.triggers.push(t.clone()),
@@ -997,6 +1033,14 @@ fn marker<T>(list: &mut [T], index: usize) -> Result<&mut T, EditError> {
     let n = list.len();
     list.get_mut(index).ok_or_else(|| {
         EditError::NoSuchThing(format!("there is no marker {index} (there are {n})"))
+    })
+}
+
+/// Junction `index` of a level, or why there is none.
+fn junction(level: &mut Level, index: usize) -> Result<&mut JunctionSpec, EditError> {
+    let n = level.junctions.len();
+    level.junctions.get_mut(index).ok_or_else(|| {
+        EditError::NoSuchThing(format!("there is no junction {index} (there are {n})"))
     })
 }
 
@@ -1061,6 +1105,15 @@ fn rename_road(level: &mut Level, old: &str, new: &str) {
             && let Some(q) = &mut e.qualifier
         {
             fix(q);
+        }
+    }
+    for j in &mut level.junctions {
+        for c in &mut j.connections {
+            fix(&mut c.from);
+            fix(&mut c.to);
+        }
+        if let Control::Priority { major, .. } = &mut j.control {
+            major.iter_mut().for_each(fix);
         }
     }
 }
@@ -1294,6 +1347,78 @@ mod tests {
         e.save().expect("save");
         assert!(!auto.exists());
         assert!(recover(Some(&path)).is_none());
+    }
+
+    #[test]
+    fn junction_edits_are_checked_and_renames_follow_roads_and_expectations() {
+        let mut e = Editor::with_level(
+            flockway_level::load_level(Path::new("../../levels/crossroads_priority.ron"))
+                .expect("shipped level"),
+            None,
+        );
+        let name = e.level().junctions[0].name.clone();
+        assert!(
+            e.level()
+                .expect
+                .iter()
+                .any(|x| x.qualifier.as_deref() == Some(name.as_str()))
+        );
+        // A renamed junction takes its expectations with it.
+        let mut j = e.level().junctions[0].clone();
+        j.name = "main junction".to_owned();
+        e.apply(Command::SetJunction(0, j)).expect("renames");
+        assert!(
+            e.level()
+                .expect
+                .iter()
+                .all(|x| x.qualifier.as_deref() != Some(name.as_str()))
+        );
+        assert!(validate(e.level()).is_empty(), "{:?}", validate(e.level()));
+        // A renamed road is renamed in the junction's connections and major roads.
+        let Control::Priority { major, .. } = &e.level().junctions[0].control else {
+            panic!("a priority junction");
+        };
+        let major_road = major[0].clone();
+        let r = e
+            .level()
+            .roads
+            .iter()
+            .position(|r| r.name == major_road)
+            .expect("the major road");
+        let spec = e.level().roads[r].clone();
+        e.apply(Command::SetRoad {
+            road: r,
+            name: "main street".to_owned(),
+            lanes: spec.lanes,
+            lane_width_m: spec.lane_width_m,
+            speed_limit_kmh: spec.speed_limit_kmh,
+        })
+        .expect("renames");
+        let j = &e.level().junctions[0];
+        assert!(j.connections.iter().any(|c| c.from == "main street"));
+        assert!(j.connections.iter().all(|c| c.from != major_road));
+        assert!(matches!(&j.control, Control::Priority { major, .. } if major[0] == "main street"));
+        assert!(validate(e.level()).is_empty(), "{:?}", validate(e.level()));
+        // A signal whose phases lack a connection's state is refused, the level unchanged.
+        let mut bad = e.level().junctions[0].clone();
+        bad.control = Control::Signal;
+        bad.signal = Some(flockway_road::SignalProgram {
+            offset_s: 0.0,
+            phases: vec![flockway_road::Phase {
+                duration_s: 30.0,
+                state: "G".to_owned(),
+            }],
+        });
+        let before = e.level().clone();
+        let err = e
+            .apply(Command::SetJunction(0, bad))
+            .expect_err("one letter");
+        assert!(err.to_string().contains("letter"), "{err}");
+        assert_eq!(e.level(), &before);
+        // Two junctions may not share a name.
+        let mut copy = e.level().junctions[0].clone();
+        copy.name = String::new();
+        assert!(e.apply(Command::SetJunction(0, copy)).is_err());
     }
 
     #[test]

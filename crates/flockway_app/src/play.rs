@@ -355,9 +355,17 @@ impl PlaySession {
         }
     }
 
-    /// Copies the telemetry streamed so far (flushed at every sample) to `to`.
-    pub fn export_csv(&self, to: &Path) -> std::io::Result<u64> {
-        std::fs::copy(&self.csv_path, to)
+    /// Copies the telemetry streamed so far (flushed at every sample) to `to`, and for a level
+    /// with signals the signals CSV beside it (`STEM.signals.csv`, as `flockway run` writes).
+    /// Returns whether there was a signals CSV.
+    pub fn export_csv(&self, to: &Path) -> std::io::Result<bool> {
+        std::fs::copy(&self.csv_path, to)?;
+        let signals = flockway_runner::signals_path(&self.csv_path);
+        if !signals.exists() {
+            return Ok(false);
+        }
+        std::fs::copy(&signals, flockway_runner::signals_path(to))?;
+        Ok(true)
     }
 
     /// The file the telemetry streams to.

@@ -382,3 +382,91 @@ fn shortcuts_work_with_the_pointer_over_the_scene_even_after_typing_in_a_field()
     key(&mut h, egui::Key::V);
     assert_eq!(h.state().tool, Tool::Select);
 }
+
+#[test]
+fn the_junction_inspector_edits_the_control_and_the_phase_table() {
+    let mut harness = harness(app_on("../../levels/crossroads_signal.ron"));
+    harness.run();
+    // The overview lists the junction; a click selects it.
+    harness
+        .get_by_role_and_label(egui::Role::Link, "crossroads")
+        .click();
+    harness.run();
+    harness.run();
+    assert_eq!(harness.state().selection, Selection::Junction(0));
+    for label in [
+        "junction `crossroads`",
+        "12 connection(s)",
+        "right of way",
+        "offset",
+        "phases",
+        "connections",
+        "`west in` 0 -> `east out` 0",
+        "Delete junction",
+    ] {
+        assert!(
+            harness.query_all_by_label_contains(label).next().is_some(),
+            "the junction inspector lacks `{label}`"
+        );
+    }
+    snapshot(&mut harness, "junction_inspector");
+    let program = |h: &Harness<'static, AppState>| -> Vec<(f64, String)> {
+        h.state().editor.level().junctions[0]
+            .signal
+            .as_ref()
+            .map(|s| {
+                s.phases
+                    .iter()
+                    .map(|p| (p.duration_s, p.state.clone()))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let before = program(&harness);
+    assert_eq!(before[0].1, "GgGGgGrrrrrr");
+    // A click moves a state on: the permitted left (g) of connection 1 becomes amber.
+    harness.get_by_label("phase 0 connection 1").click();
+    harness.run();
+    assert_eq!(program(&harness)[0].1, "GyGGgGrrrrrr");
+    // A phase copied after itself, then removed again: each one step.
+    harness.get_by_label("phase 3").click();
+    harness.run();
+    harness.run();
+    harness.get_by_label("copy phase 3 after it").click();
+    harness.run();
+    assert_eq!(program(&harness).len(), 7);
+    assert_eq!(program(&harness)[4], program(&harness)[3]);
+    harness.get_by_label("phase 4").click();
+    harness.run();
+    harness.run();
+    harness.get_by_label("remove phase 4").click();
+    harness.run();
+    assert_eq!(program(&harness).len(), 6);
+    harness.get_by_label("phase 3").click();
+    harness.run();
+    harness.run();
+    harness.get_by_label("move phase 3 up").click();
+    harness.run();
+    assert_eq!(program(&harness)[2].1, "rrrrrrGgGGgG");
+    // Another control: a priority junction, its major roads along the first connection's axis,
+    // and no signal program left behind.
+    harness.get_by_label("right of way").click();
+    harness.run();
+    harness.get_by_label("priority").click();
+    harness.run();
+    let j = harness.state().editor.level().junctions[0].clone();
+    assert_eq!(
+        j.control,
+        flockway_road::Control::Priority {
+            major: vec!["west in".into(), "east in".into()],
+            stop: false
+        }
+    );
+    assert!(j.signal.is_none());
+    // Every edit undoes on its own, back to the program the level had.
+    for _ in 0..5 {
+        harness.state_mut().undo();
+    }
+    harness.run();
+    assert_eq!(program(&harness), before);
+}

@@ -319,4 +319,30 @@ mod tests {
         RoadNetwork::build_with(&q.roads, &q.junctions).expect("it builds anywhere");
         assert_eq!(q.junctions[0].name, "x 1");
     }
+
+    #[test]
+    fn a_two_phase_program_serves_the_crossroads_axes_in_turn_with_permitted_lefts() {
+        let p = crossroads("x", DVec3::new(12.0, -7.0, 0.0));
+        let net = RoadNetwork::build_with(&p.roads, &p.junctions).expect("it builds");
+        let made = net.junctions()[0].two_phase_program();
+        let shipped = p.junctions[0].signal.as_ref().expect("a signal");
+        let states = |q: &flockway_road::SignalProgram| -> Vec<String> {
+            q.phases.iter().map(|ph| ph.state.clone()).collect()
+        };
+        // The same letters as the prefab's hand-made program; 30 s greens instead of 35.
+        assert_eq!(states(&made), states(shipped));
+        let durations: Vec<f64> = made.phases.iter().map(|ph| ph.duration_s).collect();
+        assert_eq!(durations, [30.0, 3.0, 2.0, 30.0, 3.0, 2.0]);
+        // Arms on one axis only (a road through, nothing crossing): always green.
+        let mut straight = p.junctions[0].clone();
+        straight.connections.retain(|c| {
+            (c.from.ends_with("west in") && c.to.ends_with("east out"))
+                || (c.from.ends_with("east in") && c.to.ends_with("west out"))
+        });
+        straight.signal = None;
+        straight.control = flockway_road::Control::RightBeforeLeft;
+        let net = RoadNetwork::build_with(&p.roads, &[straight]).expect("it builds");
+        let made = net.junctions()[0].two_phase_program();
+        assert_eq!(states(&made), ["GG"]);
+    }
 }

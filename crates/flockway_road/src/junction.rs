@@ -643,6 +643,53 @@ impl Junction {
         }
     }
 
+    /// A fixed-time program that serves the junction's approaches in two phases: the
+    /// connections coming in along the first connection's axis (either way), then the others.
+    /// Each phase is 30 s of green, 3 s of amber and 2 s of all red (clearance); a turn across
+    /// oncoming traffic of its own phase gets a green that gives way (`g`). With one axis only,
+    /// every connection is green all the time. What a signal starts from when a junction's
+    /// control is switched to `Signal` in the editor.
+    pub fn two_phase_program(&self) -> SignalProgram {
+        let Some(first) = self.paths.first() else {
+            return SignalProgram {
+                offset_s: 0.0,
+                phases: Vec::new(),
+            };
+        };
+        // Within 45° of the first approach's axis, coming either way.
+        let along = |p: &JunctionPath| first.heading_in.dot(p.heading_in).abs() >= 0.7;
+        let letters = |group: bool, letter: &dyn Fn(&JunctionPath) -> char| -> String {
+            self.paths
+                .iter()
+                .map(|p| if along(p) == group { letter(p) } else { 'r' })
+                .collect()
+        };
+        let green = |p: &JunctionPath| {
+            let opposed = self
+                .paths
+                .iter()
+                .any(|o| along(o) == along(p) && p.heading_in.dot(o.heading_in) < -0.7);
+            if p.turn.across() && opposed { 'g' } else { 'G' }
+        };
+        let phase = |duration_s: f64, state: String| Phase { duration_s, state };
+        if self.paths.iter().all(along) {
+            return SignalProgram {
+                offset_s: 0.0,
+                phases: vec![phase(30.0, letters(true, &green))],
+            };
+        }
+        let mut phases = Vec::new();
+        for group in [true, false] {
+            phases.push(phase(30.0, letters(group, &green)));
+            phases.push(phase(3.0, letters(group, &|_| 'y')));
+            phases.push(phase(2.0, "r".repeat(self.paths.len())));
+        }
+        SignalProgram {
+            offset_s: 0.0,
+            phases,
+        }
+    }
+
     /// The signal states at time `t_s`, one per connection; `None` without a signal.
     pub fn signal_at(&self, t_s: f64) -> Option<Vec<SignalState>> {
         let program = self.spec.signal.as_ref()?;

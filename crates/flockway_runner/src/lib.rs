@@ -24,5 +24,6 @@ pub use assets::{
 };
 pub use flockway_analysis::{ExpectationResult, Summary};
 pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+pub use signals::{SIGNAL_COLUMNS, signals_path};
 pub use summary::{evaluate, level_name, measure, metrics};
 pub use world::{build_sim, populate};

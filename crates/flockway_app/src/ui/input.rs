@@ -123,8 +123,41 @@ pub(super) fn scene(ui: &mut egui::Ui, app: &mut AppState) {
     }
     ctx.data_mut(|d| d.insert_temp(pointer_id(), state));
     let painter = ui.painter_at(rect);
+    draw_junction(&painter, app, size, ppp);
     draw_hint(&painter, app, size, ppp);
     draw_scale_bar(&painter, app, rect, size, ppp);
+}
+
+/// The selected junction's paths outlined, each numbered as the inspector's connections (and
+/// phase table's columns) are, 60 % of the way along: past the shared entry of paths from one
+/// lane, short of the shared exit of paths onto one lane.
+fn draw_junction(painter: &egui::Painter, app: &AppState, size: Vec2, ppp: f32) {
+    let paths = app.selected_junction_paths();
+    let on_screen = |p: glam::Vec3| {
+        app.camera
+            .to_screen(p, size)
+            .map(|s| Pos2::new(s.x / ppp, s.y / ppp))
+    };
+    for path in &paths {
+        let line: Vec<Pos2> = path.iter().filter_map(|&p| on_screen(p)).collect();
+        painter.add(egui::Shape::line(
+            line,
+            egui::Stroke::new(1.5, egui::Color32::from_white_alpha(200)),
+        ));
+    }
+    for (k, path) in paths.iter().enumerate() {
+        let Some(at) = path.get(path.len() * 3 / 5).and_then(|&p| on_screen(p)) else {
+            continue;
+        };
+        let galley = painter.layout_no_wrap(
+            k.to_string(),
+            egui::FontId::proportional(12.0),
+            egui::Color32::WHITE,
+        );
+        let r = 0.5 * galley.size().x.max(galley.size().y) + 2.0;
+        painter.circle_filled(at, r, egui::Color32::from_black_alpha(190));
+        painter.galley(at - 0.5 * galley.size(), galley, egui::Color32::WHITE);
+    }
 }
 
 /// The keyboard shortcuts. They act whenever the pointer is over the scene (taking the keys

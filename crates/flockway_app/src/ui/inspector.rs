@@ -32,10 +32,15 @@ pub(super) fn inspector(ui: &mut egui::Ui, app: &mut AppState) {
                 trigger(ui, app, &level, i, t);
             }
         }
+        Selection::Junction(i) => {
+            if let Some(j) = level.junctions.get(i) {
+                super::junction::junction(ui, app, i, j);
+            }
+        }
     }
 }
 
-fn overview(ui: &mut egui::Ui, app: &AppState, level: &Level) {
+fn overview(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
     ui.label(format!(
         "{} road(s), {} spawner(s), {} destroyer(s), {} trigger(s)",
         level.roads.len(),
@@ -43,10 +48,20 @@ fn overview(ui: &mut egui::Ui, app: &AppState, level: &Level) {
         level.destroyers.len(),
         level.triggers.len()
     ));
+    if !level.junctions.is_empty() {
+        ui.horizontal_wrapped(|ui| {
+            ui.label("junctions:");
+            for (i, j) in level.junctions.iter().enumerate() {
+                if ui.link(&j.name).clicked() {
+                    app.selection = Selection::Junction(i);
+                }
+            }
+        });
+    }
     let hint = match app.tool {
         Tool::Select => {
-            "Click a road, a control point or a marker to edit it here; drag points \
-                         and markers to move them."
+            "Click a road, a control point, a marker or a junction to edit it here; drag \
+                         points and markers to move them."
         }
         Tool::Road => {
             "Click on the ground to start a road, click again to add points, Enter to \

@@ -4,6 +4,7 @@
 
 mod input;
 mod inspector;
+mod junction;
 mod level;
 mod widgets;
 
