@@ -225,6 +225,18 @@ fn the_imported_crossroads_runs_without_a_collision_or_a_red_entry() {
 }
 
 #[test]
+fn a_minor_road_waiting_for_busy_major_streams_is_never_let_go_by_the_deadlock_rule() {
+    // The priority tee: two lanes each way on the major road, its left turners waiting for the
+    // oncoming stream while minor-road drivers wait for both. A minor-road car behind a standing
+    // major left turner still waits for moving traffic: no deadlock, nobody let go into it.
+    let level = import("tee.net.xml");
+    let out = fixture("tee.ron");
+    let m = run(level, &out, 3, None, None);
+    assert_eq!(m["deadlocks.T"], 0.0, "{m:#?}");
+    assert!(m["junction_flow_veh_per_h.T"] > 1_200.0, "{m:#?}");
+}
+
+#[test]
 fn a_broken_network_is_an_error_at_its_line_and_column() {
     let path = fixture("cross.net.xml");
     let text = std::fs::read_to_string(&path).expect("the fixture");

@@ -477,3 +477,44 @@ fn the_roundabout_entry_capacity_follows_the_hcm_model_on_an_unseen_seed() {
     assert!(m["junction_flow_veh_per_h.north"] > 1_000.0, "{m:#?}");
     assert!(m["junction_flow_veh_per_h.west"] > 100.0, "{m:#?}");
 }
+
+/// A spawner 5 m along a 60 m road that ends at a signal that stays red: the queue grows back
+/// to the spawner.
+const QUEUE_TO_SPAWNER: &str = r#"(
+    version: 1,
+    name: "queue_to_spawner",
+    seed: 1,
+    duration_s: 60.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (60.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (76.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (200.0, 0.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Signal, connections: [(from: "a", to: "b")],
+            signal: (phases: [(duration_s: 60.0, state: "r")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 3.0, max: 3.0),
+        profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 50.0)],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 100.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_spawner_behind_a_standing_queue_launches_cars_no_faster_than_they_can_stop() {
+    let (m, rows) = run_text("queue_to_spawner", QUEUE_TO_SPAWNER);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    // Each car's speed when first seen: the first ones at the spawn speed, the ones spawned
+    // once the queue stood within reach slower.
+    let mut first: Vec<(String, f64)> = Vec::new();
+    for (_, id, _, _, speed) in &rows {
+        if !first.iter().any(|(f, _)| f == id) {
+            first.push((id.clone(), *speed));
+        }
+    }
+    assert!(first.len() >= 5, "{first:?}");
+    assert!(first[0].1 > 13.0, "{first:?}");
+    let last = first.last().expect("cars").1;
+    assert!(last < 11.0, "the last car came in at {last} m/s: {first:?}");
+}

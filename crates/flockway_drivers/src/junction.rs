@@ -70,7 +70,8 @@ pub struct JunctionGate {
     pub path: Option<RoadId>,
     /// The tick it came to a stop at the line, if it has (stop signs, all-way stops).
     pub stopped_tick: Option<u64>,
-    /// The tick since which it has been held at the line, if it is.
+    /// The tick since which it has been held at the line with nothing in its way moving, if it
+    /// is.
     pub held_since: Option<u64>,
     /// It is on the path (it entered): `stop_at_m` is then on the path, short of a conflict.
     pub inside: bool,
@@ -290,7 +291,10 @@ impl Scene<'_> {
                     out.by_moving |= speed > STOPPED_MPS;
                 }
             }
-            if out.hold {
+            // Held by moving traffic: nothing more to learn. Held only by standing foes: the
+            // other streams still say whether it waits for moving traffic (a wait behind a
+            // standing foe that itself waits for a stream is no deadlock).
+            if out.hold && out.by_moving {
                 return out;
             }
         }
@@ -672,8 +676,8 @@ fn committed(speed_mps: f32, left_m: f64) -> bool {
     speed_mps > COMMITTED_MPS && left_m > 0.0 && need > f64::from(AMBER_DECEL_MPS2)
 }
 
-/// The nobody-waits-forever rule: since when it has been held here, and whether that is long
-/// enough, with nothing in its way moving and no signal to wait for, to go anyway.
+/// The nobody-waits-forever rule: since when it has been held here with nothing in its way
+/// moving, and whether that is long enough, with no signal to wait for, to go anyway.
 fn deadlock_rule(
     gate: &JunctionGate,
     path_road: Option<RoadId>,
@@ -685,7 +689,8 @@ fn deadlock_rule(
     if !hold {
         return (None, false);
     }
-    let since = if gate.path == path_road {
+    // The clock runs while nothing in its way moves: moving traffic starts it again.
+    let since = if gate.path == path_road && !waiting_for_moving {
         gate.held_since.unwrap_or(tick)
     } else {
         tick

@@ -190,6 +190,15 @@ const SPAWN_CLEARANCE_M: f64 = 4.0;
 /// Extra time gap needed ahead of a spawn point at the spawn speed, s.
 const SPAWN_GAP_S: f64 = 0.3;
 
+/// Braking a spawned car is given to match a slower car ahead, m/s²: firm, well within grip.
+const SPAWN_BRAKE_MPS2: f64 = 5.0;
+
+/// Bumper gap a spawned car keeps when it has matched a slower car ahead, m.
+const SPAWN_ROOM_M: f64 = 2.0;
+
+/// Speed below which a car ahead of a spawn point counts as standing in a queue, m/s.
+const QUEUE_MPS: f32 = 2.0;
+
 /// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
 /// end of the system, in spawner order) and draws its next interval; otherwise it waits.
 pub fn run_spawners(
@@ -247,9 +256,26 @@ pub fn run_spawners(
         };
         let width = geometry.frame_at(sp.s_m).width_m;
         let lateral = lane_offset(width, geometry.lanes(), sp.lane);
-        let speed = sp
+        let wanted = sp
             .speed_mps
             .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
+        // Behind a standing queue (a car ahead at walking pace or less), never faster than it
+        // can brake from, firmly, to that car's speed before it reaches it: a spawner feeding a
+        // queue would otherwise launch cars into it. A moving stream is left to the drivers
+        // (capping there would slow every spawn after it, and the stream with it).
+        near.clear();
+        let v = f64::from(wanted);
+        let reach = v * v / (2.0 * SPAWN_BRAKE_MPS2) + behind;
+        index.within(sp.road, sp.lane, sp.s_m, 0.0, reach, None, &mut near);
+        let speed = near
+            .iter()
+            .filter(|n| n.gap_m > 0.0 && n.entry.speed_mps < QUEUE_MPS)
+            .map(|n| {
+                let room = n.gap_m - 0.5 * (length + f64::from(n.entry.length_m)) - SPAWN_ROOM_M;
+                let lead = f64::from(n.entry.speed_mps.max(0.0));
+                (lead * lead + 2.0 * SPAWN_BRAKE_MPS2 * room.max(0.0)).sqrt() as f32
+            })
+            .fold(wanted, f32::min);
         let c = sp.choices[choice].clone();
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
         // A route is drawn only when there is a choice, so a spawner's stream stays as it was
