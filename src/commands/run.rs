@@ -26,6 +26,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             .plots
             .clone()
             .map(|dir| (dir, PlotFormat::from(args.plot_format))),
+        external: false,
     };
     let mut runner = match Runner::new(level, &name, &options) {
         Ok(r) => r,

@@ -14,6 +14,7 @@
 
 mod ahead;
 mod control;
+mod external;
 mod junction;
 mod models;
 mod perception;
@@ -27,6 +28,7 @@ pub use control::{
     DriveTarget, HOLD_BRAKE, Pid, PidGains, STOP_BELOW_MPS, SharedController, TargetController,
     follow_targets, wrap_angle,
 };
+pub use external::{External, ExternalCommand, ExternalPlugin};
 pub use junction::{
     AMBER_DECEL_MPS2, CRITICAL_GAP_S, DEADLOCK_S, FOLLOW_UP_S, GapAcceptance, JunctionGate,
     JunctionStats, STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,

@@ -74,7 +74,9 @@ impl BuiltinModel {
 
     fn defaults_json(self) -> Option<Value> {
         match DriverSpec::default_for(self) {
-            DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => serde_json::to_value(p),
+            DriverSpec::Flock(p)
+            | DriverSpec::FlockLanes(p)
+            | DriverSpec::Custom { base: p, .. } => serde_json::to_value(p),
             DriverSpec::Human(p) => serde_json::to_value(p),
             DriverSpec::Idm(p) => serde_json::to_value(p),
             DriverSpec::WaveDamper(p) => serde_json::to_value(p),
@@ -140,6 +142,15 @@ pub enum DriverSpec {
     Idm(IdmParams),
     /// Wave-damping autonomous car.
     WaveDamper(WaveDamperParams),
+    /// A model driven from outside the step (`Custom(NAME)` in a level, a Python controller):
+    /// an [`External`](crate::External) vehicle. Until it is told what to do it drives as a
+    /// lane-keeping flocking car with these parameters.
+    Custom {
+        /// The model's name.
+        name: std::sync::Arc<str>,
+        /// How it drives until (and between) commands.
+        base: FlockParams,
+    },
 }
 
 /// Why a driver profile could not be built.
@@ -197,7 +208,30 @@ impl DriverSpec {
             DriverSpec::Human(_) => BuiltinModel::Human,
             DriverSpec::Idm(_) => BuiltinModel::Idm,
             DriverSpec::WaveDamper(_) => BuiltinModel::WaveDamper,
+            DriverSpec::Custom { .. } => BuiltinModel::FlockLanes,
         }
+    }
+
+    /// The model's name as telemetry writes it: a built-in model's name, or `Custom(NAME)`.
+    pub fn model_name(&self) -> String {
+        match self {
+            DriverSpec::Custom { name, .. } => format!("Custom({name})"),
+            other => other.model().name().to_owned(),
+        }
+    }
+
+    /// An externally driven model `name`, which drives as `base` (a lane-keeping flocking car)
+    /// until told otherwise: [`BuiltinModel::FlockLanes`]'s parameters from `params` with
+    /// `overrides`, as [`DriverSpec::build`] reads them.
+    pub fn custom(
+        name: &str,
+        params: Option<(&str, &str)>,
+        overrides: &BTreeMap<String, f64>,
+    ) -> Result<DriverSpec, DriverParamsError> {
+        Ok(DriverSpec::Custom {
+            name: std::sync::Arc::from(name),
+            base: load(BuiltinModel::FlockLanes, params, overrides)?,
+        })
     }
 
     /// Builds a profile: `params` (RON text of the model's parameters, partial files allowed;
@@ -229,13 +263,25 @@ impl DriverSpec {
         entity.insert((
             target,
             SpeedLimit::default(),
-            DriverLabel::new(self.model().name(), self.model().name()),
+            DriverLabel::new(self.model_name(), self.model_name()),
         ));
         // The tyres' grip the driver trusts for the road ahead: the vehicle's own, if it has one.
         let grip = entity
             .get::<VehicleModel>()
             .map_or(1.0, |m| m.0.params.tyres.friction);
         let (ahead, factor, (critical_gap_s, follow_up_s)) = match self {
+            DriverSpec::Custom { name, base: p } => {
+                entity.insert((
+                    FlockDriver::new(p.clone(), true, lane),
+                    TargetController::new(p.throttle, p.steering),
+                    crate::External::new(name.clone()),
+                ));
+                (
+                    p.road_ahead,
+                    p.speed_factor.draw(rng),
+                    (p.critical_gap_s, p.follow_up_s),
+                )
+            }
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
                 entity.insert((

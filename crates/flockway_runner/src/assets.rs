@@ -64,16 +64,30 @@ pub fn load_driver_profiles(
     level_name: &str,
     assets: &Path,
 ) -> Result<BTreeMap<String, DriverSpec>, RunError> {
+    load_profiles(level, level_name, assets, false)
+}
+
+/// [`load_driver_profiles`], and with `external` the profiles of custom models too, as
+/// [`DriverSpec::Custom`] (driven from outside the step, a lane-keeping flocking car with the
+/// profile's `FlockLanes` parameters until told otherwise).
+pub fn load_profiles(
+    level: &Level,
+    level_name: &str,
+    assets: &Path,
+    external: bool,
+) -> Result<BTreeMap<String, DriverSpec>, RunError> {
     let mut out = BTreeMap::new();
     for profile in &level.driver_profiles {
-        // A custom model's profile is left to the plugin of that name.
-        let Ok(model) = BuiltinModel::try_from(&profile.model) else {
-            continue;
-        };
         let fail = |message: String| RunError::Driver {
             level: level_name.to_owned(),
             name: profile.name.clone(),
             message,
+        };
+        // A custom model's profile is left to the plugin of that name (or driven externally).
+        let model = match BuiltinModel::try_from(&profile.model) {
+            Ok(model) => Ok(model),
+            Err(_) if !external => continue,
+            Err(name) => Err(name),
         };
         let text = match &profile.params {
             Some(rel) => {
@@ -84,11 +98,11 @@ pub fn load_driver_profiles(
             }
             None => None,
         };
-        let spec = DriverSpec::build(
-            model,
-            text.as_ref().map(|(p, t)| (p.as_str(), t.as_str())),
-            &profile.set,
-        )
+        let params = text.as_ref().map(|(p, t)| (p.as_str(), t.as_str()));
+        let spec = match model {
+            Ok(model) => DriverSpec::build(model, params, &profile.set),
+            Err(name) => DriverSpec::custom(&name, params, &profile.set),
+        }
         .map_err(|e| fail(e.to_string()))?;
         out.insert(profile.name.clone(), spec);
     }

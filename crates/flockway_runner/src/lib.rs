@@ -11,6 +11,7 @@
 mod assets;
 pub mod batch;
 mod runner;
+mod session;
 mod signals;
 mod summary;
 pub mod telemetry;
@@ -19,11 +20,14 @@ mod tests;
 mod world;
 
 pub use assets::{
-    ASSETS_ENV, DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles,
+    ASSETS_ENV, DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles, load_profiles,
     load_vehicle_types,
 };
 pub use flockway_analysis::{ExpectationResult, Summary};
 pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+pub use session::{
+    LEADER_RANGE_M, Leaders, Override, Session, SessionError, VehicleColumns, apply_overrides,
+};
 pub use signals::{SIGNAL_COLUMNS, signals_path};
 pub use summary::{evaluate, level_name, measure, metrics};
 pub use world::{build_sim, populate};

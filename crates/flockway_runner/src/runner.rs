@@ -1,9 +1,7 @@
 //! A run in progress: a level's world stepped at the fixed step, its telemetry streamed to CSV,
 //! and at the end its summary measured and its expectations checked.
 
-use crate::assets::{
-    DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles, load_vehicle_types,
-};
+use crate::assets::{DriverProfiles, VehicleTypes, find_assets_dir, load_vehicle_types};
 use crate::summary::measure;
 use crate::world::{build_sim, populate};
 use flockway_analysis::{PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
@@ -89,6 +87,9 @@ pub struct RunOptions {
     pub assets: Option<PathBuf>,
     /// A directory to write the run's plots into at the end, and their format.
     pub plots: Option<(PathBuf, PlotFormat)>,
+    /// Drive the level's custom-model profiles from outside the step
+    /// ([`flockway_drivers::External`]); without it a level that uses one is refused.
+    pub external: bool,
 }
 
 /// A run in progress: step it in chunks (for progress reporting), then finish it for the report.
@@ -173,8 +174,11 @@ impl Runner {
             .clone()
             .unwrap_or_else(|| find_assets_dir(None));
         let mut sim = build_sim(&level, seed)?;
+        if options.external {
+            sim.add_plugin(flockway_drivers::ExternalPlugin);
+        }
         let types = load_vehicle_types(&level, name, &assets)?;
-        let profiles = load_driver_profiles(&level, name, &assets)?;
+        let profiles = crate::assets::load_profiles(&level, name, &assets, options.external)?;
         populate(&mut sim, &level, name, &types, &profiles)?;
         sim.world_mut().insert_resource(VehicleTypes(types));
         sim.world_mut().insert_resource(DriverProfiles(profiles));
@@ -340,6 +344,11 @@ impl Runner {
             }
         }
         Ok(())
+    }
+
+    /// Wall-clock time spent stepping so far (for reports only; never part of the results).
+    pub fn stepping(&self) -> Duration {
+        self.stepping
     }
 
     /// The telemetry sampled so far, as analysis reads it.

@@ -329,7 +329,7 @@ pub fn spawn_driven(
     driver.insert(&mut e, lane, &mut rng);
     e.insert((
         id,
-        DriverLabel::new(profile, driver.model().name()),
+        DriverLabel::new(profile, driver.model_name()),
         Travel {
             spawned_tick: tick,
             road,
