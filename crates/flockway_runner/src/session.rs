@@ -241,6 +241,16 @@ impl Session {
         Ok(())
     }
 
+    /// Vehicle contacts and guardrail hits so far.
+    pub fn collisions(&self) -> u64 {
+        let stats = self
+            .runner
+            .sim()
+            .world()
+            .resource::<flockway_traffic::TrafficStats>();
+        stats.collisions_vehicle + stats.collisions_guardrail
+    }
+
     /// The road names, by road index ([`VehicleColumns::road`]).
     pub fn road_names(&self) -> &[String] {
         &self.road_names

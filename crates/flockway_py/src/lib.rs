@@ -1,0 +1,264 @@
+//! The native module of the `flockway` Python package (`flockway._flockway`): a
+//! [`Session`] — a level run step by step — with NumPy arrays in and out. The Python side
+//! (`python/flockway/`) builds the documented API on it: `Sim`, drivers written in Python, the
+//! gymnasium and PettingZoo environments and the sweeps.
+
+use flockway_drivers::ExternalCommand;
+use flockway_runner::{Override, RunError, Session, SessionError};
+use flockway_vehicle::Controls;
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::exceptions::{PyFileNotFoundError, PyKeyError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+/// A run error as Python sees it: a missing file is `FileNotFoundError`, anything else a
+/// `ValueError` with the message `flockway run` prints (file:line:col for a bad level).
+fn run_error(e: RunError) -> PyErr {
+    let message = e.to_string();
+    match e {
+        RunError::Level(flockway_level::LevelError::Io { source, .. })
+            if source.kind() == std::io::ErrorKind::NotFound =>
+        {
+            PyFileNotFoundError::new_err(message)
+        }
+        _ => PyValueError::new_err(message),
+    }
+}
+
+/// A command error: an unknown vehicle is a `KeyError`, anything else a `ValueError`.
+fn session_error(e: SessionError) -> PyErr {
+    match e {
+        SessionError::NoVehicle(_) => PyKeyError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// Checks that `values` has one entry per id.
+fn same_length(what: &'static str, values: usize, ids: usize) -> PyResult<()> {
+    if values == ids {
+        Ok(())
+    } else {
+        Err(session_error(SessionError::Length {
+            what,
+            got: values,
+            ids,
+        }))
+    }
+}
+
+/// A level run step by step (see `flockway.Sim` for the documented API).
+#[pyclass(unsendable, module = "flockway._flockway", name = "Session")]
+struct PySession {
+    inner: Session,
+}
+
+#[pymethods]
+impl PySession {
+    /// Opens the level at `path` with `seed` (the level's without one), the `(key, value)`
+    /// `overrides`, streaming its telemetry CSV to `csv` when given.
+    #[new]
+    #[pyo3(signature = (path, seed=None, overrides=Vec::new(), csv=None))]
+    fn new(
+        path: PathBuf,
+        seed: Option<u64>,
+        overrides: Vec<(String, f64)>,
+        csv: Option<PathBuf>,
+    ) -> PyResult<PySession> {
+        let overrides: Vec<Override> = overrides
+            .into_iter()
+            .map(|(key, value)| Override { key, value })
+            .collect();
+        let inner = Session::open(&path, seed, &overrides, csv).map_err(run_error)?;
+        Ok(PySession { inner })
+    }
+
+    /// Runs `n` fixed steps of 1/120 s.
+    fn step(&mut self, n: u64) -> PyResult<()> {
+        self.inner.step(n).map_err(run_error)
+    }
+
+    /// Simulated time, s.
+    #[getter]
+    fn time_s(&self) -> f64 {
+        self.inner.time_s()
+    }
+
+    /// The level's own duration, s.
+    #[getter]
+    fn duration_s(&self) -> f64 {
+        self.inner.duration_s()
+    }
+
+    /// The level's name in reports.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name().to_owned()
+    }
+
+    /// Vehicle contacts and guardrail hits so far.
+    #[getter]
+    fn collisions(&self) -> u64 {
+        self.inner.collisions()
+    }
+
+    /// The road names, by road index.
+    #[getter]
+    fn road_names(&self) -> Vec<String> {
+        self.inner.road_names().to_vec()
+    }
+
+    /// Every vehicle now, in id order: a dict of arrays (names indexed by the `road`,
+    /// `profile` and `model` columns under `road_names`, `profiles`, `models`).
+    fn vehicles<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let v = self.inner.vehicles();
+        let d = PyDict::new(py);
+        d.set_item("id", v.id.into_pyarray(py))?;
+        d.set_item("road", v.road.into_pyarray(py))?;
+        d.set_item("lane", v.lane.into_pyarray(py))?;
+        d.set_item("s_m", v.s_m.into_pyarray(py))?;
+        d.set_item("lateral_m", v.lateral_m.into_pyarray(py))?;
+        d.set_item("x_m", v.x_m.into_pyarray(py))?;
+        d.set_item("y_m", v.y_m.into_pyarray(py))?;
+        d.set_item("z_m", v.z_m.into_pyarray(py))?;
+        d.set_item("speed_mps", v.speed_mps.into_pyarray(py))?;
+        d.set_item("accel_mps2", v.accel_mps2.into_pyarray(py))?;
+        d.set_item("heading_rad", v.heading_rad.into_pyarray(py))?;
+        d.set_item("throttle", v.throttle.into_pyarray(py))?;
+        d.set_item("steering", v.steering.into_pyarray(py))?;
+        d.set_item("profile", v.profile.into_pyarray(py))?;
+        d.set_item("model", v.model.into_pyarray(py))?;
+        d.set_item("road_names", self.inner.road_names().to_vec())?;
+        d.set_item("profiles", v.profiles)?;
+        d.set_item("models", v.models)?;
+        Ok(d)
+    }
+
+    /// Each vehicle's leader: `(leader ids, bumper gaps in m, leader speeds in m/s)`, −1, inf
+    /// and NaN where there is none within 500 m.
+    fn leaders<'py>(
+        &mut self,
+        py: Python<'py>,
+        ids: PyReadonlyArray1<'py, u32>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let l = self.inner.leaders(ids.as_slice()?).map_err(session_error)?;
+        let d = PyDict::new(py);
+        d.set_item("id", l.id.into_pyarray(py))?;
+        d.set_item("gap_m", l.gap_m.into_pyarray(py))?;
+        d.set_item("speed_mps", l.speed_mps.into_pyarray(py))?;
+        Ok(d)
+    }
+
+    /// Target speeds (and lanes, −1 to keep the current one) for the shared controller.
+    #[pyo3(signature = (ids, speed_mps, lane=None))]
+    fn set_target(
+        &mut self,
+        ids: PyReadonlyArray1<'_, u32>,
+        speed_mps: PyReadonlyArray1<'_, f64>,
+        lane: Option<PyReadonlyArray1<'_, i64>>,
+    ) -> PyResult<()> {
+        let ids = ids.as_slice()?;
+        let speed = speed_mps.as_slice()?;
+        same_length("speed_mps", speed.len(), ids.len())?;
+        let lanes = match &lane {
+            Some(l) => Some(l.as_slice()?),
+            None => None,
+        };
+        if let Some(l) = lanes {
+            same_length("lane", l.len(), ids.len())?;
+        }
+        let commands: Vec<Option<ExternalCommand>> = (0..ids.len())
+            .map(|k| {
+                Some(ExternalCommand::Target {
+                    speed_mps: speed[k] as f32,
+                    lane: lanes.and_then(|l| u32::try_from(l[k]).ok()),
+                })
+            })
+            .collect();
+        self.inner.command(ids, &commands).map_err(session_error)
+    }
+
+    /// Throttle (−1..1, negative brakes), steering (−1..1, positive left) and handbrake, as
+    /// given, with no controller.
+    #[pyo3(signature = (ids, throttle, steering, handbrake=None))]
+    fn set_controls(
+        &mut self,
+        ids: PyReadonlyArray1<'_, u32>,
+        throttle: PyReadonlyArray1<'_, f64>,
+        steering: PyReadonlyArray1<'_, f64>,
+        handbrake: Option<PyReadonlyArray1<'_, bool>>,
+    ) -> PyResult<()> {
+        let ids = ids.as_slice()?;
+        let (t, s) = (throttle.as_slice()?, steering.as_slice()?);
+        same_length("throttle", t.len(), ids.len())?;
+        same_length("steering", s.len(), ids.len())?;
+        let brakes = match &handbrake {
+            Some(h) => Some(h.as_slice()?),
+            None => None,
+        };
+        if let Some(h) = brakes {
+            same_length("handbrake", h.len(), ids.len())?;
+        }
+        let commands: Vec<Option<ExternalCommand>> = (0..ids.len())
+            .map(|k| {
+                Some(ExternalCommand::Controls(Controls {
+                    throttle: t[k] as f32,
+                    steering: s[k] as f32,
+                    handbrake: brakes.is_some_and(|h| h[k]),
+                }))
+            })
+            .collect();
+        self.inner.command(ids, &commands).map_err(session_error)
+    }
+
+    /// Hands vehicles back to their own drivers.
+    fn release(&mut self, ids: PyReadonlyArray1<'_, u32>) -> PyResult<()> {
+        let ids = ids.as_slice()?;
+        let none = vec![None; ids.len()];
+        self.inner.command(ids, &none).map_err(session_error)
+    }
+
+    /// Spawns a vehicle of driver profile `profile`; returns its id.
+    fn spawn(
+        &mut self,
+        road: &str,
+        s_m: f64,
+        lane: u32,
+        speed_mps: f64,
+        profile: &str,
+    ) -> PyResult<u32> {
+        self.inner
+            .spawn(road, s_m, lane, speed_mps as f32, profile)
+            .map_err(session_error)
+    }
+
+    /// Removes vehicles.
+    fn despawn(&mut self, ids: PyReadonlyArray1<'_, u32>) -> PyResult<()> {
+        self.inner.despawn(ids.as_slice()?).map_err(session_error)
+    }
+
+    /// The summary so far, as JSON text (the summary contract of `flockway run`).
+    fn summary_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.inner.summary())
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+}
+
+mod shipped {
+    include!(concat!(env!("OUT_DIR"), "/shipped.rs"));
+}
+
+/// The shipped levels and the assets they use: `(path under the repository, text)` pairs.
+#[pyfunction]
+fn shipped_files() -> Vec<(&'static str, &'static str)> {
+    shipped::SHIPPED.to_vec()
+}
+
+/// The module.
+#[pymodule]
+fn _flockway(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PySession>()?;
+    m.add_function(wrap_pyfunction!(shipped_files, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

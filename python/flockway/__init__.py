@@ -1,0 +1,28 @@
+"""Flockway from Python: a deterministic traffic sandbox with rigid-body vehicles.
+
+``flockway.Sim`` steps a level and shows its vehicles as NumPy arrays; drivers written in Python
+drive a level's ``Custom("NAME")`` profiles; ``flockway.run`` runs a level to its end. Importing
+the package registers the gymnasium environments (``flockway/RingWave-v0``, ``flockway/Level-v0``)
+when gymnasium is installed.
+"""
+
+from ._flockway import __version__
+from .data import data_dir, level_path, shipped_levels
+from .sim import DT_S, Sim, run
+
+__all__ = [
+    "DT_S",
+    "Sim",
+    "__version__",
+    "data_dir",
+    "level_path",
+    "run",
+    "shipped_levels",
+]
+
+try:
+    from . import envs as _envs
+
+    _envs.register_all()
+except ImportError:  # gymnasium is not installed: the environments are not offered.
+    pass

@@ -1,0 +1,157 @@
+"""Gymnasium environments: one vehicle of a level driven by the agent's acceleration, among the
+level's own drivers.
+
+``flockway/RingWave-v0`` is the Stern et al. (2018) ring task: the one autonomous car among 21
+human-like drivers on the Sugiyama ring, rewarded for the ring's mean speed with a penalty for
+harsh acceleration and for collisions. ``flockway/Level-v0`` is the same task on any level, with
+any driver profile's first vehicle as the agent.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from .sim import DT_S, Sim
+
+#: The observation's entries, in order.
+OBSERVATION = ("speed_mps", "gap_m", "leader_speed_mps", "mean_speed_mps")
+
+#: The gap reported when there is no leader within range, m (also the observation's bound).
+MAX_GAP_M = 500.0
+
+
+class LevelEnv(gym.Env):
+    """One vehicle of ``level`` — the lowest-numbered one of driver profile ``profile`` — driven
+    by the agent; everything else by the level's drivers.
+
+    * Observation (float32): the agent's speed, the bumper gap to its leader (``MAX_GAP_M``
+      without one within range), the leader's speed (the agent's own without one) and the mean
+      speed of every vehicle, all in m and m/s.
+    * Action: a target acceleration as a share of ``max_accel`` (-1..1, so -3..3 m/s² by
+      default): the shared controller drives at the speed it gives (never below 0) for
+      ``period_s``.
+    * Reward per step: the mean speed of every vehicle, m/s, less ``accel_penalty`` × a² and
+      ``collision_penalty`` per contact or guardrail hit during the step.
+    * An episode: ``warmup_s`` with the vehicle under its own driver, then ``episode_s`` under
+      the agent (truncated then). It ends (terminated) if the agent's vehicle leaves the level.
+
+    ``reset(seed=…)`` is deterministic: the same seed gives the same episode for the same
+    actions.
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        level: str = "stern_ring",
+        profile: str = "autonomous",
+        warmup_s: float = 60.0,
+        episode_s: float = 240.0,
+        period_s: float = 0.1,
+        max_accel: float = 3.0,
+        accel_penalty: float = 0.1,
+        collision_penalty: float = 100.0,
+        overrides: dict[str, float] | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r}: no render modes are offered yet")
+        self.level = level
+        self.profile = profile
+        self.warmup_s = float(warmup_s)
+        self.episode_s = float(episode_s)
+        self.period_ticks = max(1, round(period_s / DT_S))
+        self.max_accel = float(max_accel)
+        self.accel_penalty = float(accel_penalty)
+        self.collision_penalty = float(collision_penalty)
+        self.overrides = dict(overrides or {})
+        self.render_mode = render_mode
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        high = np.array([60.0, MAX_GAP_M, 60.0, 60.0], dtype=np.float32)
+        low = np.array([-20.0, 0.0, -20.0, -20.0], dtype=np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.sim: Sim | None = None
+        self.agent: int | None = None
+        self._steps = 0
+        self._collisions = 0
+
+    def _observe(self) -> tuple[np.ndarray, float, bool]:
+        v = self.sim.vehicles()
+        mean = float(v["speed_mps"].mean()) if len(v["id"]) else 0.0
+        where = np.flatnonzero(v["id"] == self.agent)
+        if len(where) == 0:
+            return np.array([0.0, MAX_GAP_M, 0.0, mean], dtype=np.float32), mean, False
+        k = where[0]
+        speed = float(v["speed_mps"][k])
+        lead = self.sim.leaders([self.agent])
+        gap = float(min(lead["gap_m"][0], MAX_GAP_M))
+        lead_speed = float(lead["speed_mps"][0]) if lead["id"][0] >= 0 else speed
+        obs = np.array([speed, max(gap, 0.0), lead_speed, mean], dtype=np.float32)
+        return np.clip(obs, self.observation_space.low, self.observation_space.high), mean, True
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        sim_seed = int(self.np_random.integers(0, 2**31 - 1))
+        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides)
+        self.sim.step(1)
+        v = self.sim.vehicles()
+        mine = v["id"][v["profile"] == self.profile]
+        if len(mine) == 0:
+            raise ValueError(
+                f"{self.level}: no vehicle of driver profile `{self.profile}` at the start"
+            )
+        self.agent = int(mine.min())
+        if self.warmup_s > 0:
+            self.sim.run(self.warmup_s)
+        self._steps = 0
+        self._collisions = self.sim.collisions
+        obs, _, _ = self._observe()
+        return obs, {"time_s": self.sim.time_s, "vehicle": self.agent, "seed": sim_seed}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self.sim is None:
+            raise RuntimeError("call reset() before step()")
+        share = np.asarray(action, dtype=np.float64).reshape(-1)[0]
+        a = float(np.clip(share, -1.0, 1.0)) * self.max_accel
+        v = self.sim.vehicles()
+        where = np.flatnonzero(v["id"] == self.agent)
+        if len(where):
+            speed = float(v["speed_mps"][where[0]])
+            target = max(0.0, speed + a * self.period_ticks * DT_S)
+            self.sim.set_target([self.agent], [target])
+        self.sim.step(self.period_ticks)
+        self._steps += 1
+        obs, mean, present = self._observe()
+        collisions = self.sim.collisions
+        new = collisions - self._collisions
+        self._collisions = collisions
+        reward = mean - self.accel_penalty * a * a - self.collision_penalty * new
+        truncated = self._steps * self.period_ticks * DT_S >= self.episode_s - 1e-9
+        info = {"time_s": self.sim.time_s, "collisions": new, "mean_speed_mps": mean}
+        return obs, float(reward), not present, bool(truncated and present), info
+
+
+class RingWaveEnv(LevelEnv):
+    """``flockway/RingWave-v0``: the Stern ring (one autonomous car among 21 human-like drivers
+    on the 230 m Sugiyama ring) with the autonomous car as the agent."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        kwargs.setdefault("level", "stern_ring")
+        kwargs.setdefault("profile", "autonomous")
+        super().__init__(**kwargs)
+
+
+def register_all() -> None:
+    """Registers the environments with gymnasium (done on ``import flockway``)."""
+    for env_id, entry in (
+        ("flockway/RingWave-v0", "flockway.envs:RingWaveEnv"),
+        ("flockway/Level-v0", "flockway.envs:LevelEnv"),
+    ):
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry)

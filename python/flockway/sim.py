@@ -1,0 +1,261 @@
+"""The simulation from Python: :class:`Sim` steps a level, shows its vehicles as NumPy arrays and
+takes commands for the vehicles a controller drives; :func:`run` runs a level to its end with
+drivers written in Python."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import _flockway
+from .data import level_path
+
+#: One fixed step of the simulation, s.
+DT_S = 1.0 / 120.0
+
+
+def _ids(ids: Any) -> np.ndarray:
+    return np.ascontiguousarray(np.atleast_1d(np.asarray(ids, dtype=np.uint32)))
+
+
+def _values(values: Any, n: int, dtype: Any) -> np.ndarray:
+    """`values` as a contiguous array of `n` entries (a scalar is repeated)."""
+    a = np.asarray(values, dtype=dtype)
+    if a.ndim == 0:
+        a = np.full(n, a, dtype=dtype)
+    return np.ascontiguousarray(a)
+
+
+class Sim:
+    """A level run step by step.
+
+    ``level`` is a path to a level file, or the name of a shipped level (``"stern_ring"``).
+    ``seed`` replaces the level's seed; ``overrides`` maps ``"duration_s"`` or
+    ``"PROFILE.PARAMETER"`` (a driver profile's name and a parameter of its model, as a
+    profile's ``set`` names it) to a number. ``drivers`` maps a custom model's name (a profile
+    with ``model: Custom("NAME")``) to a Python driver: an object whose ``decide(obs)`` is called
+    once per step with the observations of all that model's vehicles (see :meth:`observe`) and
+    returns their target speeds, or a dict with ``speed_mps`` (and ``lane``), or with
+    ``throttle`` and ``steering`` (and ``handbrake``). The telemetry CSV streams to ``csv`` (a
+    temporary file without one) and :meth:`telemetry` reads it back.
+
+    The same level, seed and sequence of calls give bit-identical arrays.
+    """
+
+    def __init__(
+        self,
+        level: str | os.PathLike[str],
+        seed: int | None = None,
+        overrides: Mapping[str, float] | None = None,
+        drivers: Mapping[str, Any] | None = None,
+        csv: str | os.PathLike[str] | None = None,
+    ) -> None:
+        path = level_path(level)
+        self._tmp = None
+        if csv is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="flockway-")
+            csv = Path(self._tmp.name) / "run.csv"
+        self.csv = Path(csv)
+        pairs = [(str(k), float(v)) for k, v in (overrides or {}).items()]
+        self._s = _flockway.Session(str(path), seed, pairs, str(self.csv))
+        self.level = path
+        self.drivers: dict[str, Any] = dict(drivers or {})
+        for name, driver in self.drivers.items():
+            if not callable(getattr(driver, "decide", None)):
+                raise TypeError(f"driver `{name}` has no decide(obs) method")
+
+    # -- time ------------------------------------------------------------------------------
+    @property
+    def time_s(self) -> float:
+        """Simulated time, s."""
+        return self._s.time_s
+
+    @property
+    def duration_s(self) -> float:
+        """The level's own duration, s (a Sim runs for as long as it is stepped)."""
+        return self._s.duration_s
+
+    @property
+    def collisions(self) -> int:
+        """Vehicle contacts and guardrail hits so far."""
+        return self._s.collisions
+
+    @property
+    def name(self) -> str:
+        """The level's name in reports."""
+        return self._s.name
+
+    def step(self, n: int = 1) -> None:
+        """Runs ``n`` fixed steps of 1/120 s (the Python drivers decide before each)."""
+        if n < 0:
+            raise ValueError(f"step({n}): expected 0 or more steps")
+        if not self.drivers:
+            self._s.step(int(n))
+            return
+        for _ in range(int(n)):
+            self._drive()
+            self._s.step(1)
+
+    def run(self, seconds: float | None = None) -> dict[str, Any]:
+        """Steps to ``seconds`` of simulated time (the level's duration without it); returns the
+        summary."""
+        end = self.duration_s if seconds is None else float(seconds)
+        ticks = round(end / DT_S) - round(self.time_s / DT_S)
+        if ticks > 0:
+            self.step(ticks)
+        return self.summary()
+
+    # -- state -----------------------------------------------------------------------------
+    def vehicles(self) -> dict[str, np.ndarray]:
+        """Every vehicle now, in id order: ``id``, ``road`` (name), ``road_index``, ``lane``,
+        ``s_m``, ``lateral_m``, ``x_m``, ``y_m``, ``z_m``, ``speed_mps``, ``accel_mps2``,
+        ``heading_rad``, ``throttle``, ``steering``, ``profile`` and ``model`` (names)."""
+        raw = self._s.vehicles()
+        out = {
+            k: v
+            for k, v in raw.items()
+            if k not in ("road_names", "profiles", "models", "road", "profile", "model")
+        }
+        out["road_index"] = raw["road"]
+        out["road"] = _names(raw["road_names"], raw["road"])
+        out["profile"] = _names(raw["profiles"], raw["profile"])
+        out["model"] = _names(raw["models"], raw["model"])
+        return out
+
+    def leader(self, ids: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Each vehicle's leader in its lane: its id (-1 without one within 500 m) and the
+        bumper-to-bumper gap, m (inf without one)."""
+        d = self._s.leaders(_ids(ids))
+        return d["id"], d["gap_m"]
+
+    def leaders(self, ids: Any) -> dict[str, np.ndarray]:
+        """:meth:`leader` with the leader's speed too: ``id``, ``gap_m``, ``speed_mps``."""
+        return self._s.leaders(_ids(ids))
+
+    # -- commands --------------------------------------------------------------------------
+    def set_target(self, ids: Any, speed_mps: Any, lane: Any = None) -> None:
+        """Drives these vehicles at ``speed_mps`` (in ``lane``; their own without it) through
+        the shared controller, which keeps them in lane and stops them where a junction holds
+        them. Holds until the next command; a vehicle of a built-in model is taken over."""
+        i = _ids(ids)
+        lanes = None if lane is None else _values(lane, len(i), np.int64)
+        self._s.set_target(i, _values(speed_mps, len(i), np.float64), lanes)
+
+    def set_controls(
+        self, ids: Any, throttle: Any, steering: Any, handbrake: Any = None
+    ) -> None:
+        """Gives these vehicles their controls directly: throttle -1..1 (negative brakes, and
+        from a standstill reverses), steering -1..1 (positive left), handbrake."""
+        i = _ids(ids)
+        brake = None if handbrake is None else _values(handbrake, len(i), np.bool_)
+        self._s.set_controls(
+            i,
+            _values(throttle, len(i), np.float64),
+            _values(steering, len(i), np.float64),
+            brake,
+        )
+
+    def release(self, ids: Any) -> None:
+        """Hands vehicles back to their own drivers."""
+        self._s.release(_ids(ids))
+
+    def spawn(
+        self,
+        road: str,
+        s_m: float,
+        profile: str,
+        lane: int = 0,
+        speed_mps: float = 0.0,
+    ) -> int:
+        """Adds a vehicle of driver profile ``profile``; returns its id."""
+        return self._s.spawn(road, float(s_m), int(lane), float(speed_mps), profile)
+
+    def despawn(self, ids: Any) -> None:
+        """Removes vehicles."""
+        self._s.despawn(_ids(ids))
+
+    # -- results ---------------------------------------------------------------------------
+    def summary(self) -> dict[str, Any]:
+        """The summary of the run so far: the JSON contract of ``flockway run --summary``."""
+        return json.loads(self._s.summary_json())
+
+    def telemetry(self):
+        """The telemetry so far as a pandas DataFrame: the CSV contract of ``flockway run
+        --csv`` (a row per vehicle every sample period)."""
+        import pandas as pd
+
+        return pd.read_csv(self.csv, keep_default_na=False, na_values=[])
+
+    # -- Python drivers --------------------------------------------------------------------
+    def observe(self, model: str | None = None) -> dict[str, np.ndarray]:
+        """What a Python driver sees: :meth:`vehicles` (of custom model ``model`` only, when
+        given) with each one's leader (``leader_id``, ``gap_m``, ``leader_speed_mps``), and
+        ``time_s`` and ``dt_s``."""
+        v = self.vehicles()
+        if model is not None:
+            keep = v["model"] == f"Custom({model})"
+            v = {k: a[keep] for k, a in v.items()}
+        lead = self._s.leaders(np.ascontiguousarray(v["id"], dtype=np.uint32))
+        v["leader_id"] = lead["id"]
+        v["gap_m"] = lead["gap_m"]
+        v["leader_speed_mps"] = lead["speed_mps"]
+        v["time_s"] = np.float64(self.time_s)
+        v["dt_s"] = np.float64(DT_S)
+        return v
+
+    def _drive(self) -> None:
+        for model, driver in self.drivers.items():
+            obs = self.observe(model)
+            ids = obs["id"]
+            if len(ids) == 0:
+                continue
+            self.command(ids, driver.decide(obs), source=f"driver `{model}`")
+
+    def command(self, ids: Any, decision: Any, source: str = "command") -> None:
+        """Applies a driver's decision to ``ids``: target speeds (an array), or a dict with
+        ``speed_mps`` (and ``lane``), or with ``throttle`` and ``steering`` (and
+        ``handbrake``)."""
+        if isinstance(decision, Mapping):
+            if "throttle" in decision or "steering" in decision:
+                self.set_controls(
+                    ids,
+                    decision.get("throttle", 0.0),
+                    decision.get("steering", 0.0),
+                    decision.get("handbrake"),
+                )
+            elif "speed_mps" in decision:
+                self.set_target(ids, decision["speed_mps"], decision.get("lane"))
+            else:
+                raise ValueError(
+                    f"{source}: expected speeds, or a dict with `speed_mps` (and `lane`) or "
+                    f"`throttle` and `steering`; got keys {sorted(decision)}"
+                )
+        else:
+            self.set_target(ids, decision)
+
+    def __repr__(self) -> str:
+        return f"Sim({str(self.level)!r}, t={self.time_s:.3f} s)"
+
+
+def _names(names: list[str], index: np.ndarray) -> np.ndarray:
+    table = np.asarray(names if names else [""], dtype=str)
+    return table[index]
+
+
+def run(
+    level: str | os.PathLike[str],
+    drivers: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+    overrides: Mapping[str, float] | None = None,
+    seconds: float | None = None,
+    csv: str | os.PathLike[str] | None = None,
+) -> dict[str, Any]:
+    """Runs a level to its end (or ``seconds``) with ``drivers`` for its custom models; returns
+    the summary, as ``flockway run --summary`` writes it."""
+    sim = Sim(level, seed=seed, overrides=overrides, drivers=drivers, csv=csv)
+    return sim.run(seconds)

@@ -1,0 +1,45 @@
+"""The gymnasium environments."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils.env_checker import check_env
+
+import flockway  # noqa: F401  (registers the environments)
+
+
+def test_ring_wave_passes_check_env() -> None:
+    env = gym.make("flockway/RingWave-v0", warmup_s=2.0, episode_s=5.0)
+    check_env(env.unwrapped)
+
+
+def test_two_resets_with_one_seed_give_the_same_episode() -> None:
+    def episode() -> list[np.ndarray]:
+        env = gym.make("flockway/RingWave-v0", warmup_s=5.0, episode_s=60.0)
+        obs, _ = env.reset(seed=42)
+        env.action_space.seed(7)
+        seen = [obs]
+        for _ in range(100):
+            obs, reward, terminated, truncated, _ = env.step(env.action_space.sample())
+            seen.append(np.append(obs, reward))
+            assert not terminated
+        return seen
+
+    a, b = episode(), episode()
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+def test_level_env_takes_any_profile_of_any_level() -> None:
+    env = gym.make("flockway/Level-v0", level="sugiyama_ring", profile="human",
+                   warmup_s=1.0, episode_s=1.0)
+    obs, info = env.reset(seed=1)
+    assert info["vehicle"] == 0
+    assert env.observation_space.contains(obs)
+    done = False
+    steps = 0
+    while not done:
+        obs, reward, terminated, truncated, _ = env.step(np.array([0.0], dtype=np.float32))
+        done = terminated or truncated
+        steps += 1
+    assert steps == 10
