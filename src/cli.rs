@@ -82,6 +82,10 @@ pub enum Command {
         /// Parallel runs (default: the machine's cores).
         #[arg(long, short, value_name = "N")]
         jobs: Option<usize>,
+        /// Also write every run's summary (the `run --summary` JSON) to this file, a line per
+        /// run in the order the runs are listed (levels, then seeds); never overwritten by half.
+        #[arg(long, value_name = "FILE.jsonl")]
+        summaries: Option<PathBuf>,
     },
     /// Measure a vehicle on the test tracks: 0–100 km/h, top speed, 100–0 km/h braking, skid-pad
     /// grip and standstill drift.

@@ -28,7 +28,15 @@ fn main() -> ExitCode {
             seed_list,
             seconds,
             jobs,
-        } => commands::test::test(&paths, seeds, seed_list, seconds, jobs),
+            summaries,
+        } => commands::test::test(
+            &paths,
+            seeds,
+            seed_list,
+            seconds,
+            jobs,
+            summaries.as_deref(),
+        ),
         Command::Plot {
             csv,
             output,

@@ -768,3 +768,45 @@ fn new_writes_each_template_as_a_level_that_runs_and_never_overwrites() {
     let bad = flockway(&["new", "x.ron", "--template", "circle"]);
     assert_eq!(bad.status.code(), Some(2));
 }
+
+#[test]
+fn test_writes_every_run_s_summary_as_a_json_line_the_same_as_run_s() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let lines = dir.path().join("summaries.jsonl");
+    let out = flockway(&[
+        "test",
+        "levels/sugiyama_ring.ron",
+        "--seed-list",
+        "4,2",
+        "--seconds",
+        "10",
+        "--summaries",
+        lines.to_str().expect("utf-8"),
+    ]);
+    // Ten seconds is too short for the ring's expectations: they fail (exit 1), and the
+    // summaries are written all the same.
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let text = std::fs::read_to_string(&lines).expect("the summaries");
+    let summaries: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect();
+    assert_eq!(summaries.len(), 2);
+    assert_eq!(summaries[0]["seed"], 4);
+    assert_eq!(summaries[1]["seed"], 2);
+    let one = dir.path().join("one.json");
+    let run = flockway(&[
+        "run",
+        "levels/sugiyama_ring.ron",
+        "--seed",
+        "2",
+        "--seconds",
+        "10",
+        "--summary",
+        one.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(run.status.code(), Some(1), "{run:?}");
+    let single: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&one).expect("summary")).expect("json");
+    assert_eq!(summaries[1]["metrics"], single["metrics"]);
+}

@@ -9,6 +9,7 @@ when gymnasium is installed.
 from ._flockway import __version__
 from .data import data_dir, level_path, shipped_levels
 from .sim import DT_S, Sim, run
+from .sweep import sweep
 
 __all__ = [
     "DT_S",
@@ -18,6 +19,7 @@ __all__ = [
     "level_path",
     "run",
     "shipped_levels",
+    "sweep",
 ]
 
 try:

@@ -3,8 +3,9 @@ level's own drivers.
 
 ``flockway/RingWave-v0`` is the Stern et al. (2018) ring task: the one autonomous car among 21
 human-like drivers on the Sugiyama ring, rewarded for the ring's mean speed with a penalty for
-harsh acceleration and for collisions. ``flockway/Level-v0`` is the same task on any level, with
-any driver profile's first vehicle as the agent.
+harsh acceleration and for collisions. ``flockway/Merge-v0`` puts the agent in
+the merging car of ``on_ramp``. ``flockway/Level-v0`` is the same task on any level, with any
+driver profile's first vehicle (or the first on a given road) as the agent.
 """
 
 from __future__ import annotations
@@ -22,6 +23,72 @@ OBSERVATION = ("speed_mps", "gap_m", "leader_speed_mps", "mean_speed_mps")
 
 #: The gap reported when there is no leader within range, m (also the observation's bound).
 MAX_GAP_M = 500.0
+
+
+def observation_space() -> spaces.Box:
+    """What an agent observes (see :data:`OBSERVATION`), m and m/s."""
+    high = np.array([60.0, MAX_GAP_M, 60.0, 60.0], dtype=np.float32)
+    low = np.array([-20.0, 0.0, -20.0, -20.0], dtype=np.float32)
+    return spaces.Box(low, high, dtype=np.float32)
+
+
+def action_space() -> spaces.Box:
+    """An agent's action: a target acceleration as a share of the task's ``max_accel``."""
+    return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+
+class Task:
+    """What the environments share: how an action drives a vehicle and what a step earns.
+
+    ``period_s`` is how long an action holds; ``max_accel`` (m/s²) scales actions; a step
+    earns the mean speed of every vehicle (m/s) less ``accel_penalty`` × a² and
+    ``collision_penalty`` per contact during it."""
+
+    def __init__(self, period_s: float = 0.1, max_accel: float = 3.0,
+                 accel_penalty: float = 0.1, collision_penalty: float = 100.0) -> None:
+        self.period_ticks = max(1, round(period_s / DT_S))
+        self.max_accel = float(max_accel)
+        self.accel_penalty = float(accel_penalty)
+        self.collision_penalty = float(collision_penalty)
+        self.space = observation_space()
+
+    def accel(self, action: Any) -> float:
+        """The acceleration an action asks for, m/s²."""
+        share = np.asarray(action, dtype=np.float64).reshape(-1)[0]
+        return float(np.clip(share, -1.0, 1.0)) * self.max_accel
+
+    def drive(self, sim: Sim, accel: dict[int, float]) -> None:
+        """Gives each vehicle (by id) the target speed its acceleration reaches in a period,
+        then runs the period."""
+        v = sim.vehicles()
+        speed_of = dict(zip(v["id"].tolist(), v["speed_mps"].tolist()))
+        ids = [i for i in accel if i in speed_of]
+        if ids:
+            dt = self.period_ticks * DT_S
+            sim.set_target(ids, [max(0.0, speed_of[i] + accel[i] * dt) for i in ids])
+        sim.step(self.period_ticks)
+
+    def observe(self, sim: Sim, ids: list[int]) -> tuple[dict[int, np.ndarray], float]:
+        """Each present vehicle's observation (by id), and the mean speed of every vehicle."""
+        v = sim.vehicles()
+        mean = float(v["speed_mps"].mean()) if len(v["id"]) else 0.0
+        speed_of = dict(zip(v["id"].tolist(), v["speed_mps"].tolist()))
+        present = [i for i in ids if i in speed_of]
+        out: dict[int, np.ndarray] = {}
+        if present:
+            lead = sim.leaders(present)
+            for k, i in enumerate(present):
+                speed = speed_of[i]
+                gap = min(float(lead["gap_m"][k]), MAX_GAP_M)
+                lead_speed = float(lead["speed_mps"][k]) if lead["id"][k] >= 0 else speed
+                o = np.array([speed, max(gap, 0.0), lead_speed, mean], dtype=np.float32)
+                out[i] = np.clip(o, self.space.low, self.space.high)
+        return out, mean
+
+    def reward(self, mean: float, accel: float, collisions: int) -> float:
+        """What a step earns."""
+        return float(mean - self.accel_penalty * accel * accel
+                     - self.collision_penalty * collisions)
 
 
 class LevelEnv(gym.Env):
@@ -51,47 +118,35 @@ class LevelEnv(gym.Env):
         profile: str = "autonomous",
         warmup_s: float = 60.0,
         episode_s: float = 240.0,
-        period_s: float = 0.1,
-        max_accel: float = 3.0,
-        accel_penalty: float = 0.1,
-        collision_penalty: float = 100.0,
         overrides: dict[str, float] | None = None,
+        agent_road: str | None = None,
         render_mode: str | None = None,
+        **task: float,
     ) -> None:
+        """``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
+        ``accel_penalty``, ``collision_penalty``."""
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r}: no render modes are offered yet")
         self.level = level
         self.profile = profile
+        self.agent_road = agent_road
         self.warmup_s = float(warmup_s)
         self.episode_s = float(episode_s)
-        self.period_ticks = max(1, round(period_s / DT_S))
-        self.max_accel = float(max_accel)
-        self.accel_penalty = float(accel_penalty)
-        self.collision_penalty = float(collision_penalty)
+        self.task = Task(**task)
         self.overrides = dict(overrides or {})
         self.render_mode = render_mode
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        high = np.array([60.0, MAX_GAP_M, 60.0, 60.0], dtype=np.float32)
-        low = np.array([-20.0, 0.0, -20.0, -20.0], dtype=np.float32)
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.action_space = action_space()
+        self.observation_space = observation_space()
         self.sim: Sim | None = None
         self.agent: int | None = None
         self._steps = 0
         self._collisions = 0
 
     def _observe(self) -> tuple[np.ndarray, float, bool]:
-        v = self.sim.vehicles()
-        mean = float(v["speed_mps"].mean()) if len(v["id"]) else 0.0
-        where = np.flatnonzero(v["id"] == self.agent)
-        if len(where) == 0:
+        obs, mean = self.task.observe(self.sim, [self.agent])
+        if self.agent not in obs:
             return np.array([0.0, MAX_GAP_M, 0.0, mean], dtype=np.float32), mean, False
-        k = where[0]
-        speed = float(v["speed_mps"][k])
-        lead = self.sim.leaders([self.agent])
-        gap = float(min(lead["gap_m"][0], MAX_GAP_M))
-        lead_speed = float(lead["speed_mps"][0]) if lead["id"][0] >= 0 else speed
-        obs = np.array([speed, max(gap, 0.0), lead_speed, mean], dtype=np.float32)
-        return np.clip(obs, self.observation_space.low, self.observation_space.high), mean, True
+        return obs[self.agent], mean, True
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -100,41 +155,68 @@ class LevelEnv(gym.Env):
         sim_seed = int(self.np_random.integers(0, 2**31 - 1))
         self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides)
         self.sim.step(1)
-        v = self.sim.vehicles()
-        mine = v["id"][v["profile"] == self.profile]
-        if len(mine) == 0:
-            raise ValueError(
-                f"{self.level}: no vehicle of driver profile `{self.profile}` at the start"
-            )
-        self.agent = int(mine.min())
-        if self.warmup_s > 0:
-            self.sim.run(self.warmup_s)
+        if self.agent_road is None:
+            v = self.sim.vehicles()
+            mine = v["id"][v["profile"] == self.profile]
+            if len(mine) == 0:
+                raise ValueError(
+                    f"{self.level}: no vehicle of driver profile `{self.profile}` at the start"
+                )
+            self.agent = int(mine.min())
+            if self.warmup_s > 0:
+                self.sim.run(self.warmup_s)
+        else:
+            if self.warmup_s > 0:
+                self.sim.run(self.warmup_s)
+            self.agent = self._newest_on_road()
         self._steps = 0
         self._collisions = self.sim.collisions
         obs, _, _ = self._observe()
         return obs, {"time_s": self.sim.time_s, "vehicle": self.agent, "seed": sim_seed}
 
+    def _newest_on_road(self) -> int:
+        """The first vehicle of the profile to come onto ``agent_road`` (waiting up to 120 s
+        for one)."""
+        for _ in range(1200):
+            v = self.sim.vehicles()
+            here = v["id"][(v["road"] == self.agent_road) & (v["profile"] == self.profile)]
+            if len(here):
+                return int(here.max())
+            self.sim.step(12)
+        raise ValueError(
+            f"{self.level}: no vehicle of driver profile `{self.profile}` came onto road "
+            f"`{self.agent_road}` within 120 s"
+        )
+
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        share = np.asarray(action, dtype=np.float64).reshape(-1)[0]
-        a = float(np.clip(share, -1.0, 1.0)) * self.max_accel
-        v = self.sim.vehicles()
-        where = np.flatnonzero(v["id"] == self.agent)
-        if len(where):
-            speed = float(v["speed_mps"][where[0]])
-            target = max(0.0, speed + a * self.period_ticks * DT_S)
-            self.sim.set_target([self.agent], [target])
-        self.sim.step(self.period_ticks)
+        a = self.task.accel(action)
+        self.task.drive(self.sim, {self.agent: a})
         self._steps += 1
         obs, mean, present = self._observe()
         collisions = self.sim.collisions
         new = collisions - self._collisions
         self._collisions = collisions
-        reward = mean - self.accel_penalty * a * a - self.collision_penalty * new
-        truncated = self._steps * self.period_ticks * DT_S >= self.episode_s - 1e-9
+        reward = self.task.reward(mean, a, new)
+        truncated = self._steps * self.task.period_ticks * DT_S >= self.episode_s - 1e-9
         info = {"time_s": self.sim.time_s, "collisions": new, "mean_speed_mps": mean}
         return obs, float(reward), not present, bool(truncated and present), info
+
+
+class MergeEnv(LevelEnv):
+    """``flockway/Merge-v0``: the merging car of ``on_ramp`` — the newest car on the ramp after
+    the warm-up — driven along the ramp, through the acceleration lane onto the motorway and
+    on until it leaves the level (terminated) or 60 s have passed (truncated). Its lane is its
+    route's: the agent chooses its speed, the car merges where its lane ends."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        kwargs.setdefault("level", "on_ramp")
+        kwargs.setdefault("profile", "autonomous")
+        kwargs.setdefault("agent_road", "ramp")
+        kwargs.setdefault("warmup_s", 60.0)
+        kwargs.setdefault("episode_s", 60.0)
+        super().__init__(**kwargs)
 
 
 class RingWaveEnv(LevelEnv):
@@ -151,6 +233,7 @@ def register_all() -> None:
     """Registers the environments with gymnasium (done on ``import flockway``)."""
     for env_id, entry in (
         ("flockway/RingWave-v0", "flockway.envs:RingWaveEnv"),
+        ("flockway/Merge-v0", "flockway.envs:MergeEnv"),
         ("flockway/Level-v0", "flockway.envs:LevelEnv"),
     ):
         if env_id not in gym.registry:

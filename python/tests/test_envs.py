@@ -43,3 +43,21 @@ def test_level_env_takes_any_profile_of_any_level() -> None:
         done = terminated or truncated
         steps += 1
     assert steps == 10
+
+
+def test_merge_puts_the_agent_in_a_car_on_the_ramp_until_it_leaves() -> None:
+    env = gym.make("flockway/Merge-v0", warmup_s=20.0, episode_s=80.0)
+    check_env(env.unwrapped)
+    obs, info = env.reset(seed=3)
+    sim = env.unwrapped.sim
+    v = sim.vehicles()
+    assert v["road"][v["id"] == info["vehicle"]][0] == "ramp"
+    roads = set()
+    for _ in range(800):
+        obs, reward, terminated, truncated, _ = env.step(np.array([1.0], dtype=np.float32))
+        v = sim.vehicles()
+        roads.update(v["road"][v["id"] == info["vehicle"]].tolist())
+        if terminated or truncated:
+            break
+    # Flat out, it merged and drove the rest of the motorway to the exit within 80 s.
+    assert terminated and {"ramp", "merge", "downstream"} <= roads

@@ -6,13 +6,15 @@ use flockway::run::batch::{self, Seeds};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Runs `paths` (files or directories of levels) for the chosen seeds on `jobs` threads.
+/// Runs `paths` (files or directories of levels) for the chosen seeds on `jobs` threads; writes
+/// the summaries, a JSON line per run, to `summaries` when given.
 pub fn test(
     paths: &[PathBuf],
     seeds: Option<u64>,
     seed_list: Option<Vec<u64>>,
     seconds: Option<f64>,
     jobs: Option<usize>,
+    summaries: Option<&std::path::Path>,
 ) -> ExitCode {
     let files = match batch::level_files(paths) {
         Ok(f) if f.is_empty() => return fail("no level files found"),
@@ -59,6 +61,21 @@ pub fn test(
                 }
             }
             Err(_) => errors += 1,
+        }
+    }
+    if let Some(path) = summaries {
+        let mut lines = String::new();
+        for summary in results.iter().flatten() {
+            match serde_json::to_string(summary) {
+                Ok(json) => {
+                    lines.push_str(&json);
+                    lines.push('\n');
+                }
+                Err(e) => return fail(e),
+            }
+        }
+        if let Err(e) = flockway::level::write_atomic(path, lines.as_bytes()) {
+            return fail(e);
         }
     }
     println!("{passed} passed, {} failed", failed + errors);

@@ -1,0 +1,115 @@
+"""A PettingZoo ParallelEnv: every vehicle of one driver profile is an agent."""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from .envs import Task, action_space, observation_space
+from .sim import DT_S, Sim
+
+
+class LevelParallelEnv(ParallelEnv):
+    """Every vehicle of driver profile ``profile`` on ``level`` is an agent (``"vehicle_ID"``),
+    all deciding at once; the level's other vehicles keep their own drivers.
+
+    Each agent observes what ``flockway/Level-v0``'s agent does (its speed, the gap to its
+    leader, the leader's speed, the mean speed of every vehicle) and acts the same way (a target
+    acceleration as a share of ``max_accel``, held for ``period_s``). Its reward per step is the
+    mean speed of every vehicle, m/s, less ``accel_penalty`` × its own a², less
+    ``collision_penalty`` per contact in the level during the step (shared: a crash is
+    everyone's). The agents are the profile's vehicles after the warm-up; one that leaves the
+    level is done (terminated); the others are truncated after ``episode_s``."""
+
+    metadata = {"render_modes": [], "name": "flockway_level_parallel_v0"}
+
+    def __init__(
+        self,
+        level: str = "sugiyama_ring",
+        profile: str = "human",
+        warmup_s: float = 30.0,
+        episode_s: float = 120.0,
+        overrides: dict[str, float] | None = None,
+        render_mode: str | None = None,
+        **task: float,
+    ) -> None:
+        """``task`` holds :class:`flockway.envs.Task`'s keywords: ``period_s``,
+        ``max_accel``, ``accel_penalty``, ``collision_penalty``."""
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r}: no render modes are offered yet")
+        self.level, self.profile = level, profile
+        self.warmup_s, self.episode_s = float(warmup_s), float(episode_s)
+        self.task = Task(**task)
+        self.overrides = dict(overrides or {})
+        self.render_mode = render_mode
+        # The agents a level starts with, found by a short probe (the same for every seed: the
+        # profile's vehicles at the start of the level).
+        probe = Sim(level, overrides=self.overrides)
+        probe.step(1)
+        v = probe.vehicles()
+        ids = sorted(int(i) for i in v["id"][v["profile"] == profile])
+        if not ids:
+            raise ValueError(f"{level}: no vehicle of driver profile `{profile}` at the start")
+        self.possible_agents = [f"vehicle_{i}" for i in ids]
+        self.agents: list[str] = []
+        self._ids = dict(zip(self.possible_agents, ids))
+        self.sim: Sim | None = None
+        self._steps = 0
+        self._collisions = 0
+
+    @functools.lru_cache(maxsize=None)
+    def observation_space(self, agent: str) -> spaces.Box:
+        return observation_space()
+
+    @functools.lru_cache(maxsize=None)
+    def action_space(self, agent: str) -> spaces.Box:
+        return action_space()
+
+    def _observe(self) -> tuple[dict[str, np.ndarray], float, set[str]]:
+        by_id, mean = self.task.observe(self.sim, [self._ids[a] for a in self.agents])
+        obs = {f"vehicle_{i}": o for i, o in by_id.items()}
+        return obs, mean, set(obs)
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        rng = np.random.default_rng(seed)
+        sim_seed = int(rng.integers(0, 2**31 - 1))
+        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides)
+        if self.warmup_s > 0:
+            self.sim.run(self.warmup_s)
+        self.agents = list(self.possible_agents)
+        self._steps = 0
+        self._collisions = self.sim.collisions
+        obs, _, present = self._observe()
+        self.agents = [a for a in self.agents if a in present]
+        infos = {a: {"seed": sim_seed} for a in self.agents}
+        return obs, infos
+
+    def step(self, actions: dict[str, Any]):
+        if self.sim is None:
+            raise RuntimeError("call reset() before step()")
+        accel = {agent: self.task.accel(actions.get(agent, [0.0])) for agent in self.agents}
+        self.task.drive(self.sim, {self._ids[a]: x for a, x in accel.items()})
+        self._steps += 1
+        obs, mean, present = self._observe()
+        collisions = self.sim.collisions
+        new = collisions - self._collisions
+        self._collisions = collisions
+        out_of_time = self._steps * self.task.period_ticks * DT_S >= self.episode_s - 1e-9
+        rewards, terms, truncs, infos = {}, {}, {}, {}
+        for agent in self.agents:
+            a = accel.get(agent, 0.0)
+            rewards[agent] = self.task.reward(mean, a, new)
+            terms[agent] = agent not in present
+            truncs[agent] = out_of_time and agent in present
+            infos[agent] = {"time_s": self.sim.time_s, "collisions": new}
+        self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
+        return obs, rewards, terms, truncs, infos
+
+
+def parallel_env(**kwargs: Any) -> LevelParallelEnv:
+    """The PettingZoo ParallelEnv (keywords as :class:`LevelParallelEnv`)."""
+    return LevelParallelEnv(**kwargs)
