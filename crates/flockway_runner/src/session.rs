@@ -319,6 +319,19 @@ impl Session {
             .collect()
     }
 
+    /// The entities of `ids`, in order; the first unknown id is an error.
+    fn entities_of(&mut self, ids: &[u32]) -> Result<Vec<Entity>, SessionError> {
+        let entities = self.entities();
+        ids.iter()
+            .map(|id| {
+                entities
+                    .get(id)
+                    .copied()
+                    .ok_or(SessionError::NoVehicle(*id))
+            })
+            .collect()
+    }
+
     /// Each vehicle's leader: the nearest vehicle ahead in its lane, within
     /// [`LEADER_RANGE_M`].
     pub fn leaders(&mut self, ids: &[u32]) -> Result<Leaders, SessionError> {
@@ -393,17 +406,8 @@ impl Session {
                 _ => {}
             }
         }
-        let entities = self.entities();
         // All or nothing: every id is checked before any vehicle is told.
-        let targets = ids
-            .iter()
-            .map(|id| {
-                entities
-                    .get(id)
-                    .copied()
-                    .ok_or(SessionError::NoVehicle(*id))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let targets = self.entities_of(ids)?;
         let world = self.runner.sim_mut().world_mut();
         for (e, command) in targets.into_iter().zip(commands) {
             let mut entity = world.entity_mut(e);
@@ -498,16 +502,7 @@ impl Session {
 
     /// Removes vehicles (they leave without being counted as destroyed).
     pub fn despawn(&mut self, ids: &[u32]) -> Result<(), SessionError> {
-        let entities = self.entities();
-        let targets = ids
-            .iter()
-            .map(|id| {
-                entities
-                    .get(id)
-                    .copied()
-                    .ok_or(SessionError::NoVehicle(*id))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let targets = self.entities_of(ids)?;
         let world = self.runner.sim_mut().world_mut();
         for e in targets {
             world.despawn(e);
