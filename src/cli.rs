@@ -86,6 +86,10 @@ pub enum Command {
         /// run in the order the runs are listed (levels, then seeds); never overwritten by half.
         #[arg(long, value_name = "FILE.jsonl")]
         summaries: Option<PathBuf>,
+        /// Drive a driver profile with a built-in model (its default parameters) instead of the
+        /// level's: how a challenge's custom profile is run with a built-in driver. Repeatable.
+        #[arg(long = "driver", value_name = "PROFILE=MODEL", value_parser = flockway::run::parse_driver)]
+        drivers: Vec<(String, flockway::drivers::BuiltinModel)>,
     },
     /// Measure a vehicle on the test tracks: 0–100 km/h, top speed, 100–0 km/h braking, skid-pad
     /// grip and standstill drift.
@@ -267,6 +271,10 @@ pub struct RunArgs {
     /// Image format of --plots.
     #[arg(long, value_enum, default_value_t = Format::Png, requires = "plots")]
     pub plot_format: Format,
+    /// Drive a driver profile with a built-in model (its default parameters) instead of the
+    /// level's, e.g. `controller=WaveDamper` on a challenge. Repeatable.
+    #[arg(long = "driver", value_name = "PROFILE=MODEL", value_parser = flockway::run::parse_driver)]
+    pub drivers: Vec<(String, flockway::drivers::BuiltinModel)>,
     /// Print nothing but errors; the exit status tells the outcome.
     #[arg(long, short)]
     pub quiet: bool,

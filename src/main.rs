@@ -29,11 +29,15 @@ fn main() -> ExitCode {
             seconds,
             jobs,
             summaries,
+            drivers,
         } => commands::test::test(
             &paths,
             seeds,
             seed_list,
-            seconds,
+            &flockway::run::batch::BatchSettings {
+                seconds,
+                drivers: drivers.into_iter().collect(),
+            },
             jobs,
             summaries.as_deref(),
         ),

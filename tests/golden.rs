@@ -100,7 +100,9 @@ fn every_shipped_level_gives_its_golden_csv_and_summary() {
                 .flatten()
                 .map(|(k, _)| k)
             {
-                if got["summary"][key] != want["summary"][key] {
+                if want["summary"].get(key).is_none() {
+                    changed.push(format!("  summary `{key}`: a new key"));
+                } else if got["summary"][key] != want["summary"][key] {
                     changed.push(format!(
                         "  summary `{key}`: {} → {}",
                         want["summary"][key], got["summary"][key]

@@ -7,8 +7,11 @@ use std::path::Path;
 fn load_save_load_is_identical_for_every_shipped_level() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut count = 0;
-    for entry in
-        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("levels")).expect("levels/")
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels");
+    let dirs = [root.clone(), root.join("challenges")];
+    for entry in dirs
+        .iter()
+        .flat_map(|d| std::fs::read_dir(d).expect("levels/ and levels/challenges/"))
     {
         let path = entry.expect("entry").path();
         if path.extension().is_none_or(|e| e != "ron") {
@@ -26,7 +29,7 @@ fn load_save_load_is_identical_for_every_shipped_level() {
             level_to_string(&second).expect("text")
         );
     }
-    assert!(count >= 3);
+    assert!(count >= 5);
 }
 
 #[test]

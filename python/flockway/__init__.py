@@ -1,13 +1,14 @@
 """Flockway from Python: a deterministic traffic sandbox with rigid-body vehicles.
 
 ``flockway.Sim`` steps a level and shows its vehicles as NumPy arrays; drivers written in Python
-drive a level's ``Custom("NAME")`` profiles; ``flockway.run`` runs a level to its end. Importing
+drive a level's ``Custom("NAME")`` profiles; ``flockway.run`` runs a level to its end and
+returns its summary (with the score and medal of a challenge, ``flockway.challenges()``). Importing
 the package registers the gymnasium environments (``flockway/RingWave-v0``, ``flockway/Level-v0``)
 when gymnasium is installed.
 """
 
 from ._flockway import __version__
-from .data import data_dir, level_path, shipped_levels
+from .data import challenges, data_dir, level_path, shipped_levels
 from .sim import DT_S, Sim, run
 from .sweep import sweep
 
@@ -15,6 +16,7 @@ __all__ = [
     "DT_S",
     "Sim",
     "__version__",
+    "challenges",
     "data_dir",
     "level_path",
     "run",

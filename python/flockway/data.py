@@ -46,6 +46,16 @@ def shipped_levels() -> list[str]:
     )
 
 
+def challenges() -> list[str]:
+    """The names of the shipped challenges (``challenges/damp_the_wave``, …): levels with a
+    score and medals, whose ``Custom`` profile is yours to drive."""
+    return sorted(
+        rel.removeprefix("levels/").removesuffix(".ron")
+        for rel, _ in _flockway.shipped_files()
+        if rel.startswith("levels/challenges/") and rel.endswith(".ron")
+    )
+
+
 def level_path(level: str | os.PathLike[str]) -> Path:
     """A level file: ``level`` itself when it is a file, else the shipped level of that name
     (``"stern_ring"`` or ``"challenges/damp_the_wave"``, with or without ``.ron``)."""

@@ -41,8 +41,11 @@ class Sim:
     with ``model: Custom("NAME")``) to a Python driver: an object whose ``decide(obs)`` is called
     once per step with the observations of all that model's vehicles (see :meth:`observe`) and
     returns their target speeds, or a dict with ``speed_mps`` (and ``lane``), or with
-    ``throttle`` and ``steering`` (and ``handbrake``). The telemetry CSV streams to ``csv`` (a
-    temporary file without one) and :meth:`telemetry` reads it back.
+    ``throttle`` and ``steering`` (and ``handbrake``). A string instead of an object, a built-in
+    model's name (``"WaveDamper"``), drives that custom model's profiles (or the profile of that
+    name) with the built-in driver and its default parameters, as ``flockway run --driver
+    NAME=MODEL`` does: the bar a challenge's controller has to beat. The telemetry CSV streams
+    to ``csv`` (a temporary file without one) and :meth:`telemetry` reads it back.
 
     The same level, seed and sequence of calls give bit-identical arrays.
     """
@@ -62,9 +65,13 @@ class Sim:
             csv = Path(self._tmp.name) / "run.csv"
         self.csv = Path(csv)
         pairs = [(str(k), float(v)) for k, v in (overrides or {}).items()]
-        self._s = _flockway.Session(str(path), seed, pairs, str(self.csv))
+        given = dict(drivers or {})
+        models = [(str(k), v) for k, v in given.items() if isinstance(v, str)]
+        self._s = _flockway.Session(str(path), seed, pairs, str(self.csv), models)
         self.level = path
-        self.drivers: dict[str, Any] = dict(drivers or {})
+        self.drivers: dict[str, Any] = {
+            k: v for k, v in given.items() if not isinstance(v, str)
+        }
         for name, driver in self.drivers.items():
             if not callable(getattr(driver, "decide", None)):
                 raise TypeError(f"driver `{name}` has no decide(obs) method")

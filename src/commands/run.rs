@@ -27,7 +27,9 @@ pub fn run(args: RunArgs) -> ExitCode {
             .clone()
             .map(|dir| (dir, PlotFormat::from(args.plot_format))),
         external: false,
+        drivers: args.drivers.iter().cloned().collect(),
     };
+    let score = level.score.clone();
     let mut runner = match Runner::new(level, &name, &options) {
         Ok(r) => r,
         Err(e) => return fail(e),
@@ -86,6 +88,10 @@ pub fn run(args: RunArgs) -> ExitCode {
     }
     if !args.quiet {
         print!("{}", report.to_text());
+        if let Some(spec) = &score {
+            let outcome = spec.formula.evaluate(&report.metrics);
+            println!("score            {}", spec.describe(&outcome));
+        }
     }
     if report.passed {
         ExitCode::SUCCESS

@@ -2,7 +2,8 @@
 //! and `N passed, N failed`.
 
 use super::fail;
-use flockway::run::batch::{self, Seeds};
+use flockway::run::Summary;
+use flockway::run::batch::{self, BatchSettings, Seeds};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -12,7 +13,7 @@ pub fn test(
     paths: &[PathBuf],
     seeds: Option<u64>,
     seed_list: Option<Vec<u64>>,
-    seconds: Option<f64>,
+    settings: &BatchSettings,
     jobs: Option<usize>,
     summaries: Option<&std::path::Path>,
 ) -> ExitCode {
@@ -31,14 +32,15 @@ pub fn test(
         Err(e) => return fail(e),
     };
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let results = batch::run_all(&runs, seconds, jobs, |run, outcome| match outcome {
+    let results = batch::run_all(&runs, settings, jobs, |run, outcome| match outcome {
         Ok(r) => println!(
-            "{} {} seed {} ({:.0} s simulated in {:.1} s)",
+            "{} {} seed {} ({:.0} s simulated in {:.1} s){}",
             if r.passed { "PASS" } else { "FAIL" },
             run.path.display(),
             r.seed,
             r.sim_seconds,
-            r.wall_seconds
+            r.wall_seconds,
+            score_note(r)
         ),
         Err(e) => println!("ERROR {}: {e}", run.path.display()),
     });
@@ -78,6 +80,7 @@ pub fn test(
             return fail(e);
         }
     }
+    print_scores(&runs, &results);
     println!("{passed} passed, {} failed", failed + errors);
     if errors > 0 {
         ExitCode::from(2)
@@ -85,5 +88,41 @@ pub fn test(
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// ` score 7.12 (silver)` for a run of a level with a score; nothing otherwise.
+fn score_note(r: &Summary) -> String {
+    match (r.score, &r.medal) {
+        (Some(s), Some(m)) => format!(" score {s:.2} ({m})"),
+        (Some(s), None) => format!(" score {s:.2} (no medal)"),
+        _ => String::new(),
+    }
+}
+
+/// For each level with a score run on several seeds: the mean score over them.
+fn print_scores(runs: &[batch::BatchRun], results: &[Result<Summary, flockway::run::RunError>]) {
+    let mut by_level: Vec<(&std::path::Path, Vec<f64>)> = Vec::new();
+    for (run, r) in runs.iter().zip(results) {
+        let Some(score) = r.as_ref().ok().and_then(|s| s.score) else {
+            continue;
+        };
+        match by_level.iter_mut().find(|(p, _)| *p == run.path.as_path()) {
+            Some((_, scores)) => scores.push(score),
+            None => by_level.push((&run.path, vec![score])),
+        }
+    }
+    for (path, scores) in by_level.iter().filter(|(_, s)| s.len() > 1) {
+        let mean = scores.iter().sum::<f64>() / scores.len() as f64;
+        let (lo, hi) = scores
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(*s), hi.max(*s))
+            });
+        println!(
+            "score {}: mean {mean:.2} over {} seeds ({lo:.2} to {hi:.2})",
+            path.display(),
+            scores.len()
+        );
     }
 }

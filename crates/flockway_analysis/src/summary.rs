@@ -81,6 +81,10 @@ pub struct Summary {
     pub mean_speed_kmh: Option<f64>,
     /// Mean time from creation to a destroyer of the vehicles removed after the warm-up, s.
     pub mean_travel_time_s: Option<f64>,
+    /// The medal the score earned (`bronze`, `silver`, `gold`); `None` without a score or
+    /// below bronze.
+    #[serde(default)]
+    pub medal: Option<String>,
     /// Every measured metric by key (`metric` or `metric.name`; see `flockway_level::Metric`).
     pub metrics: BTreeMap<String, f64>,
     /// Times a vehicle missed the exit its route took.
@@ -91,6 +95,10 @@ pub struct Summary {
     /// Simulated seconds per wall second (`null` in the file when the run took no time).
     #[serde(deserialize_with = "number_or_null")]
     pub realtime_factor: f64,
+    /// The level's score (a challenge's), from its formula over `metrics`; `None` when the
+    /// level has none or the run did not measure what it reads.
+    #[serde(default)]
+    pub score: Option<f64>,
     /// The seed used.
     pub seed: u64,
     /// Simulated seconds (`ticks / 120`).
@@ -140,10 +148,12 @@ impl Summary {
             mean_delay_s: None,
             mean_speed_kmh: None,
             mean_travel_time_s: None,
+            medal: None,
             metrics: BTreeMap::new(),
             missed_exits: None,
             passed: true,
             realtime_factor: 0.0,
+            score: None,
             seed: 0,
             sim_seconds: 0.0,
             speed_std_kmh: None,

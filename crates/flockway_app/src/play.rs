@@ -87,6 +87,8 @@ pub struct PlaySession {
     pub history: Vec<[f64; 5]>,
     rtf_window: (f64, Duration),
     realtime_factor: f64,
+    /// The last score line, the step and wall time it was measured at.
+    score: Option<(u64, Instant, String)>,
 }
 
 /// Steps between chart points.
@@ -104,10 +106,17 @@ impl PlaySession {
         assets: &Path,
         csv: &Path,
     ) -> Result<PlaySession, RunError> {
+        // A challenge's custom profile plays as its untold car does (a lane-keeping flocking
+        // car), so its score shows the bar a controller starts from.
+        let external = level
+            .driver_profiles
+            .iter()
+            .any(|p| matches!(p.model, flockway_level::DriverModel::Custom(_)));
         let options = RunOptions {
             seconds: Some(MAX_RUN_SECONDS),
             csv: Some(csv.to_owned()),
             assets: Some(assets.to_owned()),
+            external,
             ..RunOptions::default()
         };
         let mut runner = Runner::new(level, name, &options)?;
@@ -125,7 +134,40 @@ impl PlaySession {
             history: Vec::new(),
             rtf_window: (0.0, Duration::ZERO),
             realtime_factor: 0.0,
+            score: None,
         })
+    }
+
+    /// The HUD's score line for a level with a score — `7.12 km/h, silver (gold from 8)`, or
+    /// when it will be measured — remeasured once 2 simulated seconds have passed and either
+    /// half a wall second or 30 simulated seconds (the summary's metrics take a moment on long
+    /// runs); `None` for a level without one.
+    pub fn score(&mut self) -> Option<String> {
+        let spec = self.runner.level().score.clone()?;
+        let tick = self.runner.ticks_done();
+        let second = u64::from(flockway_core::TICKS_PER_SECOND);
+        let fresh = self.score.as_ref().is_some_and(|(at, when, _)| {
+            let advanced = tick.saturating_sub(*at);
+            advanced < 2 * second
+                || (advanced < 30 * second && when.elapsed() < Duration::from_millis(500))
+        });
+        if !fresh {
+            let from_s = self.runner.level().telemetry.stats_from_s;
+            let line = if self.sim_s() < from_s {
+                format!("measured from {from_s:.0} s")
+            } else {
+                let summary = flockway_runner::measure(
+                    self.runner.sim(),
+                    self.runner.level(),
+                    "play",
+                    self.runner.trace(),
+                    Duration::ZERO,
+                );
+                spec.describe(&spec.formula.evaluate(&summary.metrics))
+            };
+            self.score = Some((tick, Instant::now(), line));
+        }
+        self.score.as_ref().map(|(_, _, line)| line.clone())
     }
 
     /// What the cars' paint tells.

@@ -234,6 +234,33 @@ fn the_play_hud_shows_the_level_monitor_and_its_chart() {
     snapshot(&mut harness, "play_hud");
 }
 
+#[test]
+fn a_challenge_s_hud_shows_its_score_and_medal_as_it_plays() {
+    let mut state = app_on("../../levels/challenges/damp_the_wave.ron");
+    state.play();
+    assert!(state.play.is_some(), "{}", state.status);
+    let session = state.play.as_mut().expect("playing");
+    session.step_ticks(120 * 10).expect("steps");
+    assert_eq!(session.score().as_deref(), Some("measured from 150 s"));
+    // Past the warm-up: the custom car plays untold (a lane-keeping flocking car), which
+    // does not damp the wave: no medal, and the line says what bronze takes.
+    session.step_ticks(120 * 160).expect("steps");
+    let line = session.score().expect("a challenge has a score");
+    assert!(
+        line.ends_with("km/h, no medal (bronze from 2)"),
+        "the score line: {line}"
+    );
+    state.toggle_pause();
+    let mut harness = harness(state);
+    harness.run();
+    for label in ["score", "no medal (bronze from 2)"] {
+        assert!(
+            harness.query_by_label_contains(label).is_some(),
+            "the HUD lacks `{label}`"
+        );
+    }
+}
+
 /// Where a point of a road's lane appears on the screen: `share` of the way along road `road`,
 /// on lane `lane`.
 fn road_point(app: &AppState, road: usize, share: f64, lane: u32) -> Option<egui::Pos2> {

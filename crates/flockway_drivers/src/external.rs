@@ -8,6 +8,7 @@ use crate::control::{DriveTarget, follow_targets};
 use crate::models::{FlockDriver, drive_flock};
 use crate::{DriverSystems, add_driver};
 use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::IntoScheduleConfigs;
 use flockway_core::{Sim, SimPlugin};
 use flockway_road::RoadNetwork;
 use flockway_vehicle::{Controls, Motion, RoadTrack};
@@ -63,6 +64,17 @@ impl SimPlugin for ExternalPlugin {
                 .in_set(DriverSystems::Control),
         );
     }
+}
+
+/// Registers a Rust driver for externally driven vehicles — a plugin playing a level's
+/// `Custom(NAME)` profile, as a Python driver would: `system` runs every tick after perception
+/// (the [`LaneIndex`](crate::LaneIndex) is this tick's) and sets the [`External::command`] of
+/// the vehicles of its model, which this tick carries out. Needs [`ExternalPlugin`].
+pub fn add_external_driver<M>(
+    sim: &mut Sim,
+    system: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+) {
+    add_driver(sim, system.before(follow_external_targets));
 }
 
 /// Turns each target command into the vehicle's drive target: its lane kept at its speed.

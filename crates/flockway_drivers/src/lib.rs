@@ -28,7 +28,7 @@ pub use control::{
     DriveTarget, HOLD_BRAKE, Pid, PidGains, STOP_BELOW_MPS, SharedController, TargetController,
     follow_targets, wrap_angle,
 };
-pub use external::{External, ExternalCommand, ExternalPlugin};
+pub use external::{External, ExternalCommand, ExternalPlugin, add_external_driver};
 pub use junction::{
     AMBER_DECEL_MPS2, CRITICAL_GAP_S, DEADLOCK_S, FOLLOW_UP_S, GapAcceptance, JunctionGate,
     JunctionStats, STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,

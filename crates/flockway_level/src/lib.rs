@@ -10,6 +10,7 @@ mod io;
 mod locate;
 mod prefab;
 mod schema;
+mod score;
 mod sumo;
 mod template;
 mod validate;
@@ -26,6 +27,7 @@ pub use schema::{
     DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
     TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
+pub use score::{Better, Formula, Medal, Medals, ScoreError, ScoreSpec};
 pub use sumo::{ImportError, import_sumo_net};
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,

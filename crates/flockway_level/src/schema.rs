@@ -2,6 +2,7 @@
 //! those whose systems arrive later, so the format is settled before files exist in the wild.
 
 use crate::expect::Expectation;
+use crate::score::ScoreSpec;
 use flockway_road::{JunctionSpec, RoadSpec};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -57,6 +58,9 @@ pub struct Level {
     /// Checks a run must pass, e.g. `"collisions == 0"`, `"mean_speed_kmh in 57..63"`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub expect: Vec<Expectation>,
+    /// The score a run earns, with medal thresholds: a level with one is a challenge.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub score: Option<ScoreSpec>,
 }
 
 impl Level {
@@ -78,6 +82,7 @@ impl Level {
             vehicles: Vec::new(),
             telemetry: TelemetrySpec::default(),
             expect: Vec::new(),
+            score: None,
         }
     }
 

@@ -88,6 +88,7 @@ impl Issue {
                     format!("expectation `{e}`")
                 }),
             "telemetry" => "telemetry".to_owned(),
+            "score" => "the score".to_owned(),
             "duration_s" => "the level's duration".to_owned(),
             _ => "the level".to_owned(),
         }
@@ -861,30 +862,56 @@ impl Checker<'_> {
         }
     }
 
+    /// Why `metric.q` names nothing in the level (`None`: it names a thing of the right kind,
+    /// or the metric is unknown, which parsing reports).
+    fn unknown_qualifier(&self, metric: &str, q: &str) -> Option<String> {
+        let l = self.level;
+        let info = metric_info(metric)?;
+        let (known, kind) = match info.qualifier {
+            Qualifier::Road => (l.roads.iter().any(|r| r.name == q), "road"),
+            Qualifier::Destroyer => (l.destroyers.iter().any(|d| d.name == q), "destroyer"),
+            Qualifier::Profile => (
+                l.driver_profiles.iter().any(|p| p.name == q),
+                "driver profile",
+            ),
+            Qualifier::Junction => (l.junctions.iter().any(|j| j.name == q), "junction"),
+            Qualifier::None => (true, ""),
+        };
+        (!known).then(|| format!("`{metric}.{q}` names unknown {kind} `{q}`"))
+    }
+
     fn expectations(&mut self) {
         let l = self.level;
         for (i, e) in l.expect.iter().enumerate() {
-            let Some(info) = metric_info(&e.metric) else {
-                continue;
-            };
             let Some(q) = &e.qualifier else { continue };
-            let known = match info.qualifier {
-                Qualifier::Road => l.roads.iter().any(|r| &r.name == q),
-                Qualifier::Destroyer => l.destroyers.iter().any(|d| &d.name == q),
-                Qualifier::Profile => l.driver_profiles.iter().any(|p| &p.name == q),
-                Qualifier::Junction => l.junctions.iter().any(|j| &j.name == q),
-                Qualifier::None => true,
-            };
-            if !known {
-                let kind = match info.qualifier {
-                    Qualifier::Road => "road",
-                    Qualifier::Profile => "driver profile",
-                    Qualifier::Junction => "junction",
-                    _ => "destroyer",
+            if let Some(message) = self.unknown_qualifier(&e.metric, q) {
+                self.issue(vec![Field("expect"), Index(i)], message);
+            }
+        }
+        if let Some(score) = &l.score {
+            for key in score.formula.keys() {
+                let Some((metric, q)) = key.split_once('.') else {
+                    continue;
+                };
+                if let Some(message) = self.unknown_qualifier(metric, q) {
+                    self.issue(
+                        vec![Field("score"), Field("formula")],
+                        format!("score formula: {message}"),
+                    );
+                }
+            }
+            if !score.thresholds_in_order() {
+                let m = score.medals;
+                let order = match score.better {
+                    crate::score::Better::Higher => "bronze ≤ silver ≤ gold (higher is better)",
+                    crate::score::Better::Lower => "bronze ≥ silver ≥ gold (lower is better)",
                 };
                 self.issue(
-                    vec![Field("expect"), Index(i)],
-                    format!("`{}` names unknown {kind} `{q}`", e.key()),
+                    vec![Field("score"), Field("medals")],
+                    format!(
+                        "medals (bronze: {}, silver: {}, gold: {}): expected finite thresholds with {order}",
+                        m.bronze, m.silver, m.gold
+                    ),
                 );
             }
         }
@@ -917,6 +944,7 @@ mod tests {
     #[test]
     fn a_consistent_level_has_no_problems() {
         assert!(problems("").is_empty());
+        assert!(problems(r#"score: (formula: "mean_speed_kmh.auto - 2 * collisions", unit: "km/h", medals: (bronze: 1.0, silver: 2.0, gold: 3.0)),"#).is_empty());
         assert!(problems(r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, effect: SpeedLimit(kmh: 100.0))],"#).is_empty());
     }
 
@@ -963,6 +991,18 @@ mod tests {
             (
                 r#"expect: ["flow_veh_per_h.exit > 1"],"#,
                 "unknown destroyer `exit`",
+            ),
+            (
+                r#"score: (formula: "mean_speed_kmh.robot", medals: (bronze: 1.0, silver: 2.0, gold: 3.0)),"#,
+                "8:22: score formula: `mean_speed_kmh.robot` names unknown driver profile `robot`",
+            ),
+            (
+                r#"score: (formula: "collisions", better: Lower, medals: (bronze: 1.0, silver: 2.0, gold: 3.0)),"#,
+                "expected finite thresholds with bronze ≥ silver ≥ gold (lower is better)",
+            ),
+            (
+                r#"score: (formula: "collisions +", medals: (bronze: 1.0, silver: 2.0, gold: 3.0)),"#,
+                "score formula, character 13: the formula ends too early",
             ),
         ];
         for (extra, needle) in cases {

@@ -58,18 +58,24 @@ impl PySession {
     /// Opens the level at `path` with `seed` (the level's without one), the `(key, value)`
     /// `overrides`, streaming its telemetry CSV to `csv` when given.
     #[new]
-    #[pyo3(signature = (path, seed=None, overrides=Vec::new(), csv=None))]
+    #[pyo3(signature = (path, seed=None, overrides=Vec::new(), csv=None, models=Vec::new()))]
     fn new(
         path: PathBuf,
         seed: Option<u64>,
         overrides: Vec<(String, f64)>,
         csv: Option<PathBuf>,
+        models: Vec<(String, String)>,
     ) -> PyResult<PySession> {
         let overrides: Vec<Override> = overrides
             .into_iter()
             .map(|(key, value)| Override { key, value })
             .collect();
-        let inner = Session::open(&path, seed, &overrides, csv).map_err(run_error)?;
+        let drivers = models
+            .iter()
+            .map(|(name, model)| flockway_runner::parse_driver(&format!("{name}={model}")))
+            .collect::<Result<_, _>>()
+            .map_err(PyValueError::new_err)?;
+        let inner = Session::open(&path, seed, &overrides, drivers, csv).map_err(run_error)?;
         Ok(PySession { inner })
     }
 

@@ -5,7 +5,9 @@ use crate::assets::find_assets_dir;
 use crate::runner::{RunError, RunOptions, Runner};
 use crate::summary::level_name;
 use flockway_analysis::Summary;
+use flockway_drivers::BuiltinModel;
 use flockway_level::load_level;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -80,14 +82,24 @@ pub fn plan(files: &[PathBuf], seeds: &Seeds) -> Result<Vec<BatchRun>, RunError>
     Ok(runs)
 }
 
+/// What every run of a batch shares.
+#[derive(Debug, Clone, Default)]
+pub struct BatchSettings {
+    /// Simulated seconds per run instead of each level's duration.
+    pub seconds: Option<f64>,
+    /// Profiles driven by a built-in model instead of the level's ([`RunOptions::drivers`]).
+    pub drivers: BTreeMap<String, BuiltinModel>,
+}
+
 /// One run of a batch, to the end: the same as `flockway run` on the file with that seed.
-pub fn run_one(run: &BatchRun, seconds: Option<f64>) -> Result<Summary, RunError> {
+pub fn run_one(run: &BatchRun, settings: &BatchSettings) -> Result<Summary, RunError> {
     let level = load_level(&run.path)?;
     let name = level_name(&level, &run.path);
     let options = RunOptions {
-        seconds,
+        seconds: settings.seconds,
         seed: run.seed,
         assets: Some(find_assets_dir(Some(&run.path))),
+        drivers: settings.drivers.clone(),
         ..RunOptions::default()
     };
     Runner::new(level, &name, &options)?.finish()
@@ -97,7 +109,7 @@ pub fn run_one(run: &BatchRun, seconds: Option<f64>) -> Result<Summary, RunError
 /// finishes (in whatever order they finish), and returns the outcomes in the order of `runs`.
 pub fn run_all(
     runs: &[BatchRun],
-    seconds: Option<f64>,
+    settings: &BatchSettings,
     jobs: usize,
     done: impl Fn(&BatchRun, &Result<Summary, RunError>) + Sync,
 ) -> Vec<Result<Summary, RunError>> {
@@ -110,7 +122,7 @@ pub fn run_all(
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(run) = runs.get(i) else { break };
-                    let outcome = run_one(run, seconds);
+                    let outcome = run_one(run, settings);
                     done(run, &outcome);
                     if let Ok(mut all) = results.lock() {
                         all.push((i, outcome));

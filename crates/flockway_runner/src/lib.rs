@@ -24,7 +24,7 @@ pub use assets::{
     load_vehicle_types,
 };
 pub use flockway_analysis::{ExpectationResult, Summary};
-pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
+pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_models, parse_driver};
 pub use session::{
     LEADER_RANGE_M, Leaders, Override, Session, SessionError, VehicleColumns, apply_overrides,
 };

@@ -6,6 +6,7 @@ use crate::summary::measure;
 use crate::world::{build_sim, populate};
 use flockway_analysis::{PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
 use flockway_core::{Sim, TICKS_PER_SECOND};
+use flockway_drivers::BuiltinModel;
 use flockway_level::{Level, LevelError};
 use flockway_road::{RoadId, RoadNetwork, RoadNetworkError};
 use flockway_traffic::TelemetrySamples;
@@ -90,6 +91,63 @@ pub struct RunOptions {
     /// Drive the level's custom-model profiles from outside the step
     /// ([`flockway_drivers::External`]); without it a level that uses one is refused.
     pub external: bool,
+    /// Driver profiles to drive with a built-in model instead of the level's (its parameter
+    /// file, the default one, and no `set` overrides): how a challenge's custom profile is run
+    /// with a built-in driver, whose score is the bar to beat.
+    pub drivers: BTreeMap<String, BuiltinModel>,
+}
+
+/// Gives each profile named in `drivers` — by its name, or by its custom model's name (every
+/// profile of `Custom(NAME)`) — the built-in model, with that model's default parameter file and
+/// no overrides; a name that matches no profile is an error that lists the level's.
+pub fn assign_models(
+    level: &mut Level,
+    drivers: &BTreeMap<String, BuiltinModel>,
+) -> Result<(), RunError> {
+    for (name, model) in drivers {
+        let matches = |p: &flockway_level::DriverProfileSpec| {
+            &p.name == name
+                || matches!(&p.model, flockway_level::DriverModel::Custom(m) if m == name)
+        };
+        if !level.driver_profiles.iter().any(matches) {
+            let known: Vec<&str> = level
+                .driver_profiles
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect();
+            return Err(RunError::Argument(format!(
+                "driver `{name}={}`: the level has no driver profile or custom model `{name}`; \
+                 its profiles are {}",
+                model.name(),
+                known.join(", ")
+            )));
+        }
+        for p in level.driver_profiles.iter_mut().filter(|p| matches(p)) {
+            p.model = (*model).into();
+            p.params = Some(model.default_params_path().to_owned());
+            p.set.clear();
+        }
+    }
+    Ok(())
+}
+
+/// Parses `PROFILE=MODEL` (a built-in model's name, as levels write it).
+pub fn parse_driver(text: &str) -> Result<(String, BuiltinModel), String> {
+    let models: Vec<&str> = BuiltinModel::ALL.iter().map(|m| m.name()).collect();
+    let (profile, model) = text
+        .split_once('=')
+        .filter(|(p, _)| !p.trim().is_empty())
+        .ok_or_else(|| {
+            format!("expected PROFILE=MODEL (e.g. controller=WaveDamper), found `{text}`")
+        })?;
+    let model = BuiltinModel::from_name(model.trim()).ok_or_else(|| {
+        format!(
+            "`{}` is not a built-in driver model; the models are {}",
+            model.trim(),
+            models.join(", ")
+        )
+    })?;
+    Ok((profile.trim().to_owned(), model))
 }
 
 /// A run in progress: step it in chunks (for progress reporting), then finish it for the report.
@@ -160,7 +218,8 @@ impl PerVehicleFiles {
 
 impl Runner {
     /// Sets up a run of `level` (named `name` in reports).
-    pub fn new(level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
+    pub fn new(mut level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
+        assign_models(&mut level, &options.drivers)?;
         let seconds = options.seconds.unwrap_or(level.duration_s);
         if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_RUN_SECONDS) {
             return Err(RunError::Argument(format!(

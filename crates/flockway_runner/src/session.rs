@@ -152,16 +152,20 @@ pub struct Session {
     road_names: Vec<String>,
     duration_s: f64,
     csv: Option<PathBuf>,
+    /// The step the lane index was last rebuilt after, for [`Session::leaders`].
+    index_tick: Option<u64>,
 }
 
 impl Session {
     /// Loads the level at `path` (errors at file:line:col), applies `overrides`, and sets it up
     /// to run with `seed` (the level's without one), streaming its telemetry CSV to `csv` when
-    /// given. Custom-model profiles are driven from outside ([`External`]).
+    /// given. Custom-model profiles are driven from outside ([`External`]), except those
+    /// `drivers` gives a built-in model ([`RunOptions::drivers`]).
     pub fn open(
         path: &Path,
         seed: Option<u64>,
         overrides: &[Override],
+        drivers: BTreeMap<String, flockway_drivers::BuiltinModel>,
         csv: Option<PathBuf>,
     ) -> Result<Session, RunError> {
         // The file is checked as it loads (errors at file:line:col); what overrides change
@@ -176,6 +180,7 @@ impl Session {
             csv: csv.clone(),
             assets: Some(find_assets_dir(Some(path))),
             external: true,
+            drivers,
             ..RunOptions::default()
         };
         let duration_s = level.duration_s;
@@ -186,6 +191,7 @@ impl Session {
             road_names: Vec::new(),
             duration_s,
             csv,
+            index_tick: None,
         };
         session.refresh_roads();
         Ok(session)
@@ -333,8 +339,21 @@ impl Session {
     }
 
     /// Each vehicle's leader: the nearest vehicle ahead in its lane, within
-    /// [`LEADER_RANGE_M`].
+    /// [`LEADER_RANGE_M`], as of now (the lane index is rebuilt from the vehicles' positions
+    /// after the last step: the index the next step's drivers will see).
     pub fn leaders(&mut self, ids: &[u32]) -> Result<Leaders, SessionError> {
+        let tick = self.runner.sim().tick().0;
+        if self.index_tick != Some(tick) {
+            // The step rebuilds the index from scratch before its drivers decide, so this
+            // changes nothing the step computes.
+            let world = self.runner.sim_mut().world_mut();
+            if world
+                .run_system_cached(flockway_drivers::rebuild_lane_index)
+                .is_ok()
+            {
+                self.index_tick = Some(tick);
+            }
+        }
         let entities = self.entities();
         let ids_of: BTreeMap<Entity, u32> = entities.iter().map(|(id, e)| (*e, *id)).collect();
         let world = self.runner.sim().world();
@@ -497,12 +516,14 @@ impl Session {
             .speed(speed_mps);
         let e = spawn_driven(world, spawn, &driver, lane, Arc::from(profile))
             .map_err(|e| SessionError::Value(e.to_string()))?;
+        self.index_tick = None;
         Ok(world.get::<VehicleId>(e).map_or(0, |v| v.0))
     }
 
     /// Removes vehicles (they leave without being counted as destroyed).
     pub fn despawn(&mut self, ids: &[u32]) -> Result<(), SessionError> {
         let targets = self.entities_of(ids)?;
+        self.index_tick = None;
         let world = self.runner.sim_mut().world_mut();
         for e in targets {
             world.despawn(e);
@@ -531,7 +552,14 @@ mod tests {
     }
 
     fn ring(seed: u64) -> Session {
-        Session::open(&shipped("sugiyama_ring"), Some(seed), &[], None).expect("opens")
+        Session::open(
+            &shipped("sugiyama_ring"),
+            Some(seed),
+            &[],
+            BTreeMap::new(),
+            None,
+        )
+        .expect("opens")
     }
 
     /// A ring with two custom-model cars among four lane-keeping autonomous ones.
@@ -659,7 +687,7 @@ mod tests {
         // Without the session, a custom model is refused.
         let level = load_level(&path).expect("loads");
         assert!(Runner::new(level, "c", &RunOptions::default()).is_err());
-        let mut s = Session::open(&path, Some(1), &[], None).expect("opens");
+        let mut s = Session::open(&path, Some(1), &[], BTreeMap::new(), None).expect("opens");
         s.step(1200).expect("steps");
         let v = s.vehicles();
         assert_eq!(v.id.len(), 6);
@@ -706,8 +734,14 @@ mod tests {
             key: "duration_s".into(),
             value: 40.0,
         }];
-        let mut s =
-            Session::open(&shipped("sugiyama_ring"), Some(2), &overrides, None).expect("opens");
+        let mut s = Session::open(
+            &shipped("sugiyama_ring"),
+            Some(2),
+            &overrides,
+            BTreeMap::new(),
+            None,
+        )
+        .expect("opens");
         s.step(40 * 120).expect("steps");
         let mut level = load_level(&shipped("sugiyama_ring")).expect("loads");
         level.duration_s = 40.0;
@@ -729,7 +763,7 @@ mod tests {
             key: "nobody.x".into(),
             value: 1.0,
         }];
-        let err = Session::open(&shipped("sugiyama_ring"), None, &bad, None)
+        let err = Session::open(&shipped("sugiyama_ring"), None, &bad, BTreeMap::new(), None)
             .err()
             .expect("refused");
         assert!(err.to_string().contains("PROFILE.PARAMETER"), "{err}");
@@ -737,9 +771,15 @@ mod tests {
             key: "human.reaction_tme_s".into(),
             value: 1.0,
         }];
-        let err = Session::open(&shipped("sugiyama_ring"), None, &typo, None)
-            .err()
-            .expect("refused");
+        let err = Session::open(
+            &shipped("sugiyama_ring"),
+            None,
+            &typo,
+            BTreeMap::new(),
+            None,
+        )
+        .err()
+        .expect("refused");
         assert!(err.to_string().contains("reaction_tme_s"), "{err}");
     }
 }

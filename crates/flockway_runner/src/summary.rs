@@ -205,6 +205,15 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
     let sim_seconds = sim.tick().seconds();
     let get = |m: Metric| metrics.get(&m.key()).copied();
     let flow_prefix = format!("{}.", Metric::FlowVehPerH.name());
+    let score = level
+        .score
+        .as_ref()
+        .and_then(|spec| spec.formula.evaluate(&metrics).ok());
+    let medal = level
+        .score
+        .as_ref()
+        .zip(score)
+        .and_then(|(spec, s)| spec.medal(s));
     Summary {
         collisions_guardrail: get(Metric::CollisionsGuardrail),
         collisions_vehicle: get(Metric::CollisionsVehicle),
@@ -218,11 +227,13 @@ pub fn measure(sim: &Sim, level: &Level, name: &str, trace: &Trace, stepping: Du
         mean_delay_s: get(Metric::MeanDelayS),
         mean_speed_kmh: get(Metric::MeanSpeedKmh),
         mean_travel_time_s: get(Metric::MeanTravelTimeS),
+        medal: medal.map(|m| m.name().to_owned()),
         realtime_factor: if wall_seconds > 0.0 {
             sim_seconds / wall_seconds
         } else {
             f64::INFINITY
         },
+        score,
         seed: sim.seed(),
         sim_seconds,
         speed_std_kmh: get(Metric::SpeedStdKmh),

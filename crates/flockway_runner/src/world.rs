@@ -105,7 +105,9 @@ pub fn populate(
     let choice = |profile: &str, weight: f64| -> Result<SpawnChoice, RunError> {
         let driver = profiles.get(profile).cloned().ok_or_else(|| {
             fail(format!(
-                "driver profile `{profile}` has a model no plugin of this program provides"
+                "driver profile `{profile}` has a custom model that this program does not \
+                 provide: drive it from Python (flockway.Sim or flockway.run with drivers=) or \
+                 give it a built-in model (--driver {profile}=WaveDamper, say)"
             ))
         })?;
         let p = level

@@ -215,6 +215,7 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
     ui.separator();
     ui.heading("Level monitor");
     let s = p.stats();
+    let score = p.score();
     egui::Grid::new("hud").num_columns(2).show(ui, |ui| {
         let mut row = |k: &str, v: String| {
             ui.label(k);
@@ -233,6 +234,9 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
                 s.collisions_guardrail, s.collisions_vehicle
             ),
         );
+        if let Some(line) = score {
+            row("score", line);
+        }
     });
     ui.separator();
     let mut by = p.colour_by();
