@@ -87,8 +87,8 @@ pub struct PlaySession {
     pub history: Vec<[f64; 5]>,
     rtf_window: (f64, Duration),
     realtime_factor: f64,
-    /// The last score line, the step and wall time it was measured at.
-    score: Option<(u64, Instant, String)>,
+    /// The last score shown (value, medal), the step and wall time it was measured at.
+    score: Option<(u64, Instant, (String, String))>,
 }
 
 /// Steps between chart points.
@@ -138,11 +138,11 @@ impl PlaySession {
         })
     }
 
-    /// The HUD's score line for a level with a score — `7.12 km/h, silver (gold from 8)`, or
-    /// when it will be measured — remeasured once 2 simulated seconds have passed and either
-    /// half a wall second or 30 simulated seconds (the summary's metrics take a moment on long
-    /// runs); `None` for a level without one.
-    pub fn score(&mut self) -> Option<String> {
+    /// The HUD's score for a level with a score: its value (`7.12 km/h`, or when it will be
+    /// measured) and its medal (`silver (gold from 8)`); remeasured once 2 simulated seconds
+    /// have passed and either half a wall second or 30 simulated seconds (the summary's metrics
+    /// take a moment on long runs). `None` for a level without one.
+    pub fn score(&mut self) -> Option<(String, String)> {
         let spec = self.runner.level().score.clone()?;
         let tick = self.runner.ticks_done();
         let second = u64::from(flockway_core::TICKS_PER_SECOND);
@@ -153,8 +153,8 @@ impl PlaySession {
         });
         if !fresh {
             let from_s = self.runner.level().telemetry.stats_from_s;
-            let line = if self.sim_s() < from_s {
-                format!("measured from {from_s:.0} s")
+            let shown = if self.sim_s() < from_s {
+                (format!("measured from {from_s:.0} s"), String::new())
             } else {
                 let summary = flockway_runner::measure(
                     self.runner.sim(),
@@ -163,11 +163,14 @@ impl PlaySession {
                     self.runner.trace(),
                     Duration::ZERO,
                 );
-                spec.describe(&spec.formula.evaluate(&summary.metrics))
+                match spec.formula.evaluate(&summary.metrics) {
+                    Ok(v) => (spec.value_text(v), spec.medal_text(v)),
+                    Err(e) => ("none".to_owned(), e.to_string()),
+                }
             };
-            self.score = Some((tick, Instant::now(), line));
+            self.score = Some((tick, Instant::now(), shown));
         }
-        self.score.as_ref().map(|(_, _, line)| line.clone())
+        self.score.as_ref().map(|(_, _, shown)| shown.clone())
     }
 
     /// What the cars' paint tells.

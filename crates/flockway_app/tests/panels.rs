@@ -241,15 +241,16 @@ fn a_challenge_s_hud_shows_its_score_and_medal_as_it_plays() {
     assert!(state.play.is_some(), "{}", state.status);
     let session = state.play.as_mut().expect("playing");
     session.step_ticks(120 * 10).expect("steps");
-    assert_eq!(session.score().as_deref(), Some("measured from 150 s"));
+    assert_eq!(
+        session.score(),
+        Some(("measured from 150 s".to_owned(), String::new()))
+    );
     // Past the warm-up: the custom car plays untold (a lane-keeping flocking car), which
     // does not damp the wave: no medal, and the line says what bronze takes.
     session.step_ticks(120 * 160).expect("steps");
-    let line = session.score().expect("a challenge has a score");
-    assert!(
-        line.ends_with("km/h, no medal (bronze from 2)"),
-        "the score line: {line}"
-    );
+    let (value, medal) = session.score().expect("a challenge has a score");
+    assert!(value.ends_with(" km/h"), "the score: {value}");
+    assert_eq!(medal, "no medal (bronze from 2)");
     state.toggle_pause();
     let mut harness = harness(state);
     harness.run();
@@ -259,6 +260,7 @@ fn a_challenge_s_hud_shows_its_score_and_medal_as_it_plays() {
             "the HUD lacks `{label}`"
         );
     }
+    snapshot(&mut harness, "challenge_hud");
 }
 
 /// Where a point of a road's lane appears on the screen: `share` of the way along road `road`,

@@ -525,22 +525,30 @@ impl ScoreSpec {
             }
     }
 
+    /// The medal a score earns and what the next one takes: `silver (gold from 8)`,
+    /// `no medal (bronze from 2)`, `gold`.
+    pub fn medal_text(&self, score: f64) -> String {
+        let medal = self.medal(score);
+        let got = medal.map_or("no medal".to_owned(), |m| m.to_string());
+        match self.next(medal) {
+            Some((next, at)) => format!("{got} ({next} from {at})"),
+            None => got,
+        }
+    }
+
+    /// A score with its unit: `7.12 km/h`.
+    pub fn value_text(&self, score: f64) -> String {
+        if self.unit.is_empty() {
+            format!("{score:.2}")
+        } else {
+            format!("{score:.2} {}", self.unit)
+        }
+    }
+
     /// The score line a report prints: `12.3 km/h, silver (gold from 14)`, or why there is none.
     pub fn describe(&self, outcome: &Result<f64, ScoreError>) -> String {
-        let unit = if self.unit.is_empty() {
-            String::new()
-        } else {
-            format!(" {}", self.unit)
-        };
         match outcome {
-            Ok(score) => {
-                let medal = self.medal(*score);
-                let got = medal.map_or("no medal".to_owned(), |m| m.to_string());
-                match self.next(medal) {
-                    Some((next, at)) => format!("{score:.2}{unit}, {got} ({next} from {at})"),
-                    None => format!("{score:.2}{unit}, {got}"),
-                }
-            }
+            Ok(score) => format!("{}, {}", self.value_text(*score), self.medal_text(*score)),
             Err(e) => format!("none: {e}"),
         }
     }

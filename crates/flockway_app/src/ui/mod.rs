@@ -234,8 +234,11 @@ fn play_panel(ui: &mut egui::Ui, app: &mut AppState) {
                 s.collisions_guardrail, s.collisions_vehicle
             ),
         );
-        if let Some(line) = score {
-            row("score", line);
+        if let Some((value, medal)) = score {
+            row("score", value);
+            if !medal.is_empty() {
+                row("medal", medal);
+            }
         }
     });
     ui.separator();
