@@ -91,6 +91,25 @@ class Task:
                      - self.collision_penalty * collisions)
 
 
+def check_render_mode(render_mode: str | None, metadata: dict[str, Any]) -> None:
+    """Refuses a render mode the environment does not offer, naming those it does."""
+    if render_mode is not None and render_mode not in metadata["render_modes"]:
+        raise ValueError(
+            f"render_mode {render_mode!r}: expected None or one of {metadata['render_modes']}"
+        )
+
+
+def render_frame(sim: Sim, around: int | None, size: tuple[int, int],
+                 width_m: float | None) -> np.ndarray:
+    """A top-down frame of ``size`` pixels: ``width_m`` of ground centred on vehicle
+    ``around``, or the whole level (without ``width_m``, or once that vehicle has gone)."""
+    w, h = size
+    region = None
+    if width_m is not None and around is not None and around in set(sim.vehicles()["id"].tolist()):
+        region = sim.region_around(around, width_m, w / h)
+    return sim.render(w, h, "top", region)
+
+
 class LevelEnv(gym.Env):
     """One vehicle of ``level`` — the lowest-numbered one of driver profile ``profile`` — driven
     by the agent; everything else by the level's drivers.
@@ -110,7 +129,12 @@ class LevelEnv(gym.Env):
     actions.
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    #: Size of a rendered frame, pixels.
+    render_size = (640, 480)
+    #: Width of ground a frame shows around the agent, m (``None``: the whole level).
+    render_width_m: float | None = 120.0
 
     def __init__(
         self,
@@ -124,9 +148,9 @@ class LevelEnv(gym.Env):
         **task: float,
     ) -> None:
         """``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
-        ``accel_penalty``, ``collision_penalty``."""
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r}: no render modes are offered yet")
+        ``accel_penalty``, ``collision_penalty``. ``render_mode="rgb_array"`` makes
+        :meth:`render` return the scene around the agent as RGB bytes."""
+        check_render_mode(render_mode, self.metadata)
         self.level = level
         self.profile = profile
         self.agent_road = agent_road
@@ -203,6 +227,16 @@ class LevelEnv(gym.Env):
         info = {"time_s": self.sim.time_s, "collisions": new, "mean_speed_mps": mean}
         return obs, float(reward), not present, bool(truncated and present), info
 
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the scene now, top down, ``render_size`` pixels,
+        ``render_width_m`` of ground centred on the agent (the whole level once it has left, or
+        with ``render_width_m = None``). ``None`` without a render mode."""
+        if self.render_mode is None:
+            return None
+        if self.sim is None:
+            raise RuntimeError("call reset() before render()")
+        return render_frame(self.sim, self.agent, self.render_size, self.render_width_m)
+
 
 class MergeEnv(LevelEnv):
     """``flockway/Merge-v0``: the merging car of ``on_ramp`` — the newest car on the ramp after
@@ -221,7 +255,10 @@ class MergeEnv(LevelEnv):
 
 class RingWaveEnv(LevelEnv):
     """``flockway/RingWave-v0``: the Stern ring (one autonomous car among 21 human-like drivers
-    on the 230 m Sugiyama ring) with the autonomous car as the agent."""
+    on the 230 m Sugiyama ring) with the autonomous car as the agent. Its frames show the
+    whole ring."""
+
+    render_width_m = None
 
     def __init__(self, **kwargs: Any) -> None:
         kwargs.setdefault("level", "stern_ring")

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from .envs import Task, action_space, observation_space
+from .envs import Task, action_space, check_render_mode, observation_space
 from .sim import DT_S, Sim
 
 
@@ -25,7 +25,14 @@ class LevelParallelEnv(ParallelEnv):
     everyone's). The agents are the profile's vehicles after the warm-up; one that leaves the
     level is done (terminated); the others are truncated after ``episode_s``."""
 
-    metadata = {"render_modes": [], "name": "flockway_level_parallel_v0"}
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "name": "flockway_level_parallel_v0",
+        "render_fps": 10,
+    }
+
+    #: Size of a rendered frame, pixels.
+    render_size = (640, 480)
 
     def __init__(
         self,
@@ -39,8 +46,7 @@ class LevelParallelEnv(ParallelEnv):
     ) -> None:
         """``task`` holds :class:`flockway.envs.Task`'s keywords: ``period_s``,
         ``max_accel``, ``accel_penalty``, ``collision_penalty``."""
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r}: no render modes are offered yet")
+        check_render_mode(render_mode, self.metadata)
         self.level, self.profile = level, profile
         self.warmup_s, self.episode_s = float(warmup_s), float(episode_s)
         self.task = Task(**task)
@@ -108,6 +114,17 @@ class LevelParallelEnv(ParallelEnv):
             infos[agent] = {"time_s": self.sim.time_s, "collisions": new}
         self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
         return obs, rewards, terms, truncs, infos
+
+
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the whole level now, top down, ``render_size``
+        pixels; ``None`` without a render mode."""
+        if self.render_mode is None:
+            return None
+        if self.sim is None:
+            raise RuntimeError("call reset() before render()")
+        w, h = self.render_size
+        return self.sim.render(w, h, "top")
 
 
 def parallel_env(**kwargs: Any) -> LevelParallelEnv:

@@ -198,6 +198,34 @@ class Sim:
 
         return pd.read_csv(self.csv, keep_default_na=False, na_values=[])
 
+    # -- pictures --------------------------------------------------------------------------
+    def render(
+        self,
+        width: int = 640,
+        height: int = 480,
+        view: str = "top",
+        region: tuple[float, float, float, float] | None = None,
+    ) -> np.ndarray:
+        """The scene now as an ``(height, width, 3)`` array of RGB bytes, drawn off screen by
+        the window's renderer (Vulkan; Mesa's lavapipe where there is no GPU). ``view`` is
+        ``"top"`` (straight down) or ``"orbit"`` (perspective from the south-west);
+        ``region`` ``(x0, y0, x1, y1)`` in metres limits the picture to that ground box (the
+        whole level without it). A ``RuntimeError`` says why when no renderer is available."""
+        box = None if region is None else tuple(float(x) for x in region)
+        return self._s.render(int(width), int(height), str(view), box)
+
+    def region_around(self, vehicle: int, width_m: float = 120.0,
+                      aspect: float = 4 / 3) -> tuple[float, float, float, float]:
+        """A ground box ``width_m`` wide (and ``width_m / aspect`` high) centred on a vehicle,
+        for :meth:`render`."""
+        v = self.vehicles()
+        at = np.flatnonzero(v["id"] == vehicle)
+        if len(at) == 0:
+            raise KeyError(f"there is no vehicle {vehicle}")
+        x, y = float(v["x_m"][at[0]]), float(v["y_m"][at[0]])
+        hw, hh = width_m / 2, width_m / aspect / 2
+        return (x - hw, y - hh, x + hw, y + hh)
+
     # -- Python drivers --------------------------------------------------------------------
     def observe(self, model: str | None = None) -> dict[str, np.ndarray]:
         """What a Python driver sees: :meth:`vehicles` (of custom model ``model`` only, when

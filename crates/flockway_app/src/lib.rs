@@ -29,6 +29,6 @@ pub use scene::{
     COM_HEIGHT_SHARE, CarVertex, ColourBy, EMPTY_VIEW_M, StaticScene, VehicleFrame,
     VehicleInstance, Vertex, box_faces, car_mesh, palette,
 };
-pub use snapshot::{Rendered, Snapshot, SnapshotError, View, render_level};
+pub use snapshot::{OffscreenView, Rendered, Snapshot, SnapshotError, View, render_level};
 pub use ui::{PANEL_WIDTH, ui};
 pub use window::{WindowError, run};

@@ -2,7 +2,7 @@
 //! the window's renderer, and saved as a PNG.
 
 use crate::camera::Camera;
-use crate::render::{Gpu, OFFSCREEN_FORMAT, RenderError, SceneRenderer, render_image};
+use crate::render::{Gpu, Image, OFFSCREEN_FORMAT, RenderError, SceneRenderer, render_image};
 use crate::scene::{StaticScene, VehicleFrame};
 use flockway_level::Level;
 use flockway_road::RoadNetwork;
@@ -85,38 +85,87 @@ pub fn render_level(
     while runner.ticks_done() < runner.total_ticks() {
         runner.step(120)?;
     }
-    let gpu = Gpu::headless()?;
-    let scene = StaticScene::build(
+    let mut view = OffscreenView::new(
         runner.sim().world().resource::<RoadNetwork>(),
         runner.level(),
-    );
-    let mut vehicles = VehicleFrame::default();
-    vehicles.capture(runner.sim_mut().world_mut());
-    let mut renderer = SceneRenderer::new(&gpu.device, OFFSCREEN_FORMAT);
-    renderer.set_static(&gpu.device, &scene);
-    let drawn: Vec<_> = vehicles
-        .instances
-        .iter()
-        .chain(&vehicles.signals)
-        .copied()
-        .collect();
-    renderer.set_vehicles(&gpu.device, &gpu.queue, &drawn);
-    let (w, h) = snapshot.size;
-    let (min, max) = match snapshot.region {
-        Some([x0, y0, x1, y1]) => (
-            Vec3::new(x0 as f32, y0 as f32, scene.min.z),
-            Vec3::new(x1 as f32, y1 as f32, scene.max.z),
-        ),
-        None => (scene.min, scene.max),
-    };
-    let camera = match snapshot.view {
-        View::Top => Camera::top_fit(min, max, w as f32 / h as f32),
-        View::Orbit => Camera::orbit_fit(min, max),
-    };
-    render_image(&gpu, &renderer, &camera, snapshot.size)?.save_png(out)?;
+    )?;
+    let vehicles = view.capture(runner.sim_mut().world_mut());
+    view.render(snapshot.size, snapshot.view, snapshot.region)?
+        .save_png(out)?;
     Ok(Rendered {
-        vehicles: vehicles.instances.len(),
+        vehicles,
         sim_s: runner.ticks_done() as f64 / 120.0,
-        adapter: gpu.describe(),
+        adapter: view.gpu.describe(),
     })
+}
+
+/// An off-screen camera on a level: the window's renderer without a window, drawing the roads
+/// once and the vehicles as often as they are captured — `flockway render`'s picture, and the
+/// Python environments' `rgb_array` frames.
+pub struct OffscreenView {
+    gpu: Gpu,
+    renderer: SceneRenderer,
+    min: Vec3,
+    max: Vec3,
+}
+
+impl OffscreenView {
+    /// A view of the level whose roads are `network`: a headless device (Vulkan, lavapipe
+    /// without a GPU, or GL) and the static scene uploaded.
+    pub fn new(network: &RoadNetwork, level: &Level) -> Result<OffscreenView, RenderError> {
+        let gpu = Gpu::headless()?;
+        let scene = StaticScene::build(network, level);
+        let mut renderer = SceneRenderer::new(&gpu.device, OFFSCREEN_FORMAT);
+        renderer.set_static(&gpu.device, &scene);
+        Ok(OffscreenView {
+            gpu,
+            renderer,
+            min: scene.min,
+            max: scene.max,
+        })
+    }
+
+    /// Takes the vehicles' (and signals') poses from `world` for the next pictures; returns how
+    /// many vehicles there are.
+    pub fn capture(&mut self, world: &mut bevy_ecs::world::World) -> usize {
+        let mut vehicles = VehicleFrame::default();
+        vehicles.capture(world);
+        let drawn: Vec<_> = vehicles
+            .instances
+            .iter()
+            .chain(&vehicles.signals)
+            .copied()
+            .collect();
+        self.renderer
+            .set_vehicles(&self.gpu.device, &self.gpu.queue, &drawn);
+        vehicles.instances.len()
+    }
+
+    /// Draws the scene as last captured, `size` pixels, from `view`, of the ground box
+    /// `region` (`[x0, y0, x1, y1]`, m; `None`: the whole level).
+    pub fn render(
+        &self,
+        size: (u32, u32),
+        view: View,
+        region: Option<[f64; 4]>,
+    ) -> Result<Image, RenderError> {
+        let (w, h) = size;
+        let (min, max) = match region {
+            Some([x0, y0, x1, y1]) => (
+                Vec3::new(x0 as f32, y0 as f32, self.min.z),
+                Vec3::new(x1 as f32, y1 as f32, self.max.z),
+            ),
+            None => (self.min, self.max),
+        };
+        let camera = match view {
+            View::Top => Camera::top_fit(min, max, w as f32 / h.max(1) as f32),
+            View::Orbit => Camera::orbit_fit(min, max),
+        };
+        render_image(&self.gpu, &self.renderer, &camera, size)
+    }
+
+    /// The graphics adapter drawing it.
+    pub fn adapter(&self) -> String {
+        self.gpu.describe()
+    }
 }

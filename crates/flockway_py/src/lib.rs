@@ -6,8 +6,8 @@
 use flockway_drivers::ExternalCommand;
 use flockway_runner::{Override, RunError, Session, SessionError};
 use flockway_vehicle::Controls;
-use numpy::{IntoPyArray, PyReadonlyArray1};
-use pyo3::exceptions::{PyFileNotFoundError, PyKeyError, PyValueError};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1};
+use pyo3::exceptions::{PyFileNotFoundError, PyKeyError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -51,6 +51,8 @@ fn same_length(what: &'static str, values: usize, ids: usize) -> PyResult<()> {
 #[pyclass(unsendable, module = "flockway._flockway", name = "Session")]
 struct PySession {
     inner: Session,
+    /// The off-screen renderer, made at the first `render`.
+    view: Option<flockway_app::OffscreenView>,
 }
 
 #[pymethods]
@@ -76,7 +78,7 @@ impl PySession {
             .collect::<Result<_, _>>()
             .map_err(PyValueError::new_err)?;
         let inner = Session::open(&path, seed, &overrides, drivers, csv).map_err(run_error)?;
-        Ok(PySession { inner })
+        Ok(PySession { inner, view: None })
     }
 
     /// Runs `n` fixed steps of 1/120 s.
@@ -241,6 +243,71 @@ impl PySession {
     /// Removes vehicles.
     fn despawn(&mut self, ids: PyReadonlyArray1<'_, u32>) -> PyResult<()> {
         self.inner.despawn(ids.as_slice()?).map_err(session_error)
+    }
+
+    /// The scene now, drawn off screen (Vulkan, Mesa's lavapipe without a GPU, or GL): an
+    /// `(height, width, 3)` array of RGB bytes. `view` is `"top"` or `"orbit"`; `region`
+    /// `(x0, y0, x1, y1)` in metres limits the picture to that ground box.
+    #[pyo3(signature = (width, height, view="top", region=None))]
+    fn render<'py>(
+        &mut self,
+        py: Python<'py>,
+        width: u32,
+        height: u32,
+        view: &str,
+        region: Option<(f64, f64, f64, f64)>,
+    ) -> PyResult<Bound<'py, numpy::PyArray3<u8>>> {
+        if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
+            return Err(PyValueError::new_err(format!(
+                "{width}x{height}: each side must be 16 to 8192 pixels"
+            )));
+        }
+        let view = match view {
+            "top" => flockway_app::View::Top,
+            "orbit" => flockway_app::View::Orbit,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "view `{other}`: expected \"top\" or \"orbit\""
+                )));
+            }
+        };
+        if let Some((x0, y0, x1, y1)) = region
+            && !([x0, y0, x1, y1].iter().all(|v| v.is_finite()) && x1 > x0 && y1 > y0)
+        {
+            return Err(PyValueError::new_err(format!(
+                "region ({x0}, {y0}, {x1}, {y1}): expected finite x0 < x1 and y0 < y1, m"
+            )));
+        }
+        if self.view.is_none() {
+            let runner = self.inner.runner();
+            let network = runner
+                .sim()
+                .world()
+                .resource::<flockway_road::RoadNetwork>();
+            let made = flockway_app::OffscreenView::new(network, runner.level())
+                .map_err(|e| PyRuntimeError::new_err(format!("cannot render: {e}")))?;
+            self.view = Some(made);
+        }
+        let Some(renderer) = self.view.as_mut() else {
+            return Err(PyRuntimeError::new_err("cannot render"));
+        };
+        renderer.capture(self.inner.runner_mut().sim_mut().world_mut());
+        let image = renderer
+            .render(
+                (width, height),
+                view,
+                region.map(|(a, b, c, d)| [a, b, c, d]),
+            )
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot render: {e}")))?;
+        let rgb: Vec<u8> = image
+            .rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        let array = rgb.into_pyarray(py);
+        array
+            .reshape([image.height as usize, image.width as usize, 3])
+            .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
     /// The summary so far, as JSON text (the summary contract of `flockway run`).

@@ -207,6 +207,16 @@ impl Session {
         self.road_names = names.into_iter().map(|(_, n)| n).collect();
     }
 
+    /// The run (its world and level), for tools that look at it: the off-screen renderer.
+    pub fn runner(&self) -> &Runner {
+        &self.runner
+    }
+
+    /// The run, mutably (capturing vehicle poses queries the world).
+    pub fn runner_mut(&mut self) -> &mut Runner {
+        &mut self.runner
+    }
+
     /// The level's name in reports.
     pub fn name(&self) -> &str {
         &self.name
