@@ -35,8 +35,10 @@ def rust_driver() -> Path:
     """The Rust gap keeper (examples/challenge_driver.rs), built by cargo if need be."""
     if shutil.which("cargo") is None:
         pytest.skip("the Rust driver is built from a checkout with cargo")
+    # `--workspace`: the features `cargo test --workspace` built it with, so after the README's
+    # test command this reuses that build instead of compiling the workspace again.
     subprocess.run(
-        ["cargo", "build", "--quiet", "--example", "challenge_driver"],
+        ["cargo", "build", "--quiet", "--workspace", "--example", "challenge_driver"],
         cwd=ROOT, check=True,
     )
     return ROOT / "target" / "debug" / "examples" / "challenge_driver"
