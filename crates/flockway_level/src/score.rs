@@ -265,7 +265,7 @@ impl Parser {
             Some('(') => {
                 self.i += 1;
                 let inner = self.formula_at(depth + 1)?;
-                self.expect(')')?;
+                self.expect_char(')')?;
                 Ok(inner)
             }
             Some(c) if c.is_ascii_digit() || c == '.' => self.number(),
@@ -274,7 +274,8 @@ impl Parser {
         }
     }
 
-    fn expect(&mut self, want: char) -> Result<(), String> {
+    /// Consumes `want`, or returns the positioned error saying what was found instead.
+    fn expect_char(&mut self, want: char) -> Result<(), String> {
         match self.peek() {
             Some(c) if c == want => {
                 self.i += 1;
@@ -343,7 +344,7 @@ impl Parser {
                 self.i += 1;
                 args.push(self.formula_at(depth + 1)?);
             }
-            self.expect(')')?;
+            self.expect_char(')')?;
             let (n, at_least) = f.arity();
             if args.len() < n || (!at_least && args.len() != n) {
                 self.i = start;
