@@ -1,7 +1,10 @@
 //! The shared controller: PID loops that turn a target speed and heading into `Controls`.
 
+use crate::perception::{LaneIndex, LaneSignal};
+use crate::safety::{OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
 use bevy_ecs::prelude::*;
 use flockway_core::DT_S;
+use flockway_road::RoadNetwork;
 use flockway_vehicle::{Controls, Motion, STANDSTILL_MPS, VehicleModel, VehicleParams};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
@@ -162,31 +165,62 @@ type HeldAt = (
     &'static flockway_vehicle::RoadTrack,
 );
 
-/// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`].
+/// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`],
+/// within what a junction holding it allows and within its braking envelope
+/// ([`SafetyParams`]; the defaults for a vehicle without one): whatever its driver asked for,
+/// it never goes faster than lets it stop behind the vehicle ahead of it.
 #[allow(clippy::type_complexity)]
 pub fn follow_targets(
+    network: Res<RoadNetwork>,
+    index: Res<LaneIndex>,
     mut vehicles: Query<(
+        Entity,
         &DriveTarget,
         &Motion,
         &VehicleModel,
         &mut TargetController,
         &mut Controls,
         Option<HeldAt>,
+        (Option<&SafetyParams>, Option<&LaneSignal>),
     )>,
 ) {
-    for (target, motion, model, mut controller, mut controls, gate) in &mut vehicles {
+    let mut scratch = Vec::new();
+    for (me, target, motion, model, mut controller, mut controls, gate, (safety, signal)) in
+        &mut vehicles
+    {
+        let chassis = &model.0.params.chassis;
         // A junction holding the vehicle: no faster than stops it at the line, whoever drives.
         let held = gate.map_or(f32::INFINITY, |(g, track)| {
-            g.cap_mps(track.s_m, model.0.params.chassis.length_m)
+            g.cap_mps(track.s_m, chassis.length_m)
         });
-        if held < target.speed_mps {
+        let safe = gate.map_or(f32::INFINITY, |(_, track)| {
+            let view = SafetyView {
+                me,
+                track,
+                speed_mps: motion.forward_mps,
+                length_m: chassis.length_m,
+                width_m: chassis.width_m,
+                signal: signal.map_or(0, |s| s.0),
+            };
+            let params = safety.copied().unwrap_or_default();
+            safe_speed_mps(&network, &index, &params, &view, &mut scratch)
+        });
+        let cap = held.min(safe);
+        if cap < target.speed_mps {
             let capped = DriveTarget {
-                speed_mps: held,
+                speed_mps: cap,
                 ..*target
             };
             *controls = controller.control(&capped, motion, &model.0.params);
         } else {
             *controls = controller.control(target, motion, &model.0.params);
+        }
+        // Over the safe speed: brake at least in proportion, whatever the speed loop's
+        // integral remembers of cruising.
+        let over = motion.forward_mps - safe;
+        if over > 0.0 && motion.forward_mps > STANDSTILL_MPS {
+            let least = -(over * OVER_SAFE_BRAKE_PER_MPS).min(1.0);
+            controls.throttle = controls.throttle.min(least);
         }
     }
 }

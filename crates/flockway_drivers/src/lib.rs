@@ -20,6 +20,7 @@ mod models;
 mod perception;
 mod profile;
 mod route;
+mod safety;
 
 pub use ahead::{
     ReadsRoad, RoadAhead, RoadAheadParams, RoadSurface, SurfaceStretch, update_road_ahead,
@@ -43,6 +44,9 @@ pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
 pub use route::{
     LANE_CHANGE_AHEAD_M, LANE_CHANGE_AHEAD_S, LANE_CHANGE_LEAST_GAP, LANE_END_MARGIN_M, LaneAsk,
     Route, RouteStats, follow_routes,
+};
+pub use safety::{
+    OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
 };
 
 use bevy_ecs::prelude::*;

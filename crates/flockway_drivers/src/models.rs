@@ -5,6 +5,7 @@ use crate::control::{DriveTarget, PidGains};
 use crate::perception::LaneSignal;
 use crate::perception::{LaneIndex, Seen};
 use crate::route::{LANE_END_MARGIN_M, Route};
+use crate::safety::SafetyParams;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
@@ -56,6 +57,9 @@ pub struct FlockParams {
     pub follow_up_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
+    /// Its braking envelope: the safety layer never lets it close on a vehicle ahead faster
+    /// than this lets it stop.
+    pub safety: SafetyParams,
     /// Each driver's desired speed as a share of the limit, drawn once per vehicle.
     pub speed_factor: SpeedFactorParams,
     /// Throttle PID on speed error (per m/s).
@@ -132,6 +136,7 @@ impl Default for FlockParams {
             critical_gap_s: crate::junction::CRITICAL_GAP_S as f32,
             follow_up_s: crate::junction::FOLLOW_UP_S as f32,
             road_ahead: RoadAheadParams::default(),
+            safety: SafetyParams::default(),
             speed_factor: SpeedFactorParams::default(),
             throttle: PidGains {
                 kp: 0.5,
@@ -177,6 +182,12 @@ impl Default for HumanParams {
                 road_ahead: RoadAheadParams {
                     lateral_accel_mps2: 2.5,
                     ..RoadAheadParams::default()
+                },
+                // Later to react and harder on the brakes than the autonomous car.
+                safety: SafetyParams {
+                    reaction_time_s: 0.5,
+                    decel_mps2: 6.5,
+                    ..SafetyParams::default()
                 },
                 throttle: PidGains {
                     kp: 0.6,
@@ -345,6 +356,8 @@ pub struct IdmParams {
     pub follow_up_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
+    /// Its braking envelope (see [`FlockParams::safety`]).
+    pub safety: SafetyParams,
     /// Each driver's desired speed as a share of v₀, drawn once per vehicle.
     pub speed_factor: SpeedFactorParams,
     /// Throttle PID on speed error (per m/s).
@@ -373,6 +386,7 @@ impl Default for IdmParams {
             critical_gap_s: flock.critical_gap_s,
             follow_up_s: flock.follow_up_s,
             road_ahead: flock.road_ahead,
+            safety: flock.safety,
             speed_factor: flock.speed_factor,
             throttle: PidGains {
                 kp: 0.8,
@@ -861,7 +875,11 @@ fn flock_decide(
         // Brake or speed up, never swerve: only the part along the lane.
         avoid = dir * avoid.dot(dir);
     }
-    let desired = base + avoid;
+    let desired = if driver.keep_lane {
+        base + avoid
+    } else {
+        within_edges(base + avoid, track, model.0.params.chassis.width_m)
+    };
     let steer_by = if driver.keep_lane { base } else { desired };
     let mut decided = to_target(desired, steer_by, dir, curvature);
     // A push from a follower never takes it faster than the road ahead allows.
@@ -931,6 +949,26 @@ fn flock_decide(
         // The flocking driver's choice is the backstop: it brakes for a car far too close.
         target.speed_mps = command.min(target.speed_mps);
     }
+}
+
+/// How long, s, a free-flocking car's sideways speed would take it to the road's edge at the
+/// least: a push towards the edge is cut to what leaves it that long.
+const EDGE_TIME_S: f32 = 1.5;
+
+/// Room kept between a free-flocking car's side and the road's edge (a guardrail), m.
+const EDGE_MARGIN_M: f32 = 0.4;
+
+/// A free-flocking car's desired velocity with its sideways part cut to what keeps its body on
+/// the road: avoidance may push it sideways, never off the road or into a guardrail (towards
+/// an edge, no faster than covers the room left in [`EDGE_TIME_S`]).
+fn within_edges(desired: Vec3, track: &RoadTrack, width_m: f32) -> Vec3 {
+    let reach = 0.5 * track.width_m - 0.5 * width_m - EDGE_MARGIN_M;
+    let lateral = track.lateral_m as f32;
+    let most_left = (reach - lateral).max(0.0) / EDGE_TIME_S;
+    let most_right = (reach + lateral).max(0.0) / EDGE_TIME_S;
+    let across = desired.dot(track.left);
+    let clamped = across.clamp(-most_right, most_left);
+    desired + track.left * (clamped - across)
 }
 
 /// Braking towards the end of a lane that ends, m/s²: firm but not an emergency.
@@ -1060,14 +1098,32 @@ fn lane_gap_accepted(
     gap_s: f32,
 ) -> bool {
     let need = |speed: f32| f64::from((speed.max(0.0) * gap_s).max(0.0) + length_m + 2.0);
+    let bumper = |s: &Seen| s.gap_m.abs() as f32 - 0.5 * (length_m + s.entry.length_m);
+    // Neither car has to brake harder than firmly to keep its distance: the time gap alone
+    // would let a fast car close on a slow one.
+    let firm = LANE_CHANGE_ENVELOPE;
     let ahead_ok = index
         .leader(track.road, lane, track.s_m, me, 200.0, track.next_road)
-        .is_none_or(|l| l.gap_m >= need(v - l.entry.speed_mps + v * 0.5));
+        .is_none_or(|l| {
+            l.gap_m >= need(v - l.entry.speed_mps + v * 0.5)
+                && v <= firm.safe_speed_mps(bumper(&l), l.entry.speed_mps)
+        });
     let behind_ok = index
         .follower(track.road, lane, track.s_m, me, 200.0)
-        .is_none_or(|f| -f.gap_m >= need(f.entry.speed_mps));
+        .is_none_or(|f| {
+            -f.gap_m >= need(f.entry.speed_mps)
+                && f.entry.speed_mps <= firm.safe_speed_mps(bumper(&f), v)
+        });
     ahead_ok && behind_ok
 }
+
+/// The braking envelope a lane change leaves the two cars it moves between: neither has to
+/// brake harder than this to keep 2 m from the other (the time gap is their time to react).
+const LANE_CHANGE_ENVELOPE: SafetyParams = SafetyParams {
+    reaction_time_s: 0.0,
+    decel_mps2: 3.0,
+    min_gap_m: 2.0,
+};
 
 /// The share of its usual lane-change time gap a courteous driver leaves a car merging in ahead
 /// of it: more than that car insists on at its lane's very end

@@ -7,6 +7,7 @@ use crate::models::{
     FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedFactor,
     SpeedLimit, WaveDamper, WaveDamperParams,
 };
+use crate::safety::SafetyParams;
 use bevy_ecs::prelude::*;
 use flockway_core::EntityRng;
 use flockway_level::DriverModel;
@@ -242,13 +243,45 @@ impl DriverSpec {
         params: Option<(&str, &str)>,
         overrides: &BTreeMap<String, f64>,
     ) -> Result<DriverSpec, DriverParamsError> {
-        Ok(match model {
+        let spec = match model {
             BuiltinModel::Flock => DriverSpec::Flock(load(model, params, overrides)?),
             BuiltinModel::FlockLanes => DriverSpec::FlockLanes(load(model, params, overrides)?),
             BuiltinModel::Human => DriverSpec::Human(load(model, params, overrides)?),
             BuiltinModel::Idm => DriverSpec::Idm(load(model, params, overrides)?),
             BuiltinModel::WaveDamper => DriverSpec::WaveDamper(load(model, params, overrides)?),
-        })
+        };
+        spec.safety()
+            .validate()
+            .map_err(|message| DriverParamsError::Invalid {
+                model: model.name(),
+                message,
+            })?;
+        Ok(spec)
+    }
+
+    /// How strongly a vehicle close behind pushes this driver on (the flocking rule; 0 for a
+    /// driver that looks ahead only, such as the human-like car and the IDM).
+    pub fn rear_weight(&self) -> f32 {
+        match self {
+            DriverSpec::Flock(p)
+            | DriverSpec::FlockLanes(p)
+            | DriverSpec::Custom { base: p, .. } => p.rear_weight,
+            DriverSpec::Human(h) => h.flock.rear_weight,
+            DriverSpec::Idm(_) => 0.0,
+            DriverSpec::WaveDamper(p) => p.flock.rear_weight,
+        }
+    }
+
+    /// Its braking envelope, which the safety layer holds it to.
+    pub fn safety(&self) -> &SafetyParams {
+        match self {
+            DriverSpec::Flock(p)
+            | DriverSpec::FlockLanes(p)
+            | DriverSpec::Custom { base: p, .. } => &p.safety,
+            DriverSpec::Human(h) => &h.flock.safety,
+            DriverSpec::Idm(p) => &p.safety,
+            DriverSpec::WaveDamper(p) => &p.flock.safety,
+        }
     }
 
     /// The components that make `entity` drive this way in `lane`: the model's component, a
@@ -269,7 +302,7 @@ impl DriverSpec {
         let grip = entity
             .get::<VehicleModel>()
             .map_or(1.0, |m| m.0.params.tyres.friction);
-        let (ahead, factor, (critical_gap_s, follow_up_s)) = match self {
+        let (ahead, safety, factor, (critical_gap_s, follow_up_s)) = match self {
             DriverSpec::Custom { name, base: p } => {
                 entity.insert((
                     FlockDriver::new(p.clone(), true, lane),
@@ -278,6 +311,7 @@ impl DriverSpec {
                 ));
                 (
                     p.road_ahead,
+                    p.safety,
                     p.speed_factor.draw(rng),
                     (p.critical_gap_s, p.follow_up_s),
                 )
@@ -290,6 +324,7 @@ impl DriverSpec {
                 ));
                 (
                     p.road_ahead,
+                    p.safety,
                     p.speed_factor.draw(rng),
                     (p.critical_gap_s, p.follow_up_s),
                 )
@@ -309,6 +344,7 @@ impl DriverSpec {
                 // The spread around the profile's factor: the two multiply.
                 (
                     h.flock.road_ahead,
+                    h.flock.safety,
                     h.flock.speed_factor.draw(rng) * uniform,
                     (h.flock.critical_gap_s, h.flock.follow_up_s),
                 )
@@ -321,6 +357,7 @@ impl DriverSpec {
                 ));
                 (
                     p.flock.road_ahead,
+                    p.flock.safety,
                     p.flock.speed_factor.draw(rng),
                     (p.flock.critical_gap_s, p.flock.follow_up_s),
                 )
@@ -336,6 +373,7 @@ impl DriverSpec {
                 ));
                 (
                     p.road_ahead,
+                    p.safety,
                     p.speed_factor.draw(rng),
                     (p.critical_gap_s, p.follow_up_s),
                 )
@@ -343,6 +381,7 @@ impl DriverSpec {
         };
         entity.insert((
             SpeedFactor(factor),
+            safety,
             ReadsRoad::new(ahead, grip),
             crate::GapAcceptance {
                 critical_gap_s,

@@ -197,7 +197,7 @@ const SPAWN_BRAKE_MPS2: f64 = 5.0;
 const SPAWN_ROOM_M: f64 = 2.0;
 
 /// Speed below which a car ahead of a spawn point counts as standing in a queue, m/s.
-const QUEUE_MPS: f32 = 2.0;
+const QUEUE_MPS: f32 = 5.0;
 
 /// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
 /// end of the system, in spawner order) and draws its next interval; otherwise it waits.
@@ -259,24 +259,38 @@ pub fn run_spawners(
         let wanted = sp
             .speed_mps
             .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
-        // Behind a standing queue (a car ahead at walking pace or less), never faster than it
+        // Behind a queue (a car ahead at 5 m/s or less), never faster than it
         // can brake from, firmly, to that car's speed before it reaches it: a spawner feeding a
-        // queue would otherwise launch cars into it. A moving stream is left to the drivers
-        // (capping there would slow every spawn after it, and the stream with it).
+        // queue would otherwise launch cars into it. A spawner with no speed of its own starts
+        // its car at the highest speed its driver's braking envelope allows behind any car
+        // ahead (up to the limit; as SUMO's `departSpeed="max"`), and so does one given a speed
+        // whose car looks ahead only. A flocking car given a speed keeps it behind a moving
+        // stream (the level asked for that speed): the car ahead of it is pushed on by it.
         near.clear();
         let v = f64::from(wanted);
         let reach = v * v / (2.0 * SPAWN_BRAKE_MPS2) + behind;
         index.within(sp.road, sp.lane, sp.s_m, 0.0, reach, None, &mut near);
+        let c = sp.choices[choice].clone();
+        let envelope =
+            (sp.speed_mps.is_none() || c.driver.rear_weight() <= 0.0).then(|| *c.driver.safety());
         let speed = near
             .iter()
-            .filter(|n| n.gap_m > 0.0 && n.entry.speed_mps < QUEUE_MPS)
+            .filter(|n| n.gap_m > 0.0)
             .map(|n| {
-                let room = n.gap_m - 0.5 * (length + f64::from(n.entry.length_m)) - SPAWN_ROOM_M;
+                let bumper = n.gap_m - 0.5 * (length + f64::from(n.entry.length_m));
                 let lead = f64::from(n.entry.speed_mps.max(0.0));
-                (lead * lead + 2.0 * SPAWN_BRAKE_MPS2 * room.max(0.0)).sqrt() as f32
+                let queue = if n.entry.speed_mps < QUEUE_MPS {
+                    let room = bumper - SPAWN_ROOM_M;
+                    (lead * lead + 2.0 * SPAWN_BRAKE_MPS2 * room.max(0.0)).sqrt() as f32
+                } else {
+                    f32::INFINITY
+                };
+                let safe = envelope.map_or(f32::INFINITY, |e| {
+                    e.safe_speed_mps(bumper as f32, lead as f32)
+                });
+                queue.min(safe)
             })
             .fold(wanted, f32::min);
-        let c = sp.choices[choice].clone();
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
         // A route is drawn only when there is a choice, so a spawner's stream stays as it was
         // for levels without routes.

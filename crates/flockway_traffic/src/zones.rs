@@ -205,8 +205,8 @@ pub fn count_collisions(
                         |(id, t)| {
                             let road = network.get(t.road).map_or("?", |g| g.name());
                             format!(
-                                "vehicle {} on {road:?} lane {} at {:.1} m",
-                                id.0, t.lane, t.s_m
+                                "vehicle {} on {road:?} lane {} at {:.1} m ({:+.2} m across, {:.1} m/s)",
+                                id.0, t.lane, t.s_m, t.lateral_m, t.speed_along_mps
                             )
                         },
                     )

@@ -201,7 +201,9 @@ pub fn track_road(network: &RoadNetwork, track: &mut RoadTrack, pos: DVec3, forw
     {
         let mut cursor = g2.cursor_at(0.0);
         let (p2, f2) = g2.project_tracked_frame(pos, &mut cursor);
-        if p2.distance_m <= proj.distance_m + 1.0e-6 {
+        // On the next road's surface it is on that road, wherever its centre line runs (a
+        // ramp leads into the outer lane of a wider road, whose centre line is lanes away).
+        if p2.on_road || p2.distance_m <= proj.distance_m + 1.0e-6 {
             track.road = next;
             track.cursor = cursor;
             proj = p2;
