@@ -262,6 +262,10 @@ pub struct RunArgs {
     /// Also write one telemetry CSV per vehicle into this directory (vehicle_NNNNNN.csv).
     #[arg(long, value_name = "DIR")]
     pub per_vehicle: Option<PathBuf>,
+    /// Stream one row per traffic conflict (time to collision, post-encroachment time,
+    /// deceleration to avoid the crash; thresholds in the level's `ssm`) to this CSV file.
+    #[arg(long, value_name = "FILE")]
+    pub conflicts: Option<PathBuf>,
     /// Write the run summary as JSON to this file (keys documented in the README).
     #[arg(long, value_name = "FILE")]
     pub summary: Option<PathBuf>,

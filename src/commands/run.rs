@@ -21,6 +21,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         seed: args.seed,
         csv: args.csv.clone(),
         per_vehicle: args.per_vehicle.clone(),
+        conflicts: args.conflicts.clone(),
         assets: Some(flockway::run::find_assets_dir(Some(&args.level))),
         plots: args
             .plots

@@ -5,7 +5,9 @@ use crate::safety::{OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_spee
 use bevy_ecs::prelude::*;
 use flockway_core::DT_S;
 use flockway_road::RoadNetwork;
-use flockway_vehicle::{Controls, Motion, STANDSTILL_MPS, VehicleModel, VehicleParams};
+use flockway_vehicle::{
+    Controls, LongitudinalModel, Motion, STANDSTILL_MPS, VehicleModel, VehicleState, VehicleType,
+};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
 
@@ -61,6 +63,17 @@ pub const STOP_BELOW_MPS: f32 = 0.3;
 /// Brake held by a stopping car on top of the proportional term, as a share of full braking.
 pub const HOLD_BRAKE: f32 = 0.2;
 
+/// How far the speed an acceleration-driven car should have reached by now (the asked-for
+/// accelerations integrated) may run away from its actual speed, m/s: beyond it the car cannot
+/// follow (full throttle, full brakes, a shift) and the reference waits for it rather than
+/// winding up a correction it would overshoot with later.
+pub const ACCEL_REFERENCE_BAND_MPS: f32 = 0.5;
+
+/// How fast an acceleration-driven car is brought down to a speed cap (a junction's hold, the
+/// safety envelope) it is above or about to pass, s: the acceleration asked for is at most the
+/// cap's distance over this time.
+pub const CAP_RESPONSE_S: f32 = 0.5;
+
 /// What a driver wants: the speed along its heading and the heading, for the shared controller.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
 #[require(crate::JunctionGate)]
@@ -73,6 +86,12 @@ pub struct DriveTarget {
     /// Curvature of the path ahead, 1/m (positive turning left; 0 if unknown): the controller
     /// steers the matching Ackermann angle up front and leaves only corrections to the PID.
     pub curvature_per_m: f32,
+    /// The acceleration along the heading asked for, m/s², by a driver whose law is an
+    /// acceleration (the IDM): the controller then makes the car accelerate so, through the
+    /// inverse of its drivetrain and brakes ([`LongitudinalModel`]) with the speed loop only
+    /// correcting what that model misses, and `speed_mps` is where it is heading. `None`: the
+    /// speed loop tracks `speed_mps`.
+    pub accel_mps2: Option<f32>,
 }
 
 /// The shared controller of a vehicle: gains and the state of its two PID loops. Vehicles with a
@@ -85,6 +104,8 @@ pub struct TargetController {
     pub steering: PidGains,
     throttle_pid: Pid,
     steering_pid: Pid,
+    /// For acceleration targets: the speed the asked-for accelerations integrate to, m/s.
+    reference_mps: Option<f32>,
 }
 
 impl TargetController {
@@ -95,46 +116,99 @@ impl TargetController {
             steering,
             throttle_pid: Pid::default(),
             steering_pid: Pid::default(),
+            reference_mps: None,
         }
     }
 
-    /// The controls for one tick towards `target`, from the vehicle's motion and type.
+    /// The controls for one tick towards `target`, from the vehicle's motion, type and state.
     pub fn control(
         &mut self,
         target: &DriveTarget,
         motion: &Motion,
-        vehicle: &VehicleParams,
+        vehicle: &VehicleType,
+        state: &VehicleState,
     ) -> Controls {
         let h = DT_S as f32;
         let f = motion.forward();
         let heading = libm::atan2f(f.y, f.x);
-        let speed_error = target.speed_mps.max(0.0) - motion.forward_mps;
         let heading_error = wrap_angle(target.heading_rad - heading);
-        let stopping = target.speed_mps < STOP_BELOW_MPS;
-        let throttle = if stopping {
-            // Asked to stop: brake only. The integral remembers the throttle that cruising
-            // needed, and would otherwise creep the car on into whatever it stopped for.
-            self.throttle_pid.reset();
-            if motion.forward_mps > STANDSTILL_MPS {
-                (self.throttle.kp * speed_error - HOLD_BRAKE).clamp(-1.0, 0.0)
-            } else {
-                // Stopped: negative throttle would select reverse; hold with the handbrake.
-                0.0
-            }
-        } else {
-            self.throttle_pid.update(&self.throttle, speed_error, h)
+        let (throttle, stopped) = match target.accel_mps2 {
+            Some(accel) => self.track_accel(accel, motion, vehicle, state),
+            None => self.track_speed(target.speed_mps, motion),
         };
-        let lock = vehicle
+        let params = &vehicle.params;
+        let lock = params
             .steering
             .center_angle_rad(1.0, motion.forward_mps.abs() * 3.6)
             .max(1.0e-3);
-        let feed_forward = libm::atanf(vehicle.wheels.wheelbase_m * target.curvature_per_m) / lock;
+        let feed_forward = libm::atanf(params.wheels.wheelbase_m * target.curvature_per_m) / lock;
         let correction = self.steering_pid.update(&self.steering, heading_error, h);
         Controls {
             throttle,
             steering: (feed_forward + correction).clamp(-1.0, 1.0),
-            handbrake: stopping && motion.forward_mps <= STANDSTILL_MPS,
+            handbrake: stopped,
         }
+    }
+
+    /// The throttle towards speed `speed_mps`, and whether the car is held at a standstill.
+    fn track_speed(&mut self, speed_mps: f32, motion: &Motion) -> (f32, bool) {
+        self.reference_mps = None;
+        let speed_error = speed_mps.max(0.0) - motion.forward_mps;
+        if speed_mps < STOP_BELOW_MPS {
+            // Asked to stop: brake only. The integral remembers the throttle that cruising
+            // needed, and would otherwise creep the car on into whatever it stopped for.
+            self.throttle_pid.reset();
+            if motion.forward_mps > STANDSTILL_MPS {
+                (
+                    (self.throttle.kp * speed_error - HOLD_BRAKE).clamp(-1.0, 0.0),
+                    false,
+                )
+            } else {
+                // Stopped: negative throttle would select reverse; hold with the handbrake.
+                (0.0, true)
+            }
+        } else {
+            let h = DT_S as f32;
+            (
+                self.throttle_pid.update(&self.throttle, speed_error, h),
+                false,
+            )
+        }
+    }
+
+    /// The throttle that gives acceleration `accel`: the vehicle's inverse longitudinal model
+    /// fed forward, and the speed loop on the gap between the speed the asked-for accelerations
+    /// add up to and the actual one (what the model gets wrong: clutch slip, tyre slip, a
+    /// shift). A car at a standstill asked not to move holds on the handbrake.
+    fn track_accel(
+        &mut self,
+        accel: f32,
+        motion: &Motion,
+        vehicle: &VehicleType,
+        state: &VehicleState,
+    ) -> (f32, bool) {
+        let h = DT_S as f32;
+        let v = motion.forward_mps;
+        let accel = if accel.is_finite() { accel } else { 0.0 };
+        if v <= STANDSTILL_MPS && accel <= 0.0 {
+            self.throttle_pid.reset();
+            self.reference_mps = None;
+            return (0.0, true);
+        }
+        let reference = self
+            .reference_mps
+            .unwrap_or(v)
+            .clamp(v - ACCEL_REFERENCE_BAND_MPS, v + ACCEL_REFERENCE_BAND_MPS);
+        let model = LongitudinalModel::new(vehicle, state, v, motion.forward().z);
+        let feed_forward = model.throttle_for(accel);
+        let correction = self.throttle_pid.update(&self.throttle, reference - v, h);
+        self.reference_mps = Some(reference + accel * h);
+        let mut throttle = (feed_forward + correction).clamp(-1.0, 1.0);
+        if v <= STANDSTILL_MPS {
+            // Negative throttle at a standstill selects reverse: pulling away only drives.
+            throttle = throttle.max(0.0);
+        }
+        (throttle, false)
     }
 }
 
@@ -178,6 +252,7 @@ pub fn follow_targets(
         &DriveTarget,
         &Motion,
         &VehicleModel,
+        &VehicleState,
         &mut TargetController,
         &mut Controls,
         Option<HeldAt>,
@@ -185,7 +260,7 @@ pub fn follow_targets(
     )>,
 ) {
     let mut scratch = Vec::new();
-    for (me, target, motion, model, mut controller, mut controls, gate, (safety, signal)) in
+    for (me, target, motion, model, state, mut controller, mut controls, gate, (safety, signal)) in
         &mut vehicles
     {
         let chassis = &model.0.params.chassis;
@@ -209,11 +284,14 @@ pub fn follow_targets(
         if cap < target.speed_mps {
             let capped = DriveTarget {
                 speed_mps: cap,
+                accel_mps2: target
+                    .accel_mps2
+                    .map(|a| a.min((cap - motion.forward_mps) / CAP_RESPONSE_S)),
                 ..*target
             };
-            *controls = controller.control(&capped, motion, &model.0.params);
+            *controls = controller.control(&capped, motion, &model.0, state);
         } else {
-            *controls = controller.control(target, motion, &model.0.params);
+            *controls = controller.control(target, motion, &model.0, state);
         }
         // Over the safe speed: brake at least in proportion, whatever the speed loop's
         // integral remembers of cruising.

@@ -46,7 +46,7 @@ pub use route::{
     Route, RouteStats, follow_routes,
 };
 pub use safety::{
-    OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
+    Ahead, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
 };
 
 use bevy_ecs::prelude::*;

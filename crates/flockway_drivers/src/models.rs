@@ -335,7 +335,9 @@ pub struct IdmParams {
     pub delta: f32,
     /// How far ahead it looks for a leader, m.
     pub detection_range_m: f32,
-    /// The acceleration is tracked as a target speed this far ahead in time, s.
+    /// How soon a speed it must come down to (making room for a merging car, the merge it
+    /// waits for) is reached, s: such a cap becomes the acceleration that reaches it in this
+    /// time. The speed `v + a·horizon` is also what it shows as its target speed.
     pub accel_horizon_s: f32,
     /// Road following, as for the flocking driver (m/s per m).
     pub road_weight_per_s: f32,
@@ -665,6 +667,7 @@ fn to_target(desired: Vec3, steer_by: Vec3, dir: Vec3, curvature_per_m: f32) -> 
         speed_mps: speed,
         heading_rad: libm::atan2f(h.y, h.x),
         curvature_per_m,
+        accel_mps2: None,
     }
 }
 
@@ -1438,7 +1441,12 @@ pub fn drive_idm(
             p.max_lateral_mps,
             p.lookahead_s,
         );
-        *target = to_target(dir * speed, base, dir, curvature);
+        // The IDM's acceleration itself is the command: the controller makes the car
+        // accelerate so, as far as its drivetrain and brakes allow.
+        *target = DriveTarget {
+            accel_mps2: Some(a),
+            ..to_target(dir * speed, base, dir, curvature)
+        };
     }
 }
 
@@ -1545,6 +1553,7 @@ mod tests {
             speed_mps: v,
             heading_rad: 0.0,
             curvature_per_m: 0.0,
+            accel_mps2: None,
         };
         let delay = (0.5 / DT_S).round() as usize;
         for i in 0..delay {

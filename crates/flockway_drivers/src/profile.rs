@@ -292,6 +292,7 @@ impl DriverSpec {
             speed_mps: 0.0,
             heading_rad: 0.0,
             curvature_per_m: 0.0,
+            accel_mps2: None,
         };
         entity.insert((
             target,

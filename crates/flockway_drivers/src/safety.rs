@@ -117,8 +117,18 @@ pub struct SafetyView<'a> {
 /// half widths (both taken as this car's width), m: a little room for their bodies' yaw.
 const LATERAL_MARGIN_M: f32 = 0.3;
 
-/// The nearest bumper gap and speed of a vehicle ahead of the car's body, m and m/s, within
-/// its reach: the leader in the lane under it (across links onto its next road, and on a
+/// A vehicle ahead of a car's body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ahead {
+    /// The vehicle.
+    pub entity: Entity,
+    /// Bumper-to-bumper gap, m.
+    pub gap_m: f32,
+    /// Its speed along the road, m/s.
+    pub speed_mps: f32,
+}
+
+/// The nearest vehicle ahead of the car's body within its reach: the leader in the lane under it (across links onto its next road, and on a
 /// junction path sharing its lane), the leader in the lane it is moving into, and any vehicle
 /// on this road in a lane either side whose body overlaps its own sideways (one of the two
 /// partly across). `scratch` is reused space.
@@ -128,13 +138,17 @@ pub fn nearest_ahead(
     view: &SafetyView,
     reach_m: f32,
     scratch: &mut Vec<Seen>,
-) -> Option<(f32, f32)> {
+) -> Option<Ahead> {
     let t = view.track;
-    let bumper = |s: &Seen| s.gap_m as f32 - 0.5 * (view.length_m + s.entry.length_m);
+    let ahead_of = |s: &Seen| Ahead {
+        entity: s.entry.entity,
+        gap_m: s.gap_m as f32 - 0.5 * (view.length_m + s.entry.length_m),
+        speed_mps: s.entry.speed_mps,
+    };
     let range = f64::from(reach_m + view.length_m + 6.0);
     let mut best = index
         .leader(t.road, t.lane, t.s_m, view.me, range, t.next_road)
-        .map(|l| (bumper(&l), l.entry.speed_mps));
+        .map(|l| ahead_of(&l));
     // Moving across: the lane it enters is its own already, whatever the sideways overlap.
     let entering = match view.signal {
         2 => Some(i64::from(t.lane) + 1),
@@ -143,9 +157,9 @@ pub fn nearest_ahead(
     };
     if let Some(lane) = entering.and_then(|l| u32::try_from(l).ok())
         && let Some(l) = index.leader(t.road, lane, t.s_m, view.me, range, t.next_road)
-        && best.is_none_or(|b| bumper(&l) < b.0)
+        && best.is_none_or(|b| ahead_of(&l).gap_m < b.gap_m)
     {
-        best = Some((bumper(&l), l.entry.speed_mps));
+        best = Some(ahead_of(&l));
     }
     let Some(geometry) = network.get(t.road) else {
         return best;
@@ -189,8 +203,8 @@ pub fn nearest_ahead(
         if s.gap_m <= 0.0 || (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap {
             continue;
         }
-        let found = (bumper(s), s.entry.speed_mps);
-        if best.is_none_or(|b| found.0 < b.0) {
+        let found = ahead_of(s);
+        if best.is_none_or(|b| found.gap_m < b.gap_m) {
             best = Some(found);
         }
     }
@@ -207,8 +221,9 @@ pub fn safe_speed_mps(
     scratch: &mut Vec<Seen>,
 ) -> f32 {
     let reach = params.reach_m(view.speed_mps);
-    nearest_ahead(network, index, view, reach, scratch)
-        .map_or(f32::INFINITY, |(gap, v)| params.safe_speed_mps(gap, v))
+    nearest_ahead(network, index, view, reach, scratch).map_or(f32::INFINITY, |a| {
+        params.safe_speed_mps(a.gap_m, a.speed_mps)
+    })
 }
 
 /// Braking the controller applies at least, as a share of full braking, per m/s a car is over

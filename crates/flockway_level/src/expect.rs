@@ -100,11 +100,26 @@ pub enum Metric {
     /// Largest relative difference between a yielding approach's capacity and the HCM 6
     /// single-lane roundabout model.
     HcmModelError,
+    /// Distance driven (veh-km).
+    VehKm,
+    /// Follower–leader conflict episodes with a time to collision below the threshold (episodes).
+    ConflictsTtc,
+    /// Follower–leader conflict episodes with a deceleration rate to avoid the crash above the
+    /// threshold (episodes).
+    ConflictsDrac,
+    /// Crossings at a junction with a post-encroachment time below the threshold (conflicts).
+    ConflictsPet,
+    /// Lowest time to collision of a vehicle closing on the one ahead (s).
+    MinTtcS,
+    /// Highest deceleration rate to avoid a crash (m/s²).
+    MaxDracMps2,
+    /// Conflicts (episodes and PET conflicts) per million vehicle-kilometres.
+    ConflictsPerMillionVehKm,
 }
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 29] = [
+    pub const ALL: [Metric; 36] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -134,6 +149,13 @@ impl Metric {
         Metric::Deadlocks,
         Metric::GapModelError,
         Metric::HcmModelError,
+        Metric::VehKm,
+        Metric::ConflictsTtc,
+        Metric::ConflictsDrac,
+        Metric::ConflictsPet,
+        Metric::MinTtcS,
+        Metric::MaxDracMps2,
+        Metric::ConflictsPerMillionVehKm,
     ];
 
     /// Its name, unit, qualifier and meaning.
@@ -312,6 +334,48 @@ impl Metric {
                 qualifier: Qualifier::Junction,
                 unit: "",
                 description: "the same against the HCM 6 single-lane roundabout entry capacity c = 1 380·e^(−0.00102·v_c), v_c the flow it gives way to",
+            },
+            Metric::VehKm => MetricInfo {
+                name: "veh_km",
+                qualifier: Qualifier::Profile,
+                unit: "veh-km",
+                description: "distance the vehicles drove, over the whole run",
+            },
+            Metric::ConflictsTtc => MetricInfo {
+                name: "conflicts_ttc",
+                qualifier: Qualifier::Profile,
+                unit: "episodes",
+                description: "conflict episodes of a follower behind the vehicle ahead of its body whose time to collision (gap over closing speed) fell below `ssm.ttc_s` (default 1.5 s); breaks shorter than 1 s are one episode; with a profile, the episodes a vehicle of the profile took part in (either vehicle)",
+            },
+            Metric::ConflictsDrac => MetricInfo {
+                name: "conflicts_drac",
+                qualifier: Qualifier::Profile,
+                unit: "episodes",
+                description: "conflict episodes whose deceleration rate to avoid the crash (closing speed² over twice the gap) rose above `ssm.drac_mps2` (default 3 m/s²)",
+            },
+            Metric::ConflictsPet => MetricInfo {
+                name: "conflicts_pet",
+                qualifier: Qualifier::Junction,
+                unit: "conflicts",
+                description: "vehicles entering a junction's crossing conflict area less than `ssm.pet_s` (default 1 s) after a vehicle on the crossing path left it (post-encroachment time), over the whole run",
+            },
+            Metric::MinTtcS => MetricInfo {
+                name: "min_ttc_s",
+                qualifier: Qualifier::Profile,
+                unit: "s",
+                description: "lowest time to collision of a vehicle closing on the vehicle ahead of its body (with a profile: either vehicle of it), over the whole run",
+            },
+            Metric::MaxDracMps2 => MetricInfo {
+                name: "max_drac_mps2",
+                qualifier: Qualifier::Profile,
+                unit: "m/s²",
+                description: "highest deceleration rate to avoid a crash of a vehicle closing on the one ahead (with a profile: either vehicle of it), over the whole run",
+            },
+            Metric::ConflictsPerMillionVehKm => MetricInfo {
+                name: "conflicts_per_million_veh_km",
+                qualifier: Qualifier::Profile,
+                unit: "1/(10⁶ veh-km)",
+                description: "conflict episodes (TTC or DRAC) and PET conflicts per million vehicle-kilometres driven; with a profile, those its vehicles took part in per million of their vehicle-kilometres",
             },
         }
     }

@@ -25,7 +25,7 @@ pub use prefab::{Prefab, RING_RADIUS_M, crossroads, roundabout};
 pub use schema::{
     Arrivals, CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel,
     DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
-    TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+    SsmSpec, TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use score::{Better, Formula, Medal, Medals, ScoreError, ScoreSpec};
 pub use sumo::{ImportError, import_sumo_net};

@@ -55,6 +55,9 @@ pub struct Level {
     /// What is recorded, and how often.
     #[serde(default, skip_serializing_if = "TelemetrySpec::is_default")]
     pub telemetry: TelemetrySpec,
+    /// The thresholds of the surrogate safety measures (conflicts by TTC, PET and DRAC).
+    #[serde(default, skip_serializing_if = "SsmSpec::is_default")]
+    pub ssm: SsmSpec,
     /// Checks a run must pass, e.g. `"collisions == 0"`, `"mean_speed_kmh in 57..63"`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub expect: Vec<Expectation>,
@@ -81,6 +84,7 @@ impl Level {
             triggers: Vec::new(),
             vehicles: Vec::new(),
             telemetry: TelemetrySpec::default(),
+            ssm: SsmSpec::default(),
             expect: Vec::new(),
             score: None,
         }
@@ -382,6 +386,38 @@ impl Default for TelemetrySpec {
 impl TelemetrySpec {
     fn is_default(&self) -> bool {
         *self == TelemetrySpec::default()
+    }
+}
+
+/// The thresholds of the surrogate safety measures: a follower–leader pair is in conflict while
+/// its time to collision is below `ttc_s` or its deceleration rate to avoid the crash above
+/// `drac_mps2`; two vehicles through a junction's crossing less than `pet_s` apart are a
+/// conflict.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SsmSpec {
+    /// Time-to-collision threshold, s.
+    pub ttc_s: f64,
+    /// Post-encroachment-time threshold, s.
+    pub pet_s: f64,
+    /// Deceleration-rate-to-avoid-a-crash threshold, m/s².
+    pub drac_mps2: f64,
+}
+
+impl Default for SsmSpec {
+    /// TTC 1.5 s, PET 1.0 s, DRAC 3.0 m/s².
+    fn default() -> SsmSpec {
+        SsmSpec {
+            ttc_s: 1.5,
+            pet_s: 1.0,
+            drac_mps2: 3.0,
+        }
+    }
+}
+
+impl SsmSpec {
+    fn is_default(&self) -> bool {
+        *self == SsmSpec::default()
     }
 }
 

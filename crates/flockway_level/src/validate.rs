@@ -860,6 +860,19 @@ impl Checker<'_> {
                 ),
             );
         }
+        let ssm = self.level.ssm;
+        for (name, value, unit) in [
+            ("ttc_s", ssm.ttc_s, "s"),
+            ("pet_s", ssm.pet_s, "s"),
+            ("drac_mps2", ssm.drac_mps2, "m/s²"),
+        ] {
+            if !finite_in(value, 1.0e-3, 1.0e3) {
+                self.issue(
+                    vec![Field("ssm"), Field(name)],
+                    format!("{name} {value}: expected a threshold above 0 and at most 1000 {unit}"),
+                );
+            }
+        }
     }
 
     /// Why `metric.q` names nothing in the level (`None`: it names a thing of the right kind,

@@ -10,6 +10,7 @@
 
 mod assets;
 pub mod batch;
+mod conflicts;
 mod runner;
 mod session;
 mod signals;
@@ -23,6 +24,7 @@ pub use assets::{
     ASSETS_ENV, DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles, load_profiles,
     load_vehicle_types,
 };
+pub use conflicts::{CONFLICT_COLUMNS, ConflictsWriter};
 pub use flockway_analysis::{ExpectationResult, Summary};
 pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_models, parse_driver};
 pub use session::{

@@ -9,7 +9,7 @@ use flockway_core::{Sim, TICKS_PER_SECOND};
 use flockway_drivers::BuiltinModel;
 use flockway_level::{Level, LevelError};
 use flockway_road::{RoadId, RoadNetwork, RoadNetworkError};
-use flockway_traffic::TelemetrySamples;
+use flockway_traffic::{Conflicts, SsmThresholds, TelemetrySamples};
 use flockway_vehicle::VehicleParamsError;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -83,6 +83,9 @@ pub struct RunOptions {
     pub csv: Option<PathBuf>,
     /// A directory for one telemetry CSV per vehicle.
     pub per_vehicle: Option<PathBuf>,
+    /// Where to stream the conflicts CSV: a row per conflict the surrogate safety measures find
+    /// ([`CONFLICT_COLUMNS`](crate::CONFLICT_COLUMNS)).
+    pub conflicts: Option<PathBuf>,
     /// The `assets/` directory that level asset paths are relative to; `None` finds it with
     /// [`find_assets_dir`].
     pub assets: Option<PathBuf>,
@@ -159,6 +162,8 @@ pub struct Runner {
     csv: Option<TelemetryWriter>,
     /// Beside the CSV, when the level has signals: every change of a signal's states.
     signals: Option<crate::signals::SignalsWriter>,
+    /// The conflicts CSV, when asked for.
+    conflicts: Option<crate::conflicts::ConflictsWriter>,
     per_vehicle: Option<PerVehicleFiles>,
     plots: Option<(PathBuf, PlotFormat)>,
     trace: Trace,
@@ -266,6 +271,15 @@ impl Runner {
             }
             _ => None,
         };
+        let conflicts = match &options.conflicts {
+            Some(path) => Some(crate::conflicts::ConflictsWriter::create(path).map_err(
+                |source| RunError::Output {
+                    path: path.clone(),
+                    source,
+                },
+            )?),
+            None => None,
+        };
         let per_vehicle = match &options.per_vehicle {
             Some(dir) => {
                 std::fs::create_dir_all(dir).map_err(|source| RunError::Output {
@@ -286,6 +300,7 @@ impl Runner {
             total_ticks,
             csv,
             signals,
+            conflicts,
             per_vehicle,
             plots: options.plots.clone(),
             trace: Trace::new(),
@@ -342,8 +357,25 @@ impl Runner {
                     })?;
             }
             self.write_samples()?;
+            self.write_conflicts()?;
         }
         Ok(n)
+    }
+
+    /// Streams the conflicts finished this tick to the conflicts CSV, if one is being written
+    /// (otherwise they are only counted).
+    fn write_conflicts(&mut self) -> Result<(), RunError> {
+        let world = self.sim.world_mut();
+        let records = world.resource_mut::<Conflicts>().take_finished();
+        let Some(writer) = &mut self.conflicts else {
+            return Ok(());
+        };
+        writer
+            .write(world.resource::<RoadNetwork>(), &records)
+            .map_err(|source| RunError::Output {
+                path: writer.path().to_owned(),
+                source,
+            })
     }
 
     /// Streams the samples taken this tick to the CSV files (flushed per sample time, so a run
@@ -430,6 +462,24 @@ impl Runner {
     pub fn finish(mut self) -> Result<Summary, RunError> {
         while self.ticks_done() < self.total_ticks {
             self.step(u64::MAX)?;
+        }
+        // Conflict episodes still open at the end are over: counted, and written.
+        {
+            let world = self.sim.world_mut();
+            let thresholds = world
+                .get_resource::<SsmThresholds>()
+                .copied()
+                .unwrap_or_default();
+            let time_s = world.resource::<flockway_core::SimClock>().seconds();
+            world
+                .resource_mut::<Conflicts>()
+                .close_episodes(&thresholds, time_s, None);
+        }
+        self.write_conflicts()?;
+        if let Some(w) = self.conflicts.take() {
+            let path = w.path().to_owned();
+            w.finish()
+                .map_err(|source| RunError::Output { path, source })?;
         }
         if let Some(csv) = self.csv.take() {
             let path = csv.path().to_owned();

@@ -8,7 +8,9 @@ use flockway_core::{RunStats, Sim, TICKS_PER_SECOND};
 use flockway_drivers::RouteStats;
 use flockway_level::{Expectation, Level, Metric};
 use flockway_road::RoadNetwork;
-use flockway_traffic::{CapacityWindows, JunctionMeasures, TelemetrySettings, TrafficStats};
+use flockway_traffic::{
+    CapacityWindows, Conflicts, JunctionMeasures, TelemetrySettings, TrafficStats,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Duration;
@@ -173,6 +175,7 @@ fn metrics_with(
         let broken = stats.deadlocks.get(&j).copied().unwrap_or(0);
         put(Metric::Deadlocks.key_for(&junction.name), broken as f64);
     }
+    conflict_metrics(world.resource::<Conflicts>(), level, &mut put);
     let road_lengths: BTreeMap<String, f64> = network
         .iter()
         .map(|(_, r)| (r.name().to_owned(), r.length_m()))
@@ -191,6 +194,54 @@ fn metrics_with(
         }
     }
     out
+}
+
+/// The surrogate safety measures: per profile (every profile of the level, so an expectation on
+/// one always finds its count) and in all, and the PET conflicts per junction.
+fn conflict_metrics(conflicts: &Conflicts, level: &Level, put: &mut impl FnMut(String, f64)) {
+    let per_million = |n: u64, km: f64| if km > 0.0 { n as f64 * 1.0e6 / km } else { 0.0 };
+    let all = conflicts.total;
+    let (ttc, drac, episodes, pet, km) = (all.ttc, all.drac, all.episodes, all.pet, all.veh_km);
+    let (min_ttc, max_drac) = (all.min_ttc_s, all.max_drac_mps2);
+    put(Metric::VehKm.key(), km);
+    put(Metric::ConflictsTtc.key(), ttc as f64);
+    put(Metric::ConflictsDrac.key(), drac as f64);
+    put(Metric::ConflictsPet.key(), pet as f64);
+    put(
+        Metric::ConflictsPerMillionVehKm.key(),
+        per_million(episodes + pet, km),
+    );
+    if let Some(x) = min_ttc {
+        put(Metric::MinTtcS.key(), x);
+    }
+    if let Some(x) = max_drac {
+        put(Metric::MaxDracMps2.key(), x);
+    }
+    for profile in &level.driver_profiles {
+        let p = conflicts
+            .by_profile
+            .get(&profile.name)
+            .copied()
+            .unwrap_or_default();
+        let name = &profile.name;
+        put(Metric::VehKm.key_for(name), p.veh_km);
+        put(Metric::ConflictsTtc.key_for(name), p.ttc as f64);
+        put(Metric::ConflictsDrac.key_for(name), p.drac as f64);
+        put(
+            Metric::ConflictsPerMillionVehKm.key_for(name),
+            per_million(p.episodes + p.pet, p.veh_km),
+        );
+        if let Some(x) = p.min_ttc_s {
+            put(Metric::MinTtcS.key_for(name), x);
+        }
+        if let Some(x) = p.max_drac_mps2 {
+            put(Metric::MaxDracMps2.key_for(name), x);
+        }
+    }
+    for (j, junction) in level.junctions.iter().enumerate() {
+        let n = conflicts.pet_by_junction.get(&j).copied().unwrap_or(0);
+        put(Metric::ConflictsPet.key_for(&junction.name), n as f64);
+    }
 }
 
 /// The summary of a finished run: its metrics, the level's expectations checked against them,

@@ -6,7 +6,7 @@ use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
 use flockway_road::{Junctions, Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
-    CapacityWindows, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner,
+    CapacityWindows, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner, SsmThresholds,
     TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect, spawn_driven,
 };
 use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
@@ -132,6 +132,11 @@ pub fn populate(
         stats_from_tick: ticks_of(level.telemetry.stats_from_s),
     });
     world.insert_resource(capacity_windows(level));
+    world.insert_resource(SsmThresholds {
+        ttc_s: level.ssm.ttc_s,
+        pet_s: level.ssm.pet_s,
+        drac_mps2: level.ssm.drac_mps2,
+    });
     let streams = *world.resource::<RngStreams>();
     for (i, sp) in level.spawners.iter().enumerate() {
         let choices = sp

@@ -1,5 +1,6 @@
-//! Flockway's traffic: spawners, destroyers, triggers, collision accounting, telemetry samples
-//! and the run statistics that levels' expectations check.
+//! Flockway's traffic: spawners, destroyers, triggers, collision accounting, telemetry samples,
+//! surrogate safety measures (conflicts by TTC, DRAC and PET) and the run statistics that
+//! levels' expectations check.
 //!
 //! Everything here is a system over components the headless runner (or the editor) creates from
 //! a level: [`Spawner`] in `Spawn`, [`Trigger`] and collisions in `Triggers`, telemetry in
@@ -8,6 +9,7 @@
 
 mod junctions;
 mod spawn;
+mod ssm;
 mod stats;
 mod zones;
 
@@ -18,6 +20,10 @@ pub use junctions::{
 pub use spawn::{
     SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
     spawn_driven,
+};
+pub use ssm::{
+    ConflictArea, ConflictKind, ConflictRecord, Conflicts, EPISODE_END_S, OnPath, PairObservation,
+    ProfileConflicts, SsmThresholds, Who, drac_mps2, measure_conflicts, ttc_s,
 };
 pub use stats::{
     AT_LIMIT_SHARE, DelayStats, LimitShare, SpeedStats, TelemetrySample, TelemetrySamples,
@@ -51,7 +57,13 @@ impl SimPlugin for TrafficPlugin {
         );
         sim.world_mut().init_resource::<JunctionMeasures>();
         sim.world_mut().init_resource::<CapacityWindows>();
+        sim.world_mut().init_resource::<Conflicts>();
         sim.add_systems(StepSet::Record, (sample_telemetry, measure_junctions));
+        // On what the drivers see: the lane index and the places it was built from.
+        sim.add_systems(
+            StepSet::Sense,
+            measure_conflicts.after(flockway_drivers::DriverSystems::Perceive),
+        );
         sim.add_systems(StepSet::Despawn, run_destroyers);
     }
 }

@@ -187,6 +187,10 @@ pub struct SpawnerRate {
 /// Free length needed around a spawn point in the lane, m, beyond the car's own length.
 const SPAWN_CLEARANCE_M: f64 = 4.0;
 
+/// Sideways room a car beside a spawn point must leave, beyond a body's width between the two
+/// centres, m.
+const SPAWN_LATERAL_MARGIN_M: f64 = 0.3;
+
 /// Extra time gap needed ahead of a spawn point at the spawn speed, s.
 const SPAWN_GAP_S: f64 = 0.3;
 
@@ -195,6 +199,10 @@ const SPAWN_BRAKE_MPS2: f64 = 5.0;
 
 /// Bumper gap a spawned car keeps when it has matched a slower car ahead, m.
 const SPAWN_ROOM_M: f64 = 2.0;
+
+/// The least time, s, a car is given to reach the car ahead of it when it is created at
+/// speed: its time to collision (above the conflict threshold of the surrogate safety measures).
+const INSERT_TTC_S: f64 = 1.5;
 
 /// Speed below which a car ahead of a spawn point counts as standing in a queue, m/s.
 const QUEUE_MPS: f32 = 5.0;
@@ -256,6 +264,27 @@ pub fn run_spawners(
         };
         let width = geometry.frame_at(sp.s_m).width_m;
         let lateral = lane_offset(width, geometry.lanes(), sp.lane);
+        // A car in a lane beside that is moving across into this one, or already partly in it,
+        // holds the spot as well: a car created there would be cut in on.
+        let body_width = f64::from(sp.choices[choice].vehicle.params.chassis.width_m);
+        let mut beside = Vec::new();
+        for (lane, towards) in [(sp.lane.checked_sub(1), 2i8), (Some(sp.lane + 1), -2)] {
+            if let Some(lane) = lane.filter(|l| *l < geometry.lanes()) {
+                index.within(sp.road, lane, sp.s_m, behind, ahead, None, &mut beside);
+                beside.retain(|n| {
+                    n.entry.signal == towards
+                        || (f64::from(n.entry.lateral_m) - lateral).abs()
+                            < body_width + SPAWN_LATERAL_MARGIN_M
+                });
+                if !beside.is_empty() {
+                    break;
+                }
+            }
+        }
+        if !beside.is_empty() {
+            sp.waited_ticks += 1;
+            continue;
+        }
         let wanted = sp
             .speed_mps
             .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
@@ -288,7 +317,9 @@ pub fn run_spawners(
                 let safe = envelope.map_or(f32::INFINITY, |e| {
                     e.safe_speed_mps(bumper as f32, lead as f32)
                 });
-                queue.min(safe)
+                // Never on a collision course: at least INSERT_TTC_S to reach the car ahead.
+                let closing = (lead + bumper.max(0.0) / INSERT_TTC_S) as f32;
+                queue.min(safe).min(closing)
             })
             .fold(wanted, f32::min);
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);

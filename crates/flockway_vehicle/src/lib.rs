@@ -21,6 +21,7 @@ mod components;
 mod drivetrain;
 mod dyno;
 mod forces;
+mod longitudinal;
 mod params;
 mod physics;
 mod spawn;
@@ -36,6 +37,7 @@ pub use drivetrain::{
     Driveline, Gearbox, Pedals, RPM_TO_RAD_S, STANDSTILL_MPS, SpinInput, SpinOutput, apply_brake,
 };
 pub use dyno::{DynoReport, DynoSettings, run_dyno};
+pub use longitudinal::LongitudinalModel;
 pub use params::{
     BrakeParams, ChassisParams, ClutchParams, Differential, EngineParams, GearboxParams,
     MagicFormula, SteeringParams, SuspensionParams, TyreParams, VehicleParams, VehicleParamsError,
