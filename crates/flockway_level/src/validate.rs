@@ -998,6 +998,14 @@ mod tests {
             ),
             (r#"telemetry: (period_s: 0.3333),"#, "period_s 0.3333"),
             (
+                r#"ssm: (ttc_s: 0.0, drac_mps2: 3.0),"#,
+                "ttc_s 0: expected a threshold above 0",
+            ),
+            (
+                r#"ssm: (pet_s: 5000.0),"#,
+                "pet_s 5000: expected a threshold",
+            ),
+            (
                 r#"expect: ["road_length_m.side > 1"],"#,
                 "unknown road `side`",
             ),

@@ -240,9 +240,12 @@ impl Conflicts {
     pub fn observe_pair(&mut self, t: &SsmThresholds, time_s: f64, o: PairObservation) {
         let ttc = ttc_s(o.gap_m, o.speed_mps, o.leader_mps);
         let drac = drac_mps2(o.gap_m, o.speed_mps, o.leader_mps);
+        if ttc.is_none() && drac.is_none() {
+            // Not closing in: nothing to note.
+            return;
+        }
         for profile in involved(&o.who.1, &o.other.1) {
-            let totals = self.by_profile.entry(profile.to_string()).or_default();
-            totals.note(ttc, drac);
+            self.profile_mut(profile).note(ttc, drac);
         }
         self.total.note(ttc, drac);
         let in_conflict = ttc.is_some_and(|x| x < t.ttc_s) || drac.is_some_and(|x| x > t.drac_mps2);
@@ -318,7 +321,7 @@ impl Conflicts {
                     p.drac += u64::from(by_drac);
                 };
                 for profile in involved(&r.driver, &r.other_driver) {
-                    count(self.by_profile.entry(profile.to_string()).or_default());
+                    count(self.profile_mut(profile));
                 }
                 count(&mut self.total);
                 self.finished.push(r);
@@ -387,7 +390,7 @@ impl Conflicts {
             }
             *self.pet_by_junction.entry(j).or_default() += 1;
             for profile in involved(&who.1, &first_who.1) {
-                self.by_profile.entry(profile.to_string()).or_default().pet += 1;
+                self.profile_mut(profile).pet += 1;
             }
             self.total.pet += 1;
             self.finished.push(ConflictRecord {
@@ -412,11 +415,18 @@ impl Conflicts {
 
     /// Adds distance driven by a vehicle of `profile`, m.
     pub fn add_distance(&mut self, profile: &str, metres: f64) {
-        self.by_profile
-            .entry(profile.to_owned())
-            .or_default()
-            .veh_km += metres / 1000.0;
+        self.profile_mut(profile).veh_km += metres / 1000.0;
         self.total.veh_km += metres / 1000.0;
+    }
+
+    /// The totals of `profile`, created empty the first time (looked up without allocating
+    /// after that: this runs for every vehicle every step).
+    fn profile_mut(&mut self, profile: &str) -> &mut ProfileConflicts {
+        if !self.by_profile.contains_key(profile) {
+            self.by_profile
+                .insert(profile.to_owned(), ProfileConflicts::default());
+        }
+        self.by_profile.get_mut(profile).expect("inserted above")
     }
 
     /// The finished conflicts not taken yet, oldest first.
@@ -451,12 +461,11 @@ pub fn measure_conflicts(
     let time_s = clock.seconds();
     let h = clock.dt_s();
     let mut scratch: Vec<Seen> = Vec::new();
-    let label =
-        |l: Option<&DriverLabel>| l.map_or_else(|| Arc::from("none"), |l| l.profile.clone());
+    let none: Arc<str> = Arc::from("none");
+    let label = |l: Option<&DriverLabel>| l.map_or_else(|| none.clone(), |l| l.profile.clone());
     for (me, id, track, motion, model, driver, signal) in &vehicles {
-        let who = (id.0, label(driver));
         let v = f64::from(motion.forward_mps);
-        conflicts.add_distance(&who.1, v.abs() * h);
+        conflicts.add_distance(driver.map_or("none", |l| &l.profile), v.abs() * h);
         let junction = network.junction_path(track.road);
         let chassis = &model.0.params.chassis;
         let view = SafetyView {
@@ -471,6 +480,7 @@ pub fn measure_conflicts(
         let reach = (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0;
         if let Some(ahead) = nearest_ahead(&network, &index, &view, reach, &mut scratch)
             && ahead.entity != me
+            && v > f64::from(ahead.speed_mps)
             && let Ok((other_id, other_label)) = ids.get(ahead.entity)
         {
             conflicts.observe_pair(
@@ -479,7 +489,7 @@ pub fn measure_conflicts(
                 PairObservation {
                     vehicle: me,
                     leader: ahead.entity,
-                    who: who.clone(),
+                    who: (id.0, label(driver)),
                     other: (other_id.0, label(other_label)),
                     gap_m: f64::from(ahead.gap_m),
                     speed_mps: v,
@@ -487,6 +497,10 @@ pub fn measure_conflicts(
                     place: (track.road, junction.map(|(j, _)| j), motion.position),
                 },
             );
+        }
+        // Off junctions, only a vehicle just leaving a conflict area has anything to record.
+        if junction.is_none() && !conflicts.inside.contains_key(&me) {
+            continue;
         }
         let areas: Vec<ConflictArea> = junction
             .and_then(|(j, k)| network.junctions().get(j)?.paths.get(k))
@@ -502,7 +516,7 @@ pub fn measure_conflicts(
             &t,
             time_s,
             me,
-            &who,
+            &(id.0, label(driver)),
             junction.map(|(junction, path)| OnPath {
                 junction,
                 path,
