@@ -269,14 +269,7 @@ pub fn follow_targets(
             g.cap_mps(track.s_m, chassis.length_m)
         });
         let safe = gate.map_or(f32::INFINITY, |(_, track)| {
-            let view = SafetyView {
-                me,
-                track,
-                speed_mps: motion.forward_mps,
-                length_m: chassis.length_m,
-                width_m: chassis.width_m,
-                signal: signal.map_or(0, |s| s.0),
-            };
+            let view = SafetyView::new(me, track, motion, model, signal);
             let params = safety.copied().unwrap_or_default();
             safe_speed_mps(&network, &index, &params, &view, &mut scratch)
         });

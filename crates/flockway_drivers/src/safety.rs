@@ -113,6 +113,28 @@ pub struct SafetyView<'a> {
     pub signal: i8,
 }
 
+impl<'a> SafetyView<'a> {
+    /// The view of vehicle `me`: where it is, how it moves, its body, and the lane change it
+    /// shows (none without a [`LaneSignal`](crate::LaneSignal)).
+    pub fn new(
+        me: Entity,
+        track: &'a RoadTrack,
+        motion: &flockway_vehicle::Motion,
+        model: &flockway_vehicle::VehicleModel,
+        signal: Option<&crate::LaneSignal>,
+    ) -> SafetyView<'a> {
+        let chassis = &model.0.params.chassis;
+        SafetyView {
+            me,
+            track,
+            speed_mps: motion.forward_mps,
+            length_m: chassis.length_m,
+            width_m: chassis.width_m,
+            signal: signal.map_or(0, |s| s.0),
+        }
+    }
+}
+
 /// How far apart sideways two cars' centres may be and still overlap, beyond the sum of their
 /// half widths (both taken as this car's width), m: a little room for their bodies' yaw.
 const LATERAL_MARGIN_M: f32 = 0.3;

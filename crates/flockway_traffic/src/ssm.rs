@@ -467,15 +467,7 @@ pub fn measure_conflicts(
         let v = f64::from(motion.forward_mps);
         conflicts.add_distance(driver.map_or("none", |l| &l.profile), v.abs() * h);
         let junction = network.junction_path(track.road);
-        let chassis = &model.0.params.chassis;
-        let view = SafetyView {
-            me,
-            track,
-            speed_mps: motion.forward_mps,
-            length_m: chassis.length_m,
-            width_m: chassis.width_m,
-            signal: signal.map_or(0, |s| s.0),
-        };
+        let view = SafetyView::new(me, track, motion, model, signal);
         // Far enough to see every pair the thresholds can flag.
         let reach = (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0;
         if let Some(ahead) = nearest_ahead(&network, &index, &view, reach, &mut scratch)
