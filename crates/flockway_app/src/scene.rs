@@ -2,7 +2,7 @@
 //! guardrails, markers) and one instance per vehicle.
 
 use bevy_ecs::prelude::*;
-use flockway_drivers::{FlockDriver, HumanDriver, Route};
+use flockway_drivers::{FlockDriver, HumanDriver, Route, WaveDamper};
 use flockway_level::{DestroyerPlaceSpec, Level, TriggerEffectSpec};
 use flockway_road::{Mesh, RoadGeometry, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{Motion, VehicleModel};
@@ -595,19 +595,20 @@ impl VehicleFrame {
             &Motion,
             &VehicleModel,
             Option<&HumanDriver>,
-            Option<&FlockDriver>,
+            Has<FlockDriver>,
+            Has<WaveDamper>,
             Option<&Route>,
         )>();
         let mut rows: Vec<_> = query
             .iter(world)
-            .map(|(e, m, model, human, flock, route)| {
+            .map(|(e, m, model, human, flock, damper, route)| {
                 let c = &model.0.params.chassis;
-                let colour = match (by, human, flock) {
+                let colour = match (by, human, flock || damper) {
                     (ColourBy::Destination, ..) => {
                         palette::destination(route.and_then(Route::destination))
                     }
                     (_, Some(_), _) => palette::HUMAN,
-                    (_, None, Some(_)) => palette::AUTONOMOUS,
+                    (_, None, true) => palette::AUTONOMOUS,
                     _ => palette::OTHER,
                 };
                 (

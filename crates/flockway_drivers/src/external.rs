@@ -5,7 +5,8 @@
 //! lane-keeping flocking car, so a level with custom profiles runs sensibly on its own.
 
 use crate::control::{DriveTarget, follow_targets};
-use crate::models::{FlockDriver, drive_flock};
+use crate::models::FlockDriver;
+use crate::pipeline::{LaneChoice, drive};
 use crate::{DriverSystems, add_driver};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
@@ -57,7 +58,7 @@ impl SimPlugin for ExternalPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(crate::DriversPlugin);
         // After the flocking driver that drives them without a command, which it overrides.
-        add_driver(sim, follow_external_targets.after(drive_flock));
+        add_driver(sim, follow_external_targets.after(drive::<FlockDriver>));
         sim.schedule_mut().add_systems(
             apply_external_controls
                 .after(follow_targets)
@@ -84,7 +85,7 @@ fn follow_external_targets(
         &External,
         &RoadTrack,
         &Motion,
-        &mut FlockDriver,
+        &mut LaneChoice,
         &mut DriveTarget,
     )>,
 ) {

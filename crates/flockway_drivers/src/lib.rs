@@ -3,24 +3,31 @@
 //! Each tick, in [`StepSet::Sense`], [`rebuild_lane_index`] sorts every vehicle into a
 //! [`LaneIndex`] per road and lane, so a driver finds its leader, follower and neighbours in
 //! O(log n + k), and [`RoadAhead`] holds each lane's speed envelope (the bends and slippery
-//! stretches ahead, braked for in time), so a driver reads the road ahead in O(1). In [`StepSet::Decide`] every driver system writes a [`DriveTarget`] (a speed and
-//! a heading) for the vehicles it drives — [`drive_flock`] (Reynolds flocking, free or keeping
-//! its lane, human-like with [`HumanDriver`], and wave-damping with [`WaveDamper`]) and
-//! [`drive_idm`] (the Intelligent Driver Model) — and then [`follow_targets`] turns targets into `Controls` with two PID loops. A driver
-//! may instead write `Controls` itself.
+//! stretches ahead, braked for in time), so a driver reads the road ahead in O(1). In
+//! [`StepSet::Decide`] every built-in model goes through one pipeline, [`drive`] (route, lane
+//! changes, desired speed, the model's law, courtesy and merging, human imperfections), which
+//! writes a [`DriveTarget`] (a speed or an acceleration, and a heading): [`FlockDriver`]
+//! (Reynolds flocking, free or keeping its lane, human-like with [`HumanDriver`]), [`IdmDriver`]
+//! (the Intelligent Driver Model) and [`WaveDamper`]. Then [`follow_targets`] turns targets into
+//! `Controls`, holding every car to its safety envelope. A driver may instead write `Controls`
+//! itself.
 //!
-//! A new driver is a component and a system added with [`add_driver`]; see
-//! `examples/custom_driver.rs`.
+//! A new model is a component implementing [`DrivingModel`], registered with [`add_model`]; a
+//! driver outside the pipeline is a system registered with [`add_driver`] (see
+//! `examples/custom_driver.rs`).
 
 mod ahead;
 mod control;
 mod external;
+mod idm;
 mod junction;
 mod models;
 mod perception;
+mod pipeline;
 mod profile;
 mod route;
 mod safety;
+mod wave_damper;
 
 pub use ahead::{
     ReadsRoad, RoadAhead, RoadAheadParams, RoadSurface, SurfaceStretch, update_road_ahead,
@@ -30,16 +37,20 @@ pub use control::{
     follow_targets, wrap_angle,
 };
 pub use external::{External, ExternalCommand, ExternalPlugin, add_external_driver};
+pub use idm::{IdmDriver, IdmParams, idm_accel};
 pub use junction::{
     AMBER_DECEL_MPS2, CRITICAL_GAP_S, DEADLOCK_S, FOLLOW_UP_S, GapAcceptance, JunctionGate,
     JunctionStats, STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M, gate_junctions,
 };
 pub use models::{
-    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, LANE_END_DECEL_MPS2,
-    SpeedFactor, SpeedFactorParams, SpeedLimit, WaveDamper, WaveDamperParams, carry_lane,
-    desired_speed_mps, drive_flock, drive_idm, idm_accel, lane_following, update_speed_limits,
+    FlockDriver, FlockParams, HumanDriver, HumanParams, SpeedFactor, SpeedFactorParams, SpeedLimit,
+    carry_lane, flock_law, lane_following, update_speed_limits,
 };
 pub use perception::{LaneEntry, LaneIndex, LaneSignal, Seen, rebuild_lane_index};
+pub use pipeline::{
+    DrivingModel, LANE_END_DECEL_MPS2, LaneChoice, LaneStyle, Longitudinal, Proposal, Situation,
+    add_custom_model, add_model, desired_speed_mps, drive,
+};
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
 pub use route::{
     LANE_CHANGE_AHEAD_M, LANE_CHANGE_AHEAD_S, LANE_CHANGE_LEAST_GAP, LANE_END_MARGIN_M, LaneAsk,
@@ -48,6 +59,7 @@ pub use route::{
 pub use safety::{
     Ahead, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
 };
+pub use wave_damper::{WaveDamper, WaveDamperParams};
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleConfigs;
@@ -58,9 +70,9 @@ use flockway_vehicle::VehiclePlugin;
 /// The driver types most users need.
 pub mod prelude {
     pub use crate::{
-        DriveTarget, DriverSpec, DriversPlugin, FlockDriver, HumanDriver, IdmDriver, LaneIndex,
-        ReadsRoad, RoadAhead, SharedController, SpeedFactor, SpeedLimit, TargetController,
-        add_driver,
+        DriveTarget, DriverSpec, DriversPlugin, DrivingModel, FlockDriver, HumanDriver, IdmDriver,
+        LaneChoice, LaneIndex, ReadsRoad, RoadAhead, SharedController, SpeedFactor, SpeedLimit,
+        TargetController, add_driver, add_model,
     };
 }
 
@@ -104,8 +116,9 @@ impl SimPlugin for DriversPlugin {
                 .in_set(DriverSystems::Perceive),
             follow_targets.in_set(DriverSystems::Control),
         ));
-        add_driver(sim, drive_flock);
-        add_driver(sim, drive_idm);
+        add_model::<FlockDriver>(sim);
+        add_model::<IdmDriver>(sim);
+        add_model::<WaveDamper>(sim);
     }
 }
 

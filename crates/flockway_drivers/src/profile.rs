@@ -3,11 +3,11 @@
 
 use crate::ahead::ReadsRoad;
 use crate::control::{DriveTarget, TargetController};
-use crate::models::{
-    FlockDriver, FlockParams, HumanDriver, HumanParams, IdmDriver, IdmParams, SpeedFactor,
-    SpeedLimit, WaveDamper, WaveDamperParams,
-};
+use crate::idm::{IdmDriver, IdmParams};
+use crate::models::{FlockDriver, FlockParams, HumanDriver, HumanParams, SpeedFactor, SpeedLimit};
+use crate::pipeline::LaneChoice;
 use crate::safety::SafetyParams;
+use crate::wave_damper::{WaveDamper, WaveDamperParams};
 use bevy_ecs::prelude::*;
 use flockway_core::EntityRng;
 use flockway_level::DriverModel;
@@ -296,6 +296,7 @@ impl DriverSpec {
         };
         entity.insert((
             target,
+            LaneChoice::new(lane),
             SpeedLimit::default(),
             DriverLabel::new(self.model_name(), self.model_name()),
         ));
@@ -306,7 +307,7 @@ impl DriverSpec {
         let (ahead, safety, factor, (critical_gap_s, follow_up_s)) = match self {
             DriverSpec::Custom { name, base: p } => {
                 entity.insert((
-                    FlockDriver::new(p.clone(), true, lane),
+                    FlockDriver::new(p.clone(), true),
                     TargetController::new(p.throttle, p.steering),
                     crate::External::new(name.clone()),
                 ));
@@ -320,7 +321,7 @@ impl DriverSpec {
             DriverSpec::Flock(p) | DriverSpec::FlockLanes(p) => {
                 let keep = matches!(self, DriverSpec::FlockLanes(_));
                 entity.insert((
-                    FlockDriver::new(p.clone(), keep, lane),
+                    FlockDriver::new(p.clone(), keep),
                     TargetController::new(p.throttle, p.steering),
                 ));
                 (
@@ -334,7 +335,7 @@ impl DriverSpec {
                 let spread = f64::from(h.speed_spread.clamp(0.0, 0.9));
                 let uniform = rng.uniform(1.0 - spread, 1.0 + spread) as f32;
                 entity.insert((
-                    FlockDriver::new(h.flock.clone(), true, lane),
+                    FlockDriver::new(h.flock.clone(), true),
                     HumanDriver::new(h.reaction_time_s).with_noise(
                         h.speed_noise_kmh / 3.6,
                         h.noise_time_s,
@@ -352,7 +353,6 @@ impl DriverSpec {
             }
             DriverSpec::WaveDamper(p) => {
                 entity.insert((
-                    FlockDriver::new(p.flock.clone(), true, lane),
                     WaveDamper::new(p.clone()),
                     TargetController::new(p.flock.throttle, p.flock.steering),
                 ));
@@ -365,11 +365,7 @@ impl DriverSpec {
             }
             DriverSpec::Idm(p) => {
                 entity.insert((
-                    IdmDriver {
-                        params: p.clone(),
-                        lane,
-                        road: None,
-                    },
+                    IdmDriver { params: p.clone() },
                     TargetController::new(p.throttle, p.steering),
                 ));
                 (

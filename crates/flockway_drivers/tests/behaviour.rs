@@ -243,7 +243,7 @@ fn a_lane_change_on_command_completes_smoothly_and_yields_first() {
         .target_speed_kmh = Some(75.0);
     sim.run_ticks(ticks(2.0));
     sim.world_mut()
-        .get_mut::<flockway_drivers::FlockDriver>(me)
+        .get_mut::<flockway_drivers::LaneChoice>(me)
         .expect("driver")
         .target_lane = 1;
     let width = f64::from(track(&sim, me).width_m);
@@ -259,7 +259,7 @@ fn a_lane_change_on_command_completes_smoothly_and_yields_first() {
         widest = widest.max(lateral);
         let lane_now = sim
             .world()
-            .get::<flockway_drivers::FlockDriver>(me)
+            .get::<flockway_drivers::LaneChoice>(me)
             .expect("driver")
             .lane;
         if lane_now == 1 && started.is_none() {
