@@ -1,12 +1,11 @@
 //! Every built-in driver model drives every shipped level without a vehicle contact or a
-//! guardrail hit: each level with all its driver profiles given one model, for every model the
-//! safety layer covers, on seed 1 for the level's whole duration and on seeds 2–5 for its first
+//! guardrail hit: each level with all its driver profiles given one model, for every built-in
+//! model, on seed 1 for the level's whole duration and on seeds 2–5 for its first
 //! [`SHORT_S`] seconds (the whole matrix at full length takes longer than CI allows; `flockway
 //! run LEVEL --seed S --driver PROFILE=MODEL` runs any cell in full).
 //!
-//! `Flock`, the free flocking car, is left out: its avoidance moves it across lanes and towards
-//! the road's edge (docs/drivers.md, "The safety layer"). `hairpin.ron` lets human-like drivers
-//! lose the cars its expectations allow to its hairpins' guardrails.
+//! `hairpin.ron` lets human-like drivers lose the cars its expectations allow to its hairpins'
+//! guardrails.
 
 use flockway::drivers::BuiltinModel;
 use flockway::level::load_level;
@@ -15,7 +14,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The models every shipped level must carry without a scratch.
-const MODELS: [BuiltinModel; 4] = [
+const MODELS: [BuiltinModel; 5] = [
+    BuiltinModel::Flock,
     BuiltinModel::FlockLanes,
     BuiltinModel::Human,
     BuiltinModel::Idm,

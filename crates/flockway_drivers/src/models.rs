@@ -336,14 +336,24 @@ pub fn flock_law(
                 track.left,
             );
     }
-    if keep_lane {
+    // Free flocking swerves only between junctions: on a junction's path (crossing and merging
+    // traffic, no room beside the path) it keeps to its path as the lane-keeping car does.
+    let swerves = !keep_lane && at.network.junction_path(track.road).is_none();
+    if swerves {
+        // Sideways, no faster than its lane changes, and less as it slows: in a queue it
+        // waits in line instead of squeezing past.
+        let most = p.max_lateral_mps * (v / FREE_SWERVE_FULL_MPS).clamp(0.0, 1.0);
+        let across = avoid.dot(track.left);
+        let capped = across.clamp(-most, most);
+        avoid += track.left * (capped - across);
+    } else {
         // Brake or speed up, never swerve: only the part along the lane.
         avoid = dir * avoid.dot(dir);
     }
-    let desired = if keep_lane {
-        at.base + avoid
+    let desired = if swerves {
+        within_edges(at.base + avoid, track, width, seen, length)
     } else {
-        within_edges(at.base + avoid, track, width)
+        at.base + avoid
     };
     let mut speed = desired.dot(dir).max(0.0);
     if keep_lane && p.time_gap_s > 0.0 {
@@ -358,11 +368,28 @@ pub fn flock_law(
             speed = speed.min(keep.max(0.0));
         }
     }
+    // Free flocking steers along its desired velocity's sideways part at the speed it drives
+    // or would drive on an empty road, whichever is higher, as lane following does: braking
+    // hard (a small desired speed along the lane), or waiting at a line, must not turn the same
+    // sideways wish into a sharp turn.
+    let steer_by = swerves.then(|| {
+        let across = desired.dot(track.left);
+        let along = v.max(at.base.dot(dir)).max(FREE_STEER_MIN_MPS);
+        dir * along + track.left * across
+    });
     Proposal {
         longitudinal: Longitudinal::Speed(speed),
-        steer_by: (!keep_lane).then_some(desired),
+        steer_by,
     }
 }
+
+/// The speed from which a free-flocking car swerves as fast as it changes lanes, m/s; slower,
+/// in proportion.
+const FREE_SWERVE_FULL_MPS: f32 = 10.0;
+
+/// The least speed along the lane a free-flocking car's heading is reckoned at, m/s: at a
+/// crawl it turns no more sharply than at this speed.
+const FREE_STEER_MIN_MPS: f32 = 2.0;
 
 /// The lane that lane `lane` of road `from` leads onto on road `to` (its link's lane pair), or
 /// `on_track` (the lane under the car) when the link does not take it; `lane` itself while still
@@ -567,15 +594,44 @@ const EDGE_TIME_S: f32 = 1.5;
 const EDGE_MARGIN_M: f32 = 0.4;
 
 /// A free-flocking car's desired velocity with its sideways part cut to what keeps its body on
-/// the road: avoidance may push it sideways, never off the road or into a guardrail (towards
-/// an edge, no faster than covers the room left in [`EDGE_TIME_S`]).
-fn within_edges(desired: Vec3, track: &RoadTrack, width_m: f32) -> Vec3 {
+/// the road and off the cars beside it: avoidance may push it sideways, never off the road, into
+/// a guardrail, or into a car alongside (towards an edge or a car whose body overlaps its own
+/// along the road, no faster than covers the room left in [`EDGE_TIME_S`]). `seen` holds the
+/// cars around it.
+fn within_edges(
+    desired: Vec3,
+    track: &RoadTrack,
+    width_m: f32,
+    seen: &[Seen],
+    length_m: f32,
+) -> Vec3 {
     let reach = 0.5 * track.width_m - 0.5 * width_m - EDGE_MARGIN_M;
     let lateral = track.lateral_m as f32;
-    let most_left = (reach - lateral).max(0.0) / EDGE_TIME_S;
-    let most_right = (reach + lateral).max(0.0) / EDGE_TIME_S;
+    // Negative room (past where it may be) asks it back at once.
+    let mut room_left = reach - lateral;
+    let mut room_right = reach + lateral;
+    for s in seen {
+        // Alongside: their bodies overlap along the road (with a metre to spare).
+        if (s.gap_m.abs() as f32) >= 0.5 * (length_m + s.entry.length_m) + 1.0 {
+            continue;
+        }
+        let across = s.entry.lateral_m - lateral;
+        // Room between the two sides (the other car taken as wide as this one).
+        let room = across.abs() - width_m - EDGE_MARGIN_M;
+        if across > 0.0 {
+            room_left = room_left.min(room);
+        } else {
+            room_right = room_right.min(room);
+        }
+    }
     let across = desired.dot(track.left);
-    let clamped = across.clamp(-most_right, most_left);
+    let (lowest, highest) = (-room_right / EDGE_TIME_S, room_left / EDGE_TIME_S);
+    // Squeezed from both sides: the middle of the two.
+    let clamped = if lowest <= highest {
+        across.clamp(lowest, highest)
+    } else {
+        0.5 * (lowest + highest)
+    };
     desired + track.left * (clamped - across)
 }
 

@@ -62,8 +62,8 @@ impl LaneChoice {
 /// How a model keeps to and changes lanes: its lateral style, which the pipeline applies.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LaneStyle {
-    /// It keeps its lane and changes lanes only through [`LaneChoice::target_lane`] (false: it
-    /// steers where its law says, as free flocking does; no lane changes, signals or courtesy).
+    /// It keeps to its lane (false: its law may steer it across, as free flocking does; lane
+    /// changes, signals and courtesy apply either way).
     pub keep_lane: bool,
     /// Weight of the lane direction × desired speed in the lane-following velocity.
     pub speed_weight: f32,
@@ -369,9 +369,7 @@ fn decide_one<M: DrivingModel>(
     // The window opens by the limit's speed as well, so slowing while waiting does not close it.
     let window_mps = v.max(desired.0.kmh / 3.6);
     let wanted = route.and_then(|r| r.lane_change(choice.lane, track.s_m, window_mps));
-    if style.keep_lane
-        && let Some(ask) = wanted
-    {
+    if let Some(ask) = wanted {
         choice.target_lane =
             (i64::from(choice.lane) + i64::from(ask.dir)).clamp(0, i64::from(lanes) - 1) as u32;
     }
@@ -380,7 +378,7 @@ fn decide_one<M: DrivingModel>(
     let mut signal_dir = 0;
     let mut gap_s = style.lane_change_gap_s;
     let cross_s = crossing_s(track, lanes, style.max_lateral_mps);
-    if style.keep_lane && target_lane != choice.lane {
+    if target_lane != choice.lane {
         let step = if target_lane > choice.lane { 1 } else { -1 };
         let next = (choice.lane as i64 + step) as u32;
         gap_s *= wanted.map_or(1.0, |ask| ask.urgency());
@@ -398,9 +396,7 @@ fn decide_one<M: DrivingModel>(
             signal_dir = step as i8;
         }
     }
-    if style.keep_lane {
-        show_signal(signal, signal_dir, choice.lane, track.lane);
-    }
+    show_signal(signal, signal_dir, choice.lane, track.lane);
     let lane = choice.lane.min(lanes - 1);
 
     let (v_desired, cap) = desired_speed_mps(law.cruise_kmh(), desired, ahead, track, v, lane);
@@ -447,7 +443,7 @@ fn decide_one<M: DrivingModel>(
     let mut command = proposal.longitudinal;
     // A push from a follower, or a law's own wish, never takes it faster than the caps.
     command.cap(v, cap);
-    if style.keep_lane && style.courtesy_decel_mps2 > 0.0 {
+    if style.courtesy_decel_mps2 > 0.0 {
         let room = courtesy_speed_mps(
             index,
             track,
