@@ -104,47 +104,79 @@ fn help_documents_every_run_option() {
 #[test]
 fn every_shipped_level_checks_and_runs_passing_its_expectations() {
     let dir = tempfile::tempdir().expect("tempdir");
+    let levels = shipped_levels();
+    // The levels run side by side, one process per core: each run is single-threaded at this
+    // size, and one after another they are the slowest test of the suite.
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let measured: Vec<(String, Vec<String>)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|w| {
+                let (levels, next, dir) = (&levels, &next, dir.path());
+                scope.spawn(move || {
+                    let mut out = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(level) = levels.get(i) else {
+                            break out;
+                        };
+                        let summary = dir.join(format!("s{w}.json"));
+                        out.push(check_and_run(level, &summary));
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("a worker"))
+            .collect()
+    });
     // Every metric an expectation may name, seen measured by some shipped level's run.
-    let mut measured = std::collections::BTreeSet::new();
-    for level in shipped_levels() {
-        let path = level.to_string_lossy().into_owned();
-        let out = flockway(&["check", &path]);
-        assert!(
-            out.status.success(),
-            "check {path}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let summary = dir.path().join("s.json");
-        let summary_text = summary.to_string_lossy().into_owned();
-        let out = flockway(&["run", &path, "--quiet", "--summary", &summary_text]);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "run {path}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        assert!(
-            out.stdout.is_empty(),
-            "--quiet printed: {}",
-            String::from_utf8_lossy(&out.stdout)
-        );
-        let s = flockway::run::Summary::read(&summary).expect("the summary reads");
-        for key in s.metrics.keys() {
+    let mut seen = std::collections::BTreeSet::new();
+    for (path, keys) in measured {
+        for key in keys {
             let name = key.split('.').next().unwrap_or_default().to_owned();
             assert!(
                 flockway::level::Metric::from_name(&name).is_some(),
                 "{path}: the run measured `{key}`, which is not in the metric table"
             );
-            measured.insert(name);
+            seen.insert(name);
         }
     }
     for m in flockway::level::Metric::ALL {
         assert!(
-            measured.contains(m.name()),
+            seen.contains(m.name()),
             "no shipped level's run measures `{}`: an expectation on it could never pass",
             m.name()
         );
     }
+}
+
+/// `flockway check` and `flockway run --quiet` on a level, which must pass: the level and the
+/// metric names its run measured.
+fn check_and_run(level: &Path, summary: &Path) -> (String, Vec<String>) {
+    let path = level.to_string_lossy().into_owned();
+    let out = flockway(&["check", &path]);
+    assert!(
+        out.status.success(),
+        "check {path}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary_text = summary.to_string_lossy().into_owned();
+    let out = flockway(&["run", &path, "--quiet", "--summary", &summary_text]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "run {path}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "--quiet printed: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let s = flockway::run::Summary::read(summary).expect("the summary reads");
+    (path, s.metrics.keys().cloned().collect())
 }
 
 #[test]
@@ -762,7 +794,15 @@ fn new_writes_each_template_as_a_level_that_runs_and_never_overwrites() {
                 assert_eq!(spawned, 20.0, "{template}: {s}");
                 assert_eq!(collisions, 0.0, "{template}: {s}");
             }
-            _ => assert_eq!(spawned, 0.0, "{template}: {s}"),
+            _ => {
+                assert_eq!(spawned, 0.0, "{template}: {s}");
+                // An empty world is run as asked, and said to be empty.
+                let stderr = String::from_utf8_lossy(&run.stderr);
+                assert!(stderr.contains("no vehicle drove"), "{template}: {stderr}");
+            }
+        }
+        if template != "empty" {
+            assert!(!String::from_utf8_lossy(&run.stderr).contains("no vehicle drove"));
         }
     }
     let bad = flockway(&["new", "x.ron", "--template", "circle"]);

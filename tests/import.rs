@@ -292,3 +292,74 @@ fn a_broken_network_is_an_error_at_its_line_and_column() {
     let e = import_sumo_net("<routes/>", &path, "x").expect_err("not a net");
     assert!(e.to_string().contains("expected a SUMO network"), "{e}");
 }
+
+/// Networks netgenerate wrote, not written here (`tests/fixtures/sumo/`):
+/// - `rand_seed4.net.xml`: `netgenerate --rand --rand.iterations 25 --seed 4 --tls.guess`, with
+///   dead ends, lanes added and dropped along roads (connections whose lanes meet) and a guessed
+///   traffic light;
+/// - `grid_sidewalks.net.xml`: `netgenerate --grid --grid.number 3 --grid.length 150
+///   --grid.attach-length 100 --sidewalks.guess --crossings.guess`, every edge with a sidewalk,
+///   walking areas and pedestrian crossings at every junction.
+#[test]
+fn netgenerate_networks_import_with_joins_sidewalks_and_fringes_and_carry_traffic() {
+    let rand = import("rand_seed4.net.xml");
+    // Lanes that continue one another are linked, not made a junction of.
+    let links: usize = rand.roads.iter().map(|r| r.links.len()).sum();
+    assert!(links > 0, "no road linked");
+    assert!(
+        rand.junctions
+            .iter()
+            .any(|j| matches!(j.control, Control::Signal)),
+        "the guessed traffic light"
+    );
+    // Dead ends are where traffic comes and goes (a turn back is not a way in).
+    assert!(!rand.spawners.is_empty() && !rand.destroyers.is_empty());
+
+    let grid = import("grid_sidewalks.net.xml");
+    // Sidewalks, walking areas and crossings are left out: one car lane per edge.
+    assert!(
+        grid.roads.iter().all(|r| r.lanes == 1),
+        "a sidewalk became a lane"
+    );
+    assert!(grid.roads.iter().all(|r| !r.name.starts_with(':')));
+    // The fringe roads netgenerate attached bring traffic in: 12 of them, each way.
+    assert_eq!(grid.spawners.len(), 12, "{:?}", grid.spawners.len());
+    assert_eq!(grid.destroyers.len(), 12);
+
+    for (name, level) in [("rand_seed4", rand), ("grid_sidewalks", grid)] {
+        let path = fixture(&format!("{name}.ron"));
+        let m = run(level, &path, 1, Some(120.0), None);
+        assert!(m["vehicles_spawned"] > 20.0, "{name}: {m:#?}");
+        assert!(m["vehicles_destroyed"] > 0.0, "{name}: {m:#?}");
+    }
+}
+
+#[test]
+fn a_network_nothing_can_enter_is_an_error_that_says_so() {
+    // Three one-way roads in a triangle: every road is reached from another.
+    let edge = |id: &str, from: &str, to: &str, shape: &str| {
+        format!(
+            r#"<edge id="{id}" from="{from}" to="{to}" priority="1"><lane id="{id}_0" index="0" speed="13.89" length="100" shape="{shape}"/></edge>"#
+        )
+    };
+    let text = format!(
+        r#"<net version="1.20">
+{}
+{}
+{}
+<junction id="a" type="priority" x="0" y="0"/>
+<junction id="b" type="priority" x="100" y="0"/>
+<junction id="c" type="priority" x="50" y="90"/>
+<connection from="ab" to="bc" fromLane="0" toLane="0"/>
+<connection from="bc" to="ca" fromLane="0" toLane="0"/>
+<connection from="ca" to="ab" fromLane="0" toLane="0"/>
+</net>"#,
+        edge("ab", "a", "b", "5,0 95,0"),
+        edge("bc", "b", "c", "97,5 53,85"),
+        edge("ca", "c", "a", "47,85 3,5"),
+    );
+    let err = import_sumo_net(&text, Path::new("ring.net.xml"), "ring").expect_err("no entry");
+    let message = err.to_string();
+    assert!(message.contains("has no entry"), "{message}");
+    assert!(message.contains("--grid.attach-length"), "{message}");
+}

@@ -78,6 +78,14 @@ pub fn run(args: RunArgs) -> ExitCode {
         Ok(r) => r,
         Err(e) => return fail(e),
     };
+    // A run with no vehicle at all measured nothing: say so, whatever its expectations say.
+    if report.vehicle_steps == 0 {
+        eprintln!(
+            "warning: {}: no vehicle drove in this run (nothing spawned, nothing placed): every \
+             figure is empty; give the level spawners or vehicles",
+            args.level.display()
+        );
+    }
     if let Some(path) = &args.summary {
         let text = match report.to_json_text() {
             Ok(t) => t,

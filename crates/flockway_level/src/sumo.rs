@@ -17,7 +17,9 @@ use crate::schema::{
     DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
 };
 use crate::template::{AUTONOMOUS_PROFILE, reference_profiles, reference_vehicle_types};
-use flockway_road::{ConnectionSpec, Control, JunctionSpec, Phase, RoadSpec, SignalProgram};
+use flockway_road::{
+    ConnectionSpec, Control, JunctionSpec, LinkSpec, Phase, RoadSpec, SignalProgram,
+};
 use glam::DVec3;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
@@ -38,6 +40,9 @@ pub struct ImportError {
 
 /// SUMO's lane width where a lane does not give one, m.
 const SUMO_LANE_WIDTH_M: f64 = 3.2;
+/// Two lanes a connection joins whose ends are closer than this, m, continue one another (a
+/// simple join, a lane added or dropped along a road): the roads are linked, not a junction.
+const JOIN_GAP_M: f64 = 1.0;
 /// Seconds between vehicles a spawner of an imported network draws from, per lane.
 const SPAWN_INTERVAL_S: Range = Range {
     min: 8.0,
@@ -50,12 +55,15 @@ const DESTROYER_BEFORE_END_M: f64 = 10.0;
 /// Simulated time an imported level runs for, s.
 const DURATION_S: f64 = 600.0;
 
-/// One edge as read.
+/// One edge as read: its car lanes only (a sidewalk, a bike or a bus lane is left out).
 struct Edge {
     id: String,
+    from: String,
     to: String,
     priority: i64,
     lanes: Vec<Lane>,
+    /// The car lane each of SUMO's lane indices became (`None`: not a car lane).
+    lane_map: Vec<Option<u32>>,
 }
 
 /// One lane as read.
@@ -73,6 +81,8 @@ struct Connection {
     to_lane: u32,
     link_index: Option<usize>,
     tl: Option<String>,
+    /// SUMO's direction `t`: a turn back.
+    turn_back: bool,
 }
 
 /// Reads a SUMO network file into a level named `name`.
@@ -126,6 +136,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
             .ok_or_else(|| at(node, format!("`{key}` must be a number, found {text:?}")))
     };
     let mut edges: Vec<Edge> = Vec::new();
+    let mut skipped_edges: BTreeSet<String> = BTreeSet::new();
     let mut edge_nodes: BTreeMap<String, roxmltree::Node> = BTreeMap::new();
     let mut connections: Vec<(Connection, roxmltree::Node)> = Vec::new();
     let mut junction_kinds: BTreeMap<String, (String, roxmltree::Node)> = BTreeMap::new();
@@ -138,7 +149,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                     continue;
                 }
                 let id = attr(node, "id")?;
-                let mut lanes: Vec<(u32, Lane)> = Vec::new();
+                let mut lanes: Vec<(u32, bool, Lane)> = Vec::new();
                 for lane in node.children().filter(|n| n.has_tag_name("lane")) {
                     let index = number(lane, "index")?;
                     if index < 0.0 || index.fract() != 0.0 {
@@ -151,6 +162,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                         .ok_or_else(|| at(lane, "`shape` must be at least two points `x,y` (or `x,y,z`) separated by spaces".to_owned()))?;
                     lanes.push((
                         index as u32,
+                        allows_cars(lane.attribute("allow"), lane.attribute("disallow")),
                         Lane {
                             speed_mps: number(lane, "speed")?,
                             width_m: lane
@@ -164,28 +176,47 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                 if lanes.is_empty() {
                     return Err(at(node, format!("edge `{id}` has no <lane>")));
                 }
-                lanes.sort_by_key(|(i, _)| *i);
-                if lanes.iter().enumerate().any(|(k, (i, _))| *i != k as u32) {
+                lanes.sort_by_key(|(i, ..)| *i);
+                if lanes.iter().enumerate().any(|(k, (i, ..))| *i != k as u32) {
                     return Err(at(
                         node,
                         format!("edge `{id}`'s lanes must be numbered 0, 1, … without gaps"),
                     ));
                 }
+                // Only the lanes cars may use become lanes; an edge with none (a footpath, a
+                // cycleway, a railway) is left out, and so are its connections.
+                let mut lane_map = Vec::with_capacity(lanes.len());
+                let mut car_lanes = Vec::new();
+                for (_, cars, lane) in lanes {
+                    if cars {
+                        lane_map.push(Some(car_lanes.len() as u32));
+                        car_lanes.push(lane);
+                    } else {
+                        lane_map.push(None);
+                    }
+                }
+                if car_lanes.is_empty() {
+                    skipped_edges.insert(id);
+                    continue;
+                }
                 edge_nodes.insert(id.clone(), node);
                 edges.push(Edge {
+                    from: attr(node, "from")?,
                     to: attr(node, "to")?,
                     priority: node
                         .attribute("priority")
                         .and_then(|p| p.parse().ok())
                         .unwrap_or(0),
                     id,
-                    lanes: lanes.into_iter().map(|(_, l)| l).collect(),
+                    lanes: car_lanes,
+                    lane_map,
                 });
             }
             "connection" => {
                 let from = attr(node, "from")?;
-                // Connections from internal lanes (`:JUNCTION_…`) are SUMO's own inner links.
-                if from.starts_with(':') {
+                // Connections from or to internal edges (`:JUNCTION_…`: SUMO's own inner links,
+                // walking areas, crossings) are not between roads.
+                if from.starts_with(':') || attr(node, "to")?.starts_with(':') {
                     continue;
                 }
                 let lane = |key: &str| -> Result<u32, ImportError> {
@@ -209,6 +240,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                         to_lane: lane("toLane")?,
                         link_index,
                         tl: node.attribute("tl").map(str::to_owned),
+                        turn_back: node.attribute("dir") == Some("t"),
                         from,
                     },
                     node,
@@ -296,29 +328,76 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         level.roads.push(road_of(e));
     }
 
-    // Junctions: the connections out of each edge's end, grouped by the node it ends at.
-    let mut at_node: BTreeMap<&str, Vec<&(Connection, roxmltree::Node)>> = BTreeMap::new();
-    for c in &connections {
-        let (conn, node) = c;
+    // The connections among car lanes, in car-lane numbers: a connection of an edge left out,
+    // or of a lane cars may not use, is not one.
+    let mut car_connections: Vec<(Connection, roxmltree::Node)> = Vec::new();
+    for (conn, node) in connections {
+        if skipped_edges.contains(&conn.from) || skipped_edges.contains(&conn.to) {
+            continue;
+        }
         let from = by_id.get(conn.from.as_str()).ok_or_else(|| {
             at(
-                *node,
+                node,
                 format!("connection from unknown edge `{}`", conn.from),
             )
         })?;
         let to = by_id
             .get(conn.to.as_str())
-            .ok_or_else(|| at(*node, format!("connection to unknown edge `{}`", conn.to)))?;
-        if conn.from_lane as usize >= from.lanes.len() || conn.to_lane as usize >= to.lanes.len() {
+            .ok_or_else(|| at(node, format!("connection to unknown edge `{}`", conn.to)))?;
+        let (Some(from_lane), Some(to_lane)) = (
+            from.lane_map.get(conn.from_lane as usize),
+            to.lane_map.get(conn.to_lane as usize),
+        ) else {
             return Err(at(
-                *node,
+                node,
                 format!(
                     "connection {} lane {} → {} lane {}: a lane the edge does not have",
                     conn.from, conn.from_lane, conn.to, conn.to_lane
                 ),
             ));
+        };
+        let (Some(from_lane), Some(to_lane)) = (*from_lane, *to_lane) else {
+            continue;
+        };
+        // A turn back onto the edge the other way (SUMO writes one at most nodes): no route
+        // here takes it, and its tight path would only cross the junction's others.
+        if conn.turn_back || (from.from == to.to && from.to == to.from) {
+            continue;
         }
-        at_node.entry(from.to.as_str()).or_default().push(c);
+        car_connections.push((
+            Connection {
+                from_lane,
+                to_lane,
+                ..conn
+            },
+            node,
+        ));
+    }
+    let connections = car_connections;
+
+    // Junctions: the connections out of each edge's end, grouped by the node it ends at. A
+    // connection whose lanes continue one another (within `JOIN_GAP_M`) is a link instead.
+    let mut links: BTreeMap<(String, String), Vec<(u32, u32)>> = BTreeMap::new();
+    let mut at_node: BTreeMap<&str, Vec<&(Connection, roxmltree::Node)>> = BTreeMap::new();
+    for c in &connections {
+        let (conn, _) = c;
+        let (from, to) = (by_id[conn.from.as_str()], by_id[conn.to.as_str()]);
+        let end = from.lanes[conn.from_lane as usize].shape.last().copied();
+        let start = to.lanes[conn.to_lane as usize].shape.first().copied();
+        let joined = matches!((end, start), (Some(a), Some(b)) if a.distance(b) < JOIN_GAP_M);
+        if joined && conn.tl.is_none() {
+            links
+                .entry((conn.from.clone(), conn.to.clone()))
+                .or_default()
+                .push((conn.from_lane, conn.to_lane));
+        } else {
+            at_node.entry(from.to.as_str()).or_default().push(c);
+        }
+    }
+    for ((from, to), lanes) in links {
+        if let Some(road) = level.roads.iter_mut().find(|r| r.name == from) {
+            road.links.push(LinkSpec { to, lanes });
+        }
     }
     for (node_id, mut conns) in at_node {
         let kind = junction_kinds
@@ -392,19 +471,31 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         });
     }
 
-    // Where the network is open: sources (nothing leads onto them) and sinks (lead nowhere).
+    // Where the network is open: sources (nothing leads onto them, turns back left out: a
+    // dead end) and sinks (they lead nowhere).
     let mut next: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
     let mut fed: BTreeSet<&str> = BTreeSet::new();
+    let mut leads_on: BTreeSet<&str> = BTreeSet::new();
     for (c, _) in &connections {
         next.entry(c.from.as_str())
             .or_default()
             .insert(c.to.as_str());
         fed.insert(c.to.as_str());
+        leads_on.insert(c.from.as_str());
     }
     let sinks: Vec<&Edge> = edges
         .iter()
-        .filter(|e| next.get(e.id.as_str()).is_none_or(BTreeSet::is_empty))
+        .filter(|e| !leads_on.contains(e.id.as_str()))
         .collect();
+    if edges.iter().all(|e| fed.contains(e.id.as_str())) {
+        return Err(at(
+            root,
+            "the network has no entry: every edge is reached from another, so no traffic can \
+             come in; give it fringe edges (netgenerate `--grid.attach-length 100` or \
+             `--spider.attach-length 100`, or a road that starts at a dead end)"
+                .to_owned(),
+        ));
+    }
     for e in &edges {
         if fed.contains(e.id.as_str()) {
             continue;
@@ -452,7 +543,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         });
     }
     level.telemetry.stats_from_s = 60.0;
-    level.expect = ["collisions == 0"]
+    level.expect = ["collisions == 0", "vehicles_spawned > 0"]
         .iter()
         .filter_map(|t| Expectation::parse(t).ok())
         .collect();
@@ -499,6 +590,18 @@ fn signal_letter(c: char) -> Option<char> {
         'y' | 'Y' => Some('y'),
         'r' | 'R' | 'u' => Some('r'),
         _ => None,
+    }
+}
+
+/// Whether a lane with these `allow` and `disallow` lists (SUMO vehicle classes, space
+/// separated) takes passenger cars: by default yes; `allow` must name `passenger` (or `all`),
+/// `disallow` must not.
+fn allows_cars(allow: Option<&str>, disallow: Option<&str>) -> bool {
+    let names = |list: &str, class: &str| list.split_whitespace().any(|c| c == class);
+    match (allow, disallow) {
+        (Some(a), _) => names(a, "passenger") || names(a, "all"),
+        (None, Some(d)) => !(names(d, "passenger") || names(d, "all")),
+        (None, None) => true,
     }
 }
 
@@ -614,6 +717,17 @@ mod tests {
         let mapped: String = "GgyYrRuoOs".chars().filter_map(signal_letter).collect();
         assert_eq!(mapped, "Ggyyrrrggg");
         assert_eq!(signal_letter('x'), None);
+    }
+
+    #[test]
+    fn only_lanes_passenger_cars_may_use_are_car_lanes() {
+        assert!(allows_cars(None, None));
+        assert!(allows_cars(Some("passenger bus"), None));
+        assert!(!allows_cars(Some("pedestrian"), None));
+        assert!(!allows_cars(Some("bicycle"), None));
+        assert!(allows_cars(None, Some("pedestrian bicycle")));
+        assert!(!allows_cars(None, Some("all")));
+        assert!(!allows_cars(None, Some("passenger taxi")));
     }
 
     #[test]
