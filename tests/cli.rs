@@ -239,8 +239,12 @@ fn run_with_outputs(level: &Path, dir: &Path, tag: &str) -> (Vec<u8>, serde_json
 fn runs_are_byte_identical_and_summaries_keep_their_contract() {
     let dir = tempfile::tempdir().expect("tempdir");
     for level in shipped_levels() {
-        let (csv_a, mut a) = run_with_outputs(&level, dir.path(), "a");
-        let (csv_b, mut b) = run_with_outputs(&level, dir.path(), "b");
+        // The two runs side by side (two processes): the same result either way.
+        let ((csv_a, mut a), (csv_b, mut b)) = std::thread::scope(|scope| {
+            let first = scope.spawn(|| run_with_outputs(&level, dir.path(), "a"));
+            let second = run_with_outputs(&level, dir.path(), "b");
+            (first.join().expect("the first run"), second)
+        });
         assert_eq!(
             csv_a,
             csv_b,
