@@ -84,22 +84,7 @@ impl DrivingModel for Gipps {
     }
 
     fn decide(&mut self, at: &Situation, _seen: &mut Vec<Seen>) -> Proposal {
-        let track = at.track;
-        let length = at.size_m.0;
-        let leader = at
-            .index
-            .leader(
-                track.road,
-                at.lane,
-                track.s_m,
-                at.me,
-                self.range_m,
-                track.next_road,
-            )
-            .map(|l| {
-                let gap = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
-                (gap, l.entry.speed_mps)
-            });
+        let leader = at.leader(self.range_m);
         Proposal {
             longitudinal: Longitudinal::Speed(self.speed_mps(at.v, at.v_desired, leader)),
             steer_by: None,

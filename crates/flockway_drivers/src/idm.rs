@@ -124,21 +124,9 @@ impl DrivingModel for IdmDriver {
     fn decide(&mut self, at: &Situation, _seen: &mut Vec<Seen>) -> Proposal {
         let p = &self.params;
         let (track, v, length) = (at.track, at.v, at.size_m.0);
-        let range = f64::from(p.detection_range_m);
         let leader = at
-            .index
-            .leader(
-                track.road,
-                at.lane,
-                track.s_m,
-                at.me,
-                range,
-                track.next_road,
-            )
-            .map(|l| {
-                let gap = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
-                (gap, v - l.entry.speed_mps)
-            });
+            .leader(f64::from(p.detection_range_m))
+            .map(|(gap, v_leader)| (gap, v - v_leader));
         let v0 = at.v_desired.min(at.leaving_cap_mps);
         let mut a = idm_accel(p, v, v0, leader);
         if let Some(r) = at.route {

@@ -359,12 +359,8 @@ pub fn flock_law(
     if keep_lane && p.time_gap_s > 0.0 {
         // Adaptive cruise control: close the gap beyond 2 m plus the time gap over 1.5 s.
         let range = f64::from(p.detection_range_m.max(v * p.time_gap_s * 2.0 + 50.0));
-        if let Some(l) = at
-            .index
-            .leader(track.road, lane, track.s_m, at.me, range, track.next_road)
-        {
-            let bumper = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
-            let keep = l.entry.speed_mps + (bumper - 2.0 - v.max(0.0) * p.time_gap_s) / 1.5;
+        if let Some((bumper, v_leader)) = at.leader(range) {
+            let keep = v_leader + (bumper - 2.0 - v.max(0.0) * p.time_gap_s) / 1.5;
             speed = speed.min(keep.max(0.0));
         }
     }

@@ -213,6 +213,20 @@ pub struct Situation<'a> {
     pub curvature_per_m: f32,
 }
 
+impl Situation<'_> {
+    /// Its leader in its lane within `range_m` (centre to centre; across links onto its next
+    /// road): the bumper-to-bumper gap, m, and the leader's speed, m/s.
+    pub fn leader(&self, range_m: f64) -> Option<(f32, f32)> {
+        let t = self.track;
+        self.index
+            .leader(t.road, self.lane, t.s_m, self.me, range_m, t.next_road)
+            .map(|l| {
+                let gap = l.gap_m as f32 - 0.5 * (self.size_m.0 + l.entry.length_m);
+                (gap, l.entry.speed_mps)
+            })
+    }
+}
+
 /// A driver model: a component whose law decides the car's speed (and may steer), driven by
 /// the shared pipeline. Register it with [`add_model`].
 pub trait DrivingModel: Component<Mutability = Mutable> {

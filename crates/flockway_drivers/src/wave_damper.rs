@@ -136,24 +136,10 @@ impl DrivingModel for WaveDamper {
     /// Its own law, with what the flocking law and the pipeline decided as the backstop: it
     /// brakes for a car far too close.
     fn finish(&mut self, at: &Situation, target: &mut DriveTarget) {
-        let track = at.track;
-        let range = f64::from(self.params.leader_range_m);
-        let length = at.size_m.0;
         let leader = at
-            .index
-            .leader(
-                track.road,
-                at.lane,
-                track.s_m,
-                at.me,
-                range,
-                track.next_road,
-            )
-            .map(|l| {
-                let bumpers = l.gap_m as f32 - 0.5 * (length + l.entry.length_m);
-                (bumpers.max(0.0), l.entry.speed_mps)
-            });
-        let me_speed = at.motion.linvel.dot(track.tangent);
+            .leader(f64::from(self.params.leader_range_m))
+            .map(|(gap, v_leader)| (gap.max(0.0), v_leader));
+        let me_speed = at.motion.linvel.dot(at.track.tangent);
         let command = self.command(me_speed, at.v_target, leader);
         target.speed_mps = command.min(target.speed_mps);
     }
