@@ -363,3 +363,40 @@ fn a_network_nothing_can_enter_is_an_error_that_says_so() {
     assert!(message.contains("has no entry"), "{message}");
     assert!(message.contains("--grid.attach-length"), "{message}");
 }
+
+/// `ramps.net.xml`: `netconvert -n ramps.nod.xml -e ramps.edg.xml --ramps.guess`, a two-lane
+/// motorway with an on-ramp and an off-ramp; netconvert adds a lane for each (an acceleration
+/// lane that ends, a deceleration lane that opens) at nodes of their own.
+#[test]
+fn a_motorway_s_ramps_come_in_as_lanes_that_end_and_open_and_exits_are_taken() {
+    let level = import("ramps.net.xml");
+    // The nodes where a lane is added or dropped are not junctions: the roads go on through
+    // links, the lanes that continue one another paired, netconvert's gap between them closed.
+    let links = |name: &str| {
+        level
+            .roads
+            .iter()
+            .find(|r| r.name == name)
+            .map(|r| r.links.clone())
+            .unwrap_or_default()
+    };
+    assert_eq!(links("m2")[0].to, "m2-AddedOffRampEdge");
+    assert_eq!(links("m2")[0].lanes, vec![(0, 1), (1, 2)]);
+    assert_eq!(links("m2-AddedOnRampEdge")[0].to, "m2");
+    assert_eq!(links("m2-AddedOnRampEdge")[0].lanes, vec![(1, 0), (2, 1)]);
+    assert!(
+        level
+            .junctions
+            .iter()
+            .all(|j| j.name == "A" || j.name == "B"),
+        "{:?}",
+        level.junctions.iter().map(|j| &j.name).collect::<Vec<_>>()
+    );
+    // A 300 s run: ramp cars merge off their ending lane, exit cars slow on the motorway
+    // enough to cross into the short deceleration lane, and traffic flows at motorway speed.
+    let m = run(level, &fixture("ramps.ron"), 2, Some(300.0), None);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    assert_eq!(m["missed_exits"], 0.0, "{m:#?}");
+    assert!(m["vehicles_destroyed"] > 50.0, "{m:#?}");
+    assert!(m["mean_speed_kmh"] > 60.0, "{m:#?}");
+}

@@ -22,7 +22,7 @@ use crate::models::{
     FlockDriver, FlockParams, HumanDriver, SpeedFactor, SpeedLimit, carry_lane, lane_following,
 };
 use crate::perception::{LaneIndex, LaneSignal, Seen};
-use crate::route::Route;
+use crate::route::{LaneAsk, Route, crossing_fit_mps};
 use crate::safety::SafetyParams;
 use bevy_ecs::component::Mutable;
 use bevy_ecs::prelude::*;
@@ -419,8 +419,22 @@ fn decide_one<M: DrivingModel>(
     let cap = cap
         .min(route.map_or(f32::INFINITY, |r| {
             r.lane_end_cap_mps(lane, track.s_m, length, LANE_END_DECEL_MPS2)
+                .min(r.prepare_cap_mps(
+                    lane,
+                    track.s_m,
+                    geometry.length_m(),
+                    (length, cross_s),
+                    LANE_END_DECEL_MPS2,
+                ))
         }))
-        .min(leaving_cap_mps);
+        .min(leaving_cap_mps)
+        .min(change_fit_cap_mps(
+            wanted,
+            target_lane != choice.lane,
+            v,
+            length,
+            cross_s,
+        ));
     let v_target = v_desired.min(cap);
     let (dir, base, curvature) = lane_following(
         geometry,
@@ -583,6 +597,30 @@ impl LaneChange {
     }
 }
 
+/// The slowest [`change_fit_cap_mps`] asks a car to go, m/s: one that cannot make its lane
+/// change even at this speed goes on and misses its exit rather than stop in a running lane.
+const CHANGE_FIT_FLOOR_MPS: f32 = 5.0;
+
+/// While a car waits to make a lane change its route needs before `left_m` runs out, it goes
+/// no faster than the speed at which the crossing still fits (slowing gently, at most
+/// [`MERGE_SLOW_MPS`] below its speed): it would otherwise drive past the room it has left.
+fn change_fit_cap_mps(
+    wanted: Option<LaneAsk>,
+    waiting: bool,
+    v: f32,
+    length_m: f32,
+    cross_s: f32,
+) -> f32 {
+    match wanted {
+        Some(ask) if waiting && ask.left_m.is_finite() => {
+            crossing_fit_mps(ask.left_m, length_m, cross_s)
+                .max(CHANGE_FIT_FLOOR_MPS)
+                .max(v - MERGE_SLOW_MPS)
+        }
+        _ => f32::INFINITY,
+    }
+}
+
 /// Shows the others what the driver is doing: `waiting` (±1) for a gap, ±2 while it is still
 /// over its old lane (`on_track`) after moving to `lane`, 0 otherwise. Writes only on change.
 fn show_signal(signal: Option<Mut<LaneSignal>>, waiting: i8, lane: u32, on_track: u32) {
@@ -674,14 +712,32 @@ fn lane_gap_accepted(
             l.gap_m >= need(v - l.entry.speed_mps + v * 0.5)
                 && v <= firm.safe_speed_mps(bumper(&l), l.entry.speed_mps)
         });
+    // A follower standing still (one that stopped to let this car in, as often as not) closes
+    // on nothing: a car creeping in ahead of it needs only to be wholly ahead of it, where a moving one is owed its time gap and 2 m. Insisting on the 2 m would
+    // leave both waiting for the other for ever at a lane's end.
     let behind_ok = index
         .follower(track.road, lane, track.s_m, me, 200.0)
         .is_none_or(|f| {
-            -f.gap_m >= need(f.entry.speed_mps)
-                && f.entry.speed_mps <= firm.safe_speed_mps(bumper(&f), v)
+            let standing = f.entry.speed_mps < STANDING_MPS && v < CREEP_MPS;
+            if standing {
+                bumper(&f) >= STANDING_FOLLOWER_GAP_M
+            } else {
+                -f.gap_m >= need(f.entry.speed_mps)
+                    && f.entry.speed_mps <= firm.safe_speed_mps(bumper(&f), v)
+            }
         });
     ahead_ok && behind_ok
 }
+
+/// Below this speed a car in the target lane counts as standing still, m/s.
+const STANDING_MPS: f32 = 0.3;
+
+/// Up to this speed a car may creep into a gap in front of a standing car, m/s.
+const CREEP_MPS: f32 = 3.0;
+
+/// The room between bumpers a car creeping in ahead of a standing one leaves it, m: wholly
+/// ahead of it is enough, as the car moves away from it as it crosses.
+const STANDING_FOLLOWER_GAP_M: f32 = 0.0;
 
 /// The braking envelope a lane change leaves the two cars it moves between: neither has to
 /// brake harder than this to keep 2 m from the other (the time gap is their time to react).
@@ -881,6 +937,60 @@ mod tests {
         assert!(accepted(16.0, 25.0, crate::LANE_CHANGE_LEAST_GAP));
         // A car alongside is never a gap.
         assert!(!accepted(2.0, 200.0, crate::LANE_CHANGE_LEAST_GAP));
+    }
+
+    #[test]
+    fn a_car_creeps_in_ahead_of_a_standing_car_it_is_wholly_ahead_of() {
+        // Both nearly still (a lane's end, a courteous car stopped beside it): wholly ahead of
+        // the standing car is enough; alongside, or the other still moving, is not.
+        let accepted = |behind: f64, v_other: f32, v: f32| {
+            let (_, index, cars) = split_with(&[
+                (APPROACH, 0, 500.0, v),
+                (APPROACH, 1, 500.0 - behind, v_other),
+            ]);
+            let (me, track) = &cars[0];
+            lane_gap_accepted(&index, track, *me, 1, v, 4.6, 1.0)
+        };
+        assert!(accepted(4.7, 0.0, 0.0));
+        assert!(!accepted(4.5, 0.0, 0.0));
+        assert!(!accepted(4.7, 2.0, 0.0));
+        assert!(!accepted(4.7, 0.0, 5.0));
+        // A car moving behind is owed its time gap and 2 m.
+        assert!(!accepted(6.0, 1.0, 1.0));
+    }
+
+    #[test]
+    fn a_car_waiting_for_a_lane_its_route_needs_slows_to_where_the_crossing_fits() {
+        let ask = |left_m: f64| LaneAsk {
+            dir: 1,
+            left_m,
+            lanes: 1,
+        };
+        // 4 s to cross: 100 m left fits 30.4 m/s; 20 m fits only 5.5 m/s, approached gently.
+        let fit = crossing_fit_mps(100.0, 4.6, 4.0);
+        assert!((fit - 30.375).abs() < 1e-3, "{fit}");
+        assert_eq!(
+            change_fit_cap_mps(Some(ask(100.0)), true, 25.0, 4.6, 4.0),
+            fit
+        );
+        assert_eq!(
+            change_fit_cap_mps(Some(ask(20.0)), true, 25.0, 4.6, 4.0),
+            25.0 - MERGE_SLOW_MPS
+        );
+        // Never below its floor: it goes on and misses its exit rather than stop.
+        assert_eq!(
+            change_fit_cap_mps(Some(ask(5.0)), true, 3.0, 4.6, 4.0),
+            CHANGE_FIT_FLOOR_MPS
+        );
+        // Not waiting, or a change by choice: no cap.
+        assert_eq!(
+            change_fit_cap_mps(Some(ask(20.0)), false, 25.0, 4.6, 4.0),
+            f32::INFINITY
+        );
+        assert_eq!(
+            change_fit_cap_mps(None, true, 25.0, 4.6, 4.0),
+            f32::INFINITY
+        );
     }
 
     #[test]

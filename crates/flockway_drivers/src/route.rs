@@ -22,6 +22,17 @@ pub const LANE_END_MARGIN_M: f64 = 6.0;
 /// or its exit: half a second behind a car at its own speed, still more than a human's reaction.
 pub const LANE_CHANGE_LEAST_GAP: f32 = 0.5;
 
+/// The share of the room for a lane change ahead that a vehicle preparing for it plans to make
+/// it in, at the most.
+const PREPARE_SHARE: f64 = 0.7;
+
+/// The fastest a vehicle of `length_m` may go to move one lane over, taking `cross_s`, within
+/// `room_m`: mostly (0.8) across at that speed, plus half its length and 0.5 m.
+pub fn crossing_fit_mps(room_m: f64, length_m: f32, cross_s: f32) -> f32 {
+    ((room_m - 0.5 * f64::from(length_m) - 0.5) / (0.8 * f64::from(cross_s.max(0.1)))).max(0.0)
+        as f32
+}
+
 /// A lane change a route asks for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LaneAsk {
@@ -173,6 +184,35 @@ impl Route {
             left_m: left,
             lanes,
         })
+    }
+
+    /// The fastest a vehicle in `lane` at `s_m` on the current road (`road_m` long) may go so
+    /// that it reaches the next road slow enough to make there the lane change its route needs
+    /// (a lane that opens beside it and must be taken soon: an exit lane), braking at
+    /// `decel_mps2`; a crossing takes `cross_s` and the vehicle is `length_m` long. `INFINITY`
+    /// when the lane leads on, when a lane of this road leads further (the change is made here,
+    /// [`Route::lane_change`]), or when the change leaves room enough.
+    pub fn prepare_cap_mps(
+        &self,
+        lane: u32,
+        s_m: f64,
+        road_m: f64,
+        (length_m, cross_s): (f32, f32),
+        decel_mps2: f32,
+    ) -> f32 {
+        let here = self.reach_m(lane);
+        if here.is_infinite() || self.reach.iter().any(|&r| r > here) {
+            return f32::INFINITY;
+        }
+        // Room for the change on the roads beyond this one, and the speed it can be made at
+        // with a margin for finding a gap and for the braking to settle.
+        let room = here - road_m;
+        if room <= 0.0 {
+            return f32::INFINITY;
+        }
+        let fit = f64::from(crossing_fit_mps(PREPARE_SHARE * room, length_m, cross_s));
+        let to_next = (road_m - s_m).max(0.0);
+        (fit * fit + 2.0 * f64::from(decel_mps2) * to_next).sqrt() as f32
     }
 
     /// Where lane `lane` of the current road ends with no link (from the road's start, m;
@@ -338,6 +378,66 @@ mod tests {
             left_route
                 .lane_end_cap_mps(0, 791.7, 4.6, 2.0)
                 .is_infinite()
+        );
+    }
+
+    #[test]
+    fn a_car_reaches_an_exit_lane_that_opens_ahead_slow_enough_to_take_it() {
+        // `m` (2 lanes, 500 m) goes on as `d` (3 lanes, 100 m: an exit lane opens on the
+        // right), whose lane 0 alone leads onto the exit `x`.
+        let w = flockway_road::DEFAULT_LANE_WIDTH_M;
+        let mut m = RoadSpec::through("m", 2, 120.0, &[DVec3::ZERO, DVec3::new(500.0, 0.0, 0.0)]);
+        m.links = vec![LinkSpec {
+            to: "d".into(),
+            lanes: vec![(0, 1), (1, 2)],
+        }];
+        let mut d = RoadSpec::through(
+            "d",
+            3,
+            120.0,
+            &[
+                DVec3::new(500.0, -0.5 * w, 0.0),
+                DVec3::new(600.0, -0.5 * w, 0.0),
+            ],
+        );
+        d.links = vec![LinkSpec {
+            to: "x".into(),
+            lanes: vec![(0, 0)],
+        }];
+        let x = RoadSpec::through(
+            "x",
+            1,
+            80.0,
+            &[
+                DVec3::new(600.0, -1.5 * w, 0.0),
+                DVec3::new(800.0, -80.0, 0.0),
+            ],
+        );
+        let net = RoadNetwork::build(&[m, d, x]).expect("valid exit");
+        let (mr, dr, xr) = (RoadId(0), RoadId(1), RoadId(2));
+        let mut route = Route::along(Arc::from("x"), vec![mr, dr, xr]);
+        route.update(&net, mr);
+        // No lane of `m` leads further: the change is made on `d`, in at most 70 m of its
+        // 100 m (4 s to cross: 21 m/s), which the car reaches braking at 2.5 m/s².
+        assert_eq!(route.lane_change(0, 400.0, 33.0), None);
+        let fit = crossing_fit_mps(70.0, 4.6, 4.0);
+        let at_end = route.prepare_cap_mps(0, 500.0, 500.0, (4.6, 4.0), 2.5);
+        assert!((at_end - fit).abs() < 1e-3, "{at_end} {fit}");
+        let before = route.prepare_cap_mps(0, 300.0, 500.0, (4.6, 4.0), 2.5);
+        assert!((before - (fit * fit + 2.0 * 2.5 * 200.0).sqrt()).abs() < 1e-3);
+        // On `d` the change is asked for there, and no longer prepared for.
+        route.update(&net, dr);
+        assert!(route.lane_change(1, 0.0, 20.0).is_some());
+        assert_eq!(
+            route.prepare_cap_mps(1, 0.0, 100.0, (4.6, 4.0), 2.5),
+            f32::INFINITY
+        );
+        // Bound straight on, nothing to prepare for.
+        let mut on = Route::along(Arc::from("d"), vec![mr, dr]);
+        on.update(&net, mr);
+        assert_eq!(
+            on.prepare_cap_mps(0, 300.0, 500.0, (4.6, 4.0), 2.5),
+            f32::INFINITY
         );
     }
 

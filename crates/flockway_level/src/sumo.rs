@@ -6,8 +6,12 @@
 //! - Every junction with connections becomes a junction of the same name: its connections (in
 //!   SUMO's link-index order at a traffic light, so each phase's state reads letter for letter),
 //!   its right of way (`traffic_light` → `Signal` with the `tlLogic` program, `priority` and
-//!   `priority_stop` → `Priority` with the incoming edges of the highest priority as major,
+//!   `priority_stop` → `Priority` with the incoming edges of the highest priority as major (the
+//!   two that arrive most nearly head-on when more tie),
 //!   `right_before_left` → `RightBeforeLeft`, `allway_stop` → `AllWayStop`).
+//! - Where one edge simply goes on as another (a lane added or dropped: a motorway's
+//!   acceleration and deceleration lanes), or two lanes meet, the roads are linked rather than
+//!   joined through a junction.
 //! - Where the network is open, traffic comes and goes: a spawner on every lane of each edge
 //!   nothing leads onto, its vehicles routed to every edge that leads nowhere (the shortest way
 //!   there), and a destroyer near the end of each of those.
@@ -324,9 +328,6 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         profile: AUTONOMOUS_PROFILE.to_owned(),
         weight: 1.0,
     }];
-    for e in &edges {
-        level.roads.push(road_of(e));
-    }
 
     // The connections among car lanes, in car-lane numbers: a connection of an edge left out,
     // or of a lane cars may not use, is not one.
@@ -373,7 +374,13 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
             node,
         ));
     }
-    let connections = car_connections;
+    drop(by_id);
+    let mut connections = car_connections;
+    close_simple_nodes(&mut edges, &mut connections);
+    let by_id: BTreeMap<&str, &Edge> = edges.iter().map(|e| (e.id.as_str(), e)).collect();
+    for e in &edges {
+        level.roads.push(road_of(e));
+    }
 
     // Junctions: the connections out of each edge's end, grouped by the node it ends at. A
     // connection whose lanes continue one another (within `JOIN_GAP_M`) is a link instead.
@@ -385,7 +392,10 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         let end = from.lanes[conn.from_lane as usize].shape.last().copied();
         let start = to.lanes[conn.to_lane as usize].shape.first().copied();
         let joined = matches!((end, start), (Some(a), Some(b)) if a.distance(b) < JOIN_GAP_M);
-        if joined && conn.tl.is_none() {
+        // Joined lanes are linked even under a traffic light (a light where a road simply goes
+        // on, for a crossing the importer leaves out): a link has no signal, so that light is
+        // left out for them.
+        if joined {
             links
                 .entry((conn.from.clone(), conn.to.clone()))
                 .or_default()
@@ -414,11 +424,12 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
             .filter_map(|e| by_id.get(e).map(|e| e.priority))
             .max()
             .unwrap_or(0);
-        let major: Vec<String> = incoming
+        let tied: Vec<&Edge> = incoming
             .iter()
-            .filter(|e| by_id.get(*e).is_some_and(|e| e.priority == top))
-            .map(|e| (*e).to_owned())
+            .filter_map(|e| by_id.get(e).copied())
+            .filter(|e| e.priority == top)
             .collect();
+        let major = main_road(&tied);
         let (control, program) = match (kind, &signal) {
             (k, Some(tl)) if k.starts_with("traffic_light") => {
                 let (program, states, tl_node) = programs.get(tl).ok_or_else(|| {
@@ -560,6 +571,148 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
         ));
     }
     Ok(level)
+}
+
+/// The major road of a priority junction among the incoming edges `tied` at the highest
+/// priority: all of them when two or fewer, else the two that arrive most nearly head-on (as
+/// netconvert chooses its main road: in a grid of equal streets one street goes through, the
+/// other gives way, rather than every arm giving way to every other).
+fn main_road(tied: &[&Edge]) -> Vec<String> {
+    let heading = |e: &Edge| -> Option<DVec3> {
+        let lane = e.lanes.first()?;
+        let [.., p, q] = lane.shape.as_slice() else {
+            return None;
+        };
+        DVec3::new(q.x - p.x, q.y - p.y, 0.0).try_normalize()
+    };
+    let mut best: Option<(f64, usize, usize)> = None;
+    if tied.len() > 2 {
+        for i in 0..tied.len() {
+            for j in i + 1..tied.len() {
+                if let (Some(a), Some(b)) = (heading(tied[i]), heading(tied[j])) {
+                    // −1 for two edges that arrive head-on.
+                    let facing = a.dot(b);
+                    if best.is_none_or(|(f, ..)| facing < f) {
+                        best = Some((facing, i, j));
+                    }
+                }
+            }
+        }
+    }
+    let mut major: Vec<String> = match best {
+        Some((_, i, j)) => vec![tied[i].id.clone(), tied[j].id.clone()],
+        None => tied.iter().map(|e| e.id.clone()).collect(),
+    };
+    major.sort();
+    major
+}
+
+/// How far apart the ends of two edges one node simply joins may be, m, to be drawn as one road
+/// going on: netconvert leaves a short gap (its junction's area) where a lane is added or
+/// dropped.
+const SIMPLE_NODE_GAP_M: f64 = 30.0;
+/// How far sideways the lanes a connection at such a node joins may be, m, to continue one
+/// another.
+const SIMPLE_NODE_SIDEWAYS_M: f64 = 0.5;
+
+/// Where one edge simply goes on as another (every connection at a node from one edge onto one
+/// other: a lane added or dropped, a change of speed, a light for a crossing left out): the two are drawn to meet
+/// halfway across the gap netconvert leaves between them, so that the lanes that continue one
+/// another are linked instead of joined through a junction of short sideways jinks; a lane that
+/// only a connection sideways reached (a lane fanned out into two) is entered by a lane change
+/// instead, and that connection is left out.
+fn close_simple_nodes(edges: &mut [Edge], connections: &mut Vec<(Connection, roxmltree::Node)>) {
+    let index: BTreeMap<String, usize> = edges
+        .iter()
+        .enumerate()
+        .map(|(k, e)| (e.id.clone(), k))
+        .collect();
+    // Per node: the edges connections come from and go to there.
+    let mut nodes: BTreeMap<String, (BTreeSet<usize>, BTreeSet<usize>)> = BTreeMap::new();
+    for (c, _) in connections.iter() {
+        let (Some(&a), Some(&b)) = (index.get(&c.from), index.get(&c.to)) else {
+            continue;
+        };
+        let entry = nodes.entry(edges[a].to.clone()).or_default();
+        entry.0.insert(a);
+        entry.1.insert(b);
+    }
+    let mut dropped: BTreeSet<(usize, u32, usize, u32)> = BTreeSet::new();
+    for (from, to) in nodes.values() {
+        if from.len() != 1 || to.len() != 1 {
+            continue;
+        }
+        let (Some(&a), Some(&b)) = (from.first(), to.first()) else {
+            continue;
+        };
+        if a == b {
+            continue;
+        }
+        let pairs: Vec<(u32, u32)> = connections
+            .iter()
+            .filter(|(c, _)| index.get(&c.from) == Some(&a) && index.get(&c.to) == Some(&b))
+            .map(|(c, _)| (c.from_lane, c.to_lane))
+            .collect();
+        let aligned: Vec<((u32, u32), DVec3)> = pairs
+            .iter()
+            .filter_map(|&(la, lb)| {
+                let gap = lane_gap(&edges[a].lanes[la as usize], &edges[b].lanes[lb as usize])?;
+                Some(((la, lb), gap))
+            })
+            .collect();
+        if aligned.is_empty() {
+            continue;
+        }
+        let mean = aligned.iter().map(|(_, d)| *d).sum::<DVec3>() / aligned.len() as f64;
+        if mean.length() > 2.0 * SIMPLE_NODE_GAP_M {
+            continue;
+        }
+        if mean.length() > 0.2 {
+            let half = 0.5 * mean;
+            for lane in &mut edges[a].lanes {
+                if let Some(&end) = lane.shape.last() {
+                    lane.shape.push(end + half);
+                }
+            }
+            for lane in &mut edges[b].lanes {
+                if let Some(&start) = lane.shape.first() {
+                    lane.shape.insert(0, start - half);
+                }
+            }
+        }
+        for &(la, lb) in &pairs {
+            if !aligned.iter().any(|(p, _)| *p == (la, lb)) {
+                dropped.insert((a, la, b, lb));
+            }
+        }
+    }
+    connections.retain(|(c, _)| {
+        let (Some(&a), Some(&b)) = (index.get(&c.from), index.get(&c.to)) else {
+            return true;
+        };
+        !dropped.contains(&(a, c.from_lane, b, c.to_lane))
+    });
+}
+
+/// The gap from the end of lane `a` to the start of lane `b` when `b` goes straight on from `a`
+/// (ahead of it, within [`SIMPLE_NODE_GAP_M`], within [`SIMPLE_NODE_SIDEWAYS_M`] sideways of its
+/// line and heading within 30° of it); `None` otherwise.
+fn lane_gap(a: &Lane, b: &Lane) -> Option<DVec3> {
+    let [.., p, end] = a.shape.as_slice() else {
+        return None;
+    };
+    let [start, q, ..] = b.shape.as_slice() else {
+        return None;
+    };
+    let flat = |v: DVec3| DVec3::new(v.x, v.y, 0.0);
+    let along_a = flat(*end - *p).try_normalize()?;
+    let along_b = flat(*q - *start).try_normalize()?;
+    let gap = *start - *end;
+    let ahead = flat(gap).dot(along_a);
+    let sideways = (flat(gap) - ahead * along_a).length();
+    let straight = along_a.dot(along_b) >= 30f64.to_radians().cos();
+    (ahead > -0.5 && ahead < SIMPLE_NODE_GAP_M && sideways < SIMPLE_NODE_SIDEWAYS_M && straight)
+        .then_some(gap)
 }
 
 /// The XML element a validation issue comes from, where it can be told.
@@ -711,6 +864,36 @@ fn file_name(path: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An edge named `id` whose one lane arrives along `from` → `to`.
+    fn arriving(id: &str, from: (f64, f64), to: (f64, f64)) -> Edge {
+        Edge {
+            id: id.to_owned(),
+            from: String::new(),
+            to: "J".to_owned(),
+            priority: 1,
+            lanes: vec![Lane {
+                speed_mps: 13.9,
+                width_m: SUMO_LANE_WIDTH_M,
+                shape: vec![DVec3::new(from.0, from.1, 0.0), DVec3::new(to.0, to.1, 0.0)],
+            }],
+            lane_map: vec![Some(0)],
+        }
+    }
+
+    #[test]
+    fn of_equal_streets_the_two_that_arrive_head_on_are_the_main_road() {
+        let west = arriving("w", (-100.0, -1.6), (-7.0, -1.6));
+        let east = arriving("e", (100.0, 1.6), (7.0, 1.6));
+        let south = arriving("s", (1.6, -100.0), (1.6, -7.0));
+        let bent = arriving("n", (-30.0, 100.0), (-1.6, 7.0));
+        // A crossroads of a straight street and a bent one: the straight one goes through.
+        assert_eq!(main_road(&[&bent, &east, &south, &west]), ["e", "w"]);
+        // A tee of equal streets: the two arms that line up.
+        assert_eq!(main_road(&[&south, &east, &west]), ["e", "w"]);
+        // Two or fewer tied: all of them.
+        assert_eq!(main_road(&[&south, &east]), ["e", "s"]);
+    }
 
     #[test]
     fn sumo_signal_letters_map_onto_ours() {
