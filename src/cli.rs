@@ -46,7 +46,7 @@ pub enum Command {
     /// destroyer takes them. Never overwrites a file. Exit status: 0, or 2 if the network cannot
     /// be read (FILE:LINE:COLUMN: what was expected) or the level cannot be written.
     Import {
-        /// The SUMO network file.
+        /// The SUMO network file (`.net.xml`, or gzip-compressed `.net.xml.gz`).
         #[arg(value_name = "NET.net.xml")]
         net: PathBuf,
         /// The level file to write.

@@ -400,3 +400,44 @@ fn a_motorway_s_ramps_come_in_as_lanes_that_end_and_open_and_exits_are_taken() {
     assert!(m["vehicles_destroyed"] > 50.0, "{m:#?}");
     assert!(m["mean_speed_kmh"] > 60.0, "{m:#?}");
 }
+
+#[test]
+fn a_gzip_compressed_network_imports_as_the_plain_one_does() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plain = std::fs::read(fixture("tee.net.xml")).expect("the fixture");
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(&plain).expect("compress");
+    let packed = gz.finish().expect("compress");
+    let net = dir.path().join("tee.net.xml.gz");
+    std::fs::write(&net, &packed).expect("write");
+    let import = |net: &Path, out: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_flockway"))
+            .arg("import")
+            .arg(net)
+            .arg("-o")
+            .arg(out)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("flockway runs")
+    };
+    let (a, b) = (dir.path().join("a.ron"), dir.path().join("b.ron"));
+    assert!(import(&net, &a).status.success());
+    assert!(import(&fixture("tee.net.xml"), &b).status.success());
+    // The same level, but for the file name it says it came from.
+    let a = std::fs::read_to_string(&a).expect("a");
+    let b = std::fs::read_to_string(&b).expect("b");
+    assert_eq!(
+        a.replace("tee.net.xml.gz", "tee.net.xml")
+            .replace("\"a\"", "\"b\"")
+            .replace("// a:", "// b:"),
+        b
+    );
+    // A file cut short is an error that says what it is, not a panic.
+    let cut = dir.path().join("cut.net.xml.gz");
+    std::fs::write(&cut, &packed[..packed.len() / 2]).expect("write");
+    let out = import(&cut, &dir.path().join("c.ron"));
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("gzip-compressed"), "{err}");
+}

@@ -2,6 +2,7 @@
 
 use super::fail;
 use flockway::level::{import_sumo_net, level_to_string, write_atomic};
+use std::io::Read;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -26,7 +27,7 @@ pub fn import(net: &Path, output: &Path) -> ExitCode {
         Err(e) => return fail(format!("{}: {e}", net.display())),
         Ok(_) => {}
     }
-    let text = match std::fs::read_to_string(net) {
+    let text = match read_net(net) {
         Ok(t) => t,
         Err(e) => return fail(format!("{}: {e}", net.display())),
     };
@@ -62,4 +63,22 @@ pub fn import(net: &Path, output: &Path) -> ExitCode {
     );
     println!("run it:   flockway run {}", output.display());
     ExitCode::SUCCESS
+}
+
+/// The network's text: the file as it is, or unpacked when it is gzip-compressed (netconvert
+/// writes `.net.xml.gz` when asked for that name), at most [`MAX_NET_BYTES`] either way.
+fn read_net(net: &Path) -> Result<String, String> {
+    let bytes = std::fs::read(net).map_err(|e| e.to_string())?;
+    if !bytes.starts_with(&[0x1f, 0x8b]) {
+        return String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"));
+    }
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(bytes.as_slice())
+        .take(MAX_NET_BYTES + 1)
+        .read_to_string(&mut text)
+        .map_err(|e| format!("a gzip-compressed file that does not unpack to UTF-8 text: {e}"))?;
+    if text.len() as u64 > MAX_NET_BYTES {
+        return Err("unpacks to more than 512 MiB, too large a network".to_owned());
+    }
+    Ok(text)
 }
