@@ -22,7 +22,7 @@ use crate::models::{
     FlockDriver, FlockParams, HumanDriver, SpeedFactor, SpeedLimit, carry_lane, lane_following,
 };
 use crate::perception::{LaneIndex, LaneSignal, Seen};
-use crate::route::{LaneAsk, Route, crossing_fit_mps};
+use crate::route::{LaneAsk, Route, crossing_fit_mps, crossing_m};
 use crate::safety::SafetyParams;
 use bevy_ecs::component::Mutable;
 use bevy_ecs::prelude::*;
@@ -666,12 +666,6 @@ fn lane_claimed(
         .any(|s| s.entry.signal == -2 * dir || (dir == 1 && s.entry.signal == -dir))
 }
 
-/// Distance a car at `v` needs to be mostly (0.8) across one lane taking `cross_s` for the whole
-/// crossing, m, plus half its length.
-fn crossing_m(v: f32, cross_s: f32, length_m: f32) -> f64 {
-    f64::from(0.8 * v.max(0.0) * cross_s + 0.5 * length_m + 0.5)
-}
-
 /// While a car moves out of a lane that ends (it is still over `on_track`, its driver already
 /// follows another lane), the speed that covers the rest of that lane in the time the crossing
 /// takes, never below 3 m/s so it does not stop halfway; `INFINITY` otherwise.
@@ -713,8 +707,9 @@ fn lane_gap_accepted(
                 && v <= firm.safe_speed_mps(bumper(&l), l.entry.speed_mps)
         });
     // A follower standing still (one that stopped to let this car in, as often as not) closes
-    // on nothing: a car creeping in ahead of it needs only to be wholly ahead of it, where a moving one is owed its time gap and 2 m. Insisting on the 2 m would
-    // leave both waiting for the other for ever at a lane's end.
+    // on nothing: a car creeping in ahead of it needs only to be wholly ahead of it, where a
+    // moving one is owed its time gap and 2 m. Insisting on the 2 m would leave both waiting
+    // for the other for ever at a lane's end.
     let behind_ok = index
         .follower(track.road, lane, track.s_m, me, 200.0)
         .is_none_or(|f| {

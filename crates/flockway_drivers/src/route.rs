@@ -26,8 +26,14 @@ pub const LANE_CHANGE_LEAST_GAP: f32 = 0.5;
 /// it in, at the most.
 const PREPARE_SHARE: f64 = 0.7;
 
+/// Distance a car at `v` needs to be mostly (0.8) across one lane taking `cross_s` for the whole
+/// crossing, m, plus half its length and 0.5 m.
+pub(crate) fn crossing_m(v: f32, cross_s: f32, length_m: f32) -> f64 {
+    f64::from(0.8 * v.max(0.0) * cross_s + 0.5 * length_m + 0.5)
+}
+
 /// The fastest a vehicle of `length_m` may go to move one lane over, taking `cross_s`, within
-/// `room_m`: mostly (0.8) across at that speed, plus half its length and 0.5 m.
+/// `room_m`: the speed at which [`crossing_m`] is `room_m`.
 pub fn crossing_fit_mps(room_m: f64, length_m: f32, cross_s: f32) -> f32 {
     ((room_m - 0.5 * f64::from(length_m) - 0.5) / (0.8 * f64::from(cross_s.max(0.1)))).max(0.0)
         as f32

@@ -664,6 +664,7 @@ fn close_simple_nodes(edges: &mut [Edge], connections: &mut Vec<(Connection, rox
             continue;
         }
         let mean = aligned.iter().map(|(_, d)| *d).sum::<DVec3>() / aligned.len() as f64;
+        // `lane_gap` bounds the gap on the ground only: not across a climb this steep.
         if mean.length() > 2.0 * SIMPLE_NODE_GAP_M {
             continue;
         }
