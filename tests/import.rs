@@ -213,15 +213,23 @@ fn the_imported_crossroads_runs_without_a_collision_or_a_red_entry() {
         .expect("flockway runs");
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("never overwrites"));
-    let level = load_level(&out).expect("the written level loads");
-    let m = run(level, &out, 2, None, None);
-    assert_eq!(m["collisions"], 0.0, "{m:#?}");
-    assert_eq!(m["red_entries.C"], 0.0, "{m:#?}");
-    // The demand (a car every 8–12 s from each arm) gets through.
-    assert!(m["junction_flow_veh_per_h.C"] > 1_100.0, "{m:#?}");
-    let headway = m["discharge_headway_s.C"];
-    // Queued cars discharge at a saturation flow of 1 500–2 250 veh/h of green.
-    assert!((1.6..2.4).contains(&headway), "{m:#?}");
+    let mut headways = Vec::new();
+    for seed in [2, 3] {
+        let level = load_level(&out).expect("the written level loads");
+        let m = run(level, &out, seed, None, None);
+        assert_eq!(m["collisions"], 0.0, "seed {seed}: {m:#?}");
+        assert_eq!(m["red_entries.C"], 0.0, "seed {seed}: {m:#?}");
+        // The demand (a car every 8–12 s from each arm) gets through.
+        assert!(
+            m["junction_flow_veh_per_h.C"] > 1_100.0,
+            "seed {seed}: {m:#?}"
+        );
+        headways.push(m["discharge_headway_s.C"]);
+    }
+    // Queued cars discharge at a saturation flow of 1 500–2 250 veh/h of green: judged over two
+    // seeds, as one run's few dozen discharges scatter by a few tenths of a second.
+    let headway = headways.iter().sum::<f64>() / headways.len() as f64;
+    assert!((1.6..2.4).contains(&headway), "{headways:?}");
 }
 
 #[test]

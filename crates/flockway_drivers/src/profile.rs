@@ -194,7 +194,7 @@ impl DriverSpec {
     pub fn default_for(model: BuiltinModel) -> DriverSpec {
         match model {
             BuiltinModel::Flock => DriverSpec::Flock(FlockParams::default()),
-            BuiltinModel::FlockLanes => DriverSpec::FlockLanes(FlockParams::default()),
+            BuiltinModel::FlockLanes => DriverSpec::FlockLanes(FlockParams::lanes()),
             BuiltinModel::Human => DriverSpec::Human(HumanParams::default()),
             BuiltinModel::Idm => DriverSpec::Idm(IdmParams::default()),
             BuiltinModel::WaveDamper => DriverSpec::WaveDamper(WaveDamperParams::default()),
@@ -231,7 +231,12 @@ impl DriverSpec {
     ) -> Result<DriverSpec, DriverParamsError> {
         Ok(DriverSpec::Custom {
             name: std::sync::Arc::from(name),
-            base: load(BuiltinModel::FlockLanes, params, overrides)?,
+            base: load(
+                BuiltinModel::FlockLanes,
+                params,
+                overrides,
+                FlockParams::lanes(),
+            )?,
         })
     }
 
@@ -244,11 +249,21 @@ impl DriverSpec {
         overrides: &BTreeMap<String, f64>,
     ) -> Result<DriverSpec, DriverParamsError> {
         let spec = match model {
-            BuiltinModel::Flock => DriverSpec::Flock(load(model, params, overrides)?),
-            BuiltinModel::FlockLanes => DriverSpec::FlockLanes(load(model, params, overrides)?),
-            BuiltinModel::Human => DriverSpec::Human(load(model, params, overrides)?),
-            BuiltinModel::Idm => DriverSpec::Idm(load(model, params, overrides)?),
-            BuiltinModel::WaveDamper => DriverSpec::WaveDamper(load(model, params, overrides)?),
+            BuiltinModel::Flock => {
+                DriverSpec::Flock(load(model, params, overrides, Default::default())?)
+            }
+            BuiltinModel::FlockLanes => {
+                DriverSpec::FlockLanes(load(model, params, overrides, FlockParams::lanes())?)
+            }
+            BuiltinModel::Human => {
+                DriverSpec::Human(load(model, params, overrides, Default::default())?)
+            }
+            BuiltinModel::Idm => {
+                DriverSpec::Idm(load(model, params, overrides, Default::default())?)
+            }
+            BuiltinModel::WaveDamper => {
+                DriverSpec::WaveDamper(load(model, params, overrides, Default::default())?)
+            }
         };
         spec.safety()
             .validate()
@@ -413,31 +428,60 @@ impl DriverLabel {
     }
 }
 
+/// The model's parameters: `defaults`, with the fields `params` (a RON struct, possibly partial)
+/// gives, then `overrides`. A field a partial file leaves out takes the model's own default
+/// (which may differ from the parameter type's: the lane-keeping car keeps its lane harder).
 fn load<P: Serialize + DeserializeOwned + Default>(
     model: BuiltinModel,
     params: Option<(&str, &str)>,
     overrides: &BTreeMap<String, f64>,
+    defaults: P,
 ) -> Result<P, DriverParamsError> {
-    let base: P = match params {
-        Some((path, text)) => {
-            ron::Options::default()
-                .from_str(text)
-                .map_err(|e| DriverParamsError::Parse {
-                    path: path.to_owned(),
-                    line: e.span.start.line,
-                    column: e.span.start.col,
-                    message: e.code.to_string(),
-                })?
-        }
-        None => P::default(),
-    };
-    if overrides.is_empty() {
-        return Ok(base);
-    }
     let invalid = |message: String| DriverParamsError::Invalid {
         model: model.name(),
         message,
     };
+    let base: P = match params {
+        Some((path, text)) => {
+            let parse_error = |e: ron::error::SpannedError| DriverParamsError::Parse {
+                path: path.to_owned(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: e.code.to_string(),
+            };
+            // Parsed as the type first, so that a wrong or misspelt field is reported where it is.
+            let parsed: P = ron::Options::default()
+                .from_str(text)
+                .map_err(parse_error)?;
+            let given: ron::Value = ron::Options::default()
+                .from_str(text)
+                .map_err(parse_error)?;
+            let given_fields: Vec<String> = match &given {
+                ron::Value::Map(map) => map
+                    .keys()
+                    .filter_map(|k| match k {
+                        ron::Value::String(name) => Some(name.clone()),
+                        _ => None,
+                    })
+                    .collect(),
+                _ => Vec::new(),
+            };
+            let mut merged = serde_json::to_value(&defaults).map_err(|e| invalid(e.to_string()))?;
+            let parsed = serde_json::to_value(&parsed).map_err(|e| invalid(e.to_string()))?;
+            if let (Value::Object(merged), Value::Object(parsed)) = (&mut merged, parsed) {
+                for (name, value) in parsed {
+                    if given_fields.contains(&name) {
+                        merged.insert(name, value);
+                    }
+                }
+            }
+            serde_json::from_value(merged).map_err(|e| invalid(e.to_string()))?
+        }
+        None => defaults,
+    };
+    if overrides.is_empty() {
+        return Ok(base);
+    }
     let mut value = serde_json::to_value(&base).map_err(|e| invalid(e.to_string()))?;
     let mut known = Vec::new();
     leaf_names(&value, "", &mut known);
@@ -514,6 +558,53 @@ mod tests {
             text.contains("detection_rnage_m") && text.contains("detection_range_m"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_partial_file_takes_the_models_own_defaults_for_what_it_leaves_out() {
+        let text = "(target_speed_kmh: Some(70.0), throttle: (kp: 0.7, ki: 0.2, kd: 0.0))";
+        let DriverSpec::FlockLanes(lanes) = DriverSpec::build(
+            BuiltinModel::FlockLanes,
+            Some(("p.ron", text)),
+            &BTreeMap::new(),
+        )
+        .expect("valid") else {
+            panic!("wrong model")
+        };
+        assert_eq!(lanes.target_speed_kmh, Some(70.0));
+        assert_eq!(lanes.throttle.kp, 0.7);
+        assert_eq!(
+            lanes.road_weight_per_s,
+            FlockParams::lanes().road_weight_per_s
+        );
+        let DriverSpec::Flock(flock) =
+            DriverSpec::build(BuiltinModel::Flock, Some(("p.ron", text)), &BTreeMap::new())
+                .expect("valid")
+        else {
+            panic!("wrong model")
+        };
+        assert_eq!(
+            flock.road_weight_per_s,
+            FlockParams::default().road_weight_per_s
+        );
+        assert_ne!(lanes.road_weight_per_s, flock.road_weight_per_s);
+        let given = "(road_weight_per_s: 0.8)";
+        let DriverSpec::FlockLanes(lanes) = DriverSpec::build(
+            BuiltinModel::FlockLanes,
+            Some(("p.ron", given)),
+            &BTreeMap::new(),
+        )
+        .expect("valid") else {
+            panic!("wrong model")
+        };
+        assert_eq!(lanes.road_weight_per_s, 0.8);
+        let err = DriverSpec::build(
+            BuiltinModel::FlockLanes,
+            Some(("p.ron", "(\n  road_wieght_per_s: 0.8)")),
+            &BTreeMap::new(),
+        )
+        .expect_err("misspelt");
+        assert!(err.to_string().starts_with("p.ron:2:"), "{err}");
     }
 
     #[test]
