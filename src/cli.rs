@@ -52,6 +52,11 @@ pub enum Command {
         /// The level file to write.
         #[arg(short, long, value_name = "LEVEL.ron")]
         output: PathBuf,
+        /// SUMO demand to run on it (`.rou.xml`, plain or gzip-compressed; several separated
+        /// by commas or given again, read in order): its vehicles, trips and flows leave at
+        /// their times on their routes, in place of the spawners at the network's edges.
+        #[arg(long, value_name = "A.rou.xml[,B.rou.xml]", value_delimiter = ',')]
+        routes: Vec<PathBuf>,
     },
     /// Check that level files load and validate, without running them.
     ///

@@ -20,7 +20,11 @@ fn main() -> ExitCode {
         Command::Run(args) => commands::run::run(args),
         Command::New { level, template } => commands::new::new_level(&level, template.into()),
         Command::Check { levels } => commands::check::check(&levels),
-        Command::Import { net, output } => commands::import::import(&net, &output),
+        Command::Import {
+            net,
+            output,
+            routes,
+        } => commands::import::import(&net, &output, &routes),
         Command::Dyno { vehicle, json } => commands::dyno::dyno(vehicle.as_deref(), json),
         Command::Test {
             paths,

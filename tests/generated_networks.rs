@@ -230,3 +230,79 @@ fn a_lane_drop_is_a_link_and_runs_without_a_contact() {
         assert_eq!(m["collisions"], 0.0, "{m:#?}");
     }
 }
+
+/// The mean of SUMO's trip durations (`duration="…"` in a tripinfo file), s, and their count.
+fn sumo_trip_durations(tripinfo: &Path) -> (f64, usize) {
+    let text = std::fs::read_to_string(tripinfo).expect("SUMO's tripinfo output");
+    let durations: Vec<f64> = text
+        .split(" duration=\"")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next()?.parse().ok())
+        .collect();
+    let n = durations.len();
+    (durations.iter().sum::<f64>() / n.max(1) as f64, n)
+}
+
+/// Runs `net` with the demand `trips` in SUMO and in Flockway (imported with the demand): every
+/// vehicle arrives in both, with no contact, and the mean time on the road is SUMO's within
+/// `band` (a share of it).
+fn runs_as_in_sumo(name: &str, net: &Path, trips: &Path, band: (f64, f64)) {
+    let Some(sumo) = sumo_tool("sumo") else {
+        return;
+    };
+    let dir = scratch(name);
+    let tripinfo = dir.join("tripinfo.xml");
+    let out = Command::new(sumo)
+        .args(["--no-step-log", "--seed", "1", "-n"])
+        .arg(net)
+        .arg("-r")
+        .arg(trips)
+        .arg("--tripinfo-output")
+        .arg(&tripinfo)
+        .output()
+        .expect("sumo runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (sumo_mean, arrived) = sumo_trip_durations(&tripinfo);
+    let text = std::fs::read_to_string(net).expect("the network");
+    let demand = std::fs::read_to_string(trips).expect("the demand");
+    let (level, report) =
+        flockway::level::import_sumo(&text, net, name, &[(trips.to_owned(), demand)])
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(report.vehicles, arrived, "{name}: SUMO ran another demand");
+    let m = run(level, &dir.join(format!("{name}.ron")), 5, None, None);
+    assert_eq!(m["vehicles_destroyed"], arrived as f64, "{name}: {m:#?}");
+    assert_eq!(m["insertion_backlog"], 0.0, "{name}: {m:#?}");
+    assert_eq!(m["collisions"], 0.0, "{name}: {m:#?}");
+    let ratio = m["mean_travel_time_s"] / sumo_mean;
+    assert!(
+        (band.0..band.1).contains(&ratio),
+        "{name}: mean time on the road {:.1} s, SUMO's {sumo_mean:.1} s",
+        m["mean_travel_time_s"]
+    );
+}
+
+#[test]
+fn sumo_s_own_demand_runs_on_the_grid_as_in_sumo() {
+    // randomTrips.py's trips (seed 1, one every 3 s for 300 s) on the grid with sidewalks, and
+    // the same trips on the same grid with traffic lights instead of priority junctions.
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/sumo");
+    let trips = fixtures.join("grid_sidewalks.trips.xml");
+    runs_as_in_sumo(
+        "grid_demand",
+        &fixtures.join("grid_sidewalks.net.xml"),
+        &trips,
+        (0.9, 1.35),
+    );
+    if let Some((_, path)) = generate(
+        "netgenerate",
+        "grid_tls_demand",
+        &with(GRID, &["--tls.guess"]),
+    ) {
+        let net = path.with_extension("net.xml");
+        runs_as_in_sumo("grid_tls_demand", &net, &trips, (0.9, 1.35));
+    }
+}

@@ -868,6 +868,7 @@ impl AppState {
                     destination: None,
                     schedule: Vec::new(),
                     arrivals: Default::default(),
+                    departures: Vec::new(),
                 }));
                 let command = if setup.len() == 1 {
                     setup.remove(0)
@@ -887,6 +888,7 @@ impl AppState {
                     Command::AddDestroyer(DestroyerSpec {
                         name: n,
                         place: DestroyerPlaceSpec::OnRoad { road: name, s_m },
+                        arrivals_only: false,
                     }),
                     MarkerKind::Destroyer,
                     level.destroyers.len(),

@@ -508,6 +508,7 @@ mod tests {
             destination: None,
             schedule: Vec::new(),
             arrivals: Default::default(),
+            departures: Vec::new(),
         });
         level.destroyers.push(flockway_level::DestroyerSpec {
             name: "end".to_owned(),
@@ -515,6 +516,7 @@ mod tests {
                 road: "main".to_owned(),
                 s_m: 950.0,
             },
+            arrivals_only: false,
         });
         let (merge, rest) = join_side(&mut level, 1, "main", 400.0).expect("joins");
         assert_eq!((merge.as_str(), rest.as_str()), ("main merge", "main on"));
@@ -584,6 +586,7 @@ mod tests {
                 road: "main".to_owned(),
                 s_m: 700.0,
             },
+            arrivals_only: false,
         });
         let rest = join_exit(&mut level, 1, "main", 400.0).expect("joins");
         assert_eq!(rest, "main on");

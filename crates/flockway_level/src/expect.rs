@@ -54,6 +54,8 @@ pub enum Metric {
     VehiclesDestroyed,
     /// Mean vehicles alive per step (vehicles).
     VehiclesAliveMean,
+    /// Timetabled vehicles due that had not found room to depart at the end (vehicles).
+    InsertionBacklog,
     /// Guardrail plus vehicle-vehicle collisions (events).
     Collisions,
     /// Vehicles removed after hitting a guardrail (events).
@@ -119,7 +121,7 @@ pub enum Metric {
 
 impl Metric {
     /// Every metric, in the order the documentation lists them.
-    pub const ALL: [Metric; 36] = [
+    pub const ALL: [Metric; 37] = [
         Metric::Ticks,
         Metric::SimSeconds,
         Metric::VehicleSteps,
@@ -127,6 +129,7 @@ impl Metric {
         Metric::VehiclesSpawned,
         Metric::VehiclesDestroyed,
         Metric::VehiclesAliveMean,
+        Metric::InsertionBacklog,
         Metric::Collisions,
         Metric::CollisionsGuardrail,
         Metric::CollisionsVehicle,
@@ -196,6 +199,12 @@ impl Metric {
                 qualifier: Qualifier::None,
                 unit: "vehicles",
                 description: "vehicles removed by destroyers",
+            },
+            Metric::InsertionBacklog => MetricInfo {
+                name: "insertion_backlog",
+                qualifier: Qualifier::None,
+                unit: "vehicles",
+                description: "vehicles of a spawner's timetable that were due but had not found room to depart when the run ended (only for levels with timetables)",
             },
             Metric::VehiclesAliveMean => MetricInfo {
                 name: "vehicles_alive_mean",

@@ -12,6 +12,7 @@ mod prefab;
 mod schema;
 mod score;
 mod sumo;
+mod sumo_demand;
 mod template;
 mod validate;
 
@@ -23,12 +24,13 @@ pub use io::{
 pub use locate::{PathStep, Pos, locate};
 pub use prefab::{Prefab, RING_RADIUS_M, crossroads, roundabout};
 pub use schema::{
-    Arrivals, CURRENT_VERSION, DemandStep, DestroyerPlaceSpec, DestroyerSpec, DriverModel,
-    DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
-    SsmSpec, TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+    Arrivals, CURRENT_VERSION, DemandStep, DepartureSpec, DestroyerPlaceSpec, DestroyerSpec,
+    DriverModel, DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec,
+    SpawnerSpec, SsmSpec, TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use score::{Better, Formula, Medal, Medals, ScoreError, ScoreSpec};
 pub use sumo::{ImportError, import_sumo_net};
+pub use sumo_demand::{DemandReport, import_sumo};
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,
     reference_vehicle_types,

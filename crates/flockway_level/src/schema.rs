@@ -227,6 +227,29 @@ pub struct SpawnerSpec {
     /// How intervals are drawn from their range.
     #[serde(default, skip_serializing_if = "Arrivals::is_uniform")]
     pub arrivals: Arrivals,
+    /// A timetable: when given, the spawner makes exactly these vehicles, each when it is due
+    /// (its interval, schedule and profile shares are not used). A vehicle whose spot is not
+    /// clear waits, and those behind it wait too, as a demand file's vehicles wait to be
+    /// inserted (counted in `insertion_backlog`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub departures: Vec<DepartureSpec>,
+}
+
+/// One vehicle of a spawner's timetable.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepartureSpec {
+    /// When it is due, s from the start.
+    pub time_s: f64,
+    /// Its driver profile.
+    pub profile: String,
+    /// The name of the spawner's route it takes; `None`: one drawn by weight, as for the
+    /// spawner's other vehicles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub route: Option<String>,
+    /// Its speed when created, km/h; `None`: the spawner's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_kmh: Option<f64>,
 }
 
 /// How a spawner draws the interval before its next vehicle from a range `(min, max)`.
@@ -297,6 +320,10 @@ pub struct DestroyerSpec {
     pub name: String,
     /// Where it acts.
     pub place: DestroyerPlaceSpec,
+    /// Removes only vehicles whose route ends on its road (where a demand's routes end inside
+    /// the network, traffic going on past the same point is left alone).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub arrivals_only: bool,
 }
 
 /// What a trigger does to a vehicle entering it.
@@ -428,6 +455,10 @@ fn one_f64() -> f64 {
 fn yes() -> bool {
     true
 }
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
 fn is_true(b: &bool) -> bool {
     *b
 }

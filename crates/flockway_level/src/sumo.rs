@@ -42,6 +42,37 @@ pub struct ImportError {
     pub message: String,
 }
 
+/// A SUMO XML file (DTDs allowed), or an error at the place it stops being well-formed.
+pub(crate) fn parse_xml<'t>(
+    text: &'t str,
+    path: &Path,
+) -> Result<roxmltree::Document<'t>, ImportError> {
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..Default::default()
+    };
+    roxmltree::Document::parse_with_options(text, options).map_err(|e| {
+        let pos = e.pos();
+        ImportError {
+            path: path.to_owned(),
+            line: pos.row,
+            column: pos.col,
+            message: format!("not a well-formed XML file: {e}"),
+        }
+    })
+}
+
+/// An import error at `node` of the file `path`.
+pub(crate) fn error_at(path: &Path, node: roxmltree::Node, message: String) -> ImportError {
+    let pos = node.document().text_pos_at(node.range().start);
+    ImportError {
+        path: path.to_owned(),
+        line: pos.row,
+        column: pos.col,
+        message,
+    }
+}
+
 /// SUMO's lane width where a lane does not give one, m.
 const SUMO_LANE_WIDTH_M: f64 = 3.2;
 /// Two lanes a connection joins whose ends are closer than this, m, continue one another (a
@@ -91,28 +122,21 @@ struct Connection {
 
 /// Reads a SUMO network file into a level named `name`.
 pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, ImportError> {
-    let options = roxmltree::ParsingOptions {
-        allow_dtd: true,
-        ..Default::default()
-    };
-    let doc = roxmltree::Document::parse_with_options(text, options).map_err(|e| {
-        let pos = e.pos();
-        ImportError {
-            path: path.to_owned(),
-            line: pos.row,
-            column: pos.col,
-            message: format!("not a well-formed XML file: {e}"),
-        }
-    })?;
-    let at = |node: roxmltree::Node, message: String| {
-        let pos = doc.text_pos_at(node.range().start);
-        ImportError {
-            path: path.to_owned(),
-            line: pos.row,
-            column: pos.col,
-            message,
-        }
-    };
+    import_net(text, path, name).map(|(level, _)| level)
+}
+
+/// For each imported edge, the car lane each of SUMO's lane indices became (`None`: a lane cars
+/// may not use, left out).
+pub(crate) type LaneMaps = BTreeMap<String, Vec<Option<u32>>>;
+
+/// [`import_sumo_net`], with the lane numbering of each edge it kept.
+pub(crate) fn import_net(
+    text: &str,
+    path: &Path,
+    name: &str,
+) -> Result<(Level, LaneMaps), ImportError> {
+    let doc = parse_xml(text, path)?;
+    let at = |node: roxmltree::Node, message: String| error_at(path, node, message);
     let root = doc.root_element();
     if root.tag_name().name() != "net" {
         return Err(at(
@@ -540,6 +564,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                 destination: None,
                 schedule: Vec::new(),
                 arrivals: Default::default(),
+                departures: Vec::new(),
             });
         }
     }
@@ -551,6 +576,7 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
                 road: sink.id.clone(),
                 s_m: (length - DESTROYER_BEFORE_END_M).max(0.5 * length),
             },
+            arrivals_only: false,
         });
     }
     level.telemetry.stats_from_s = 60.0;
@@ -570,7 +596,12 @@ pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, Imp
             ),
         ));
     }
-    Ok(level)
+    let lane_maps = edges
+        .iter()
+        .filter(|e| level.road(&e.id).is_some())
+        .map(|e| (e.id.clone(), e.lane_map.clone()))
+        .collect();
+    Ok((level, lane_maps))
 }
 
 /// The major road of a priority junction among the incoming edges `tied` at the highest

@@ -91,6 +91,7 @@ impl Template {
                     destination: None,
                     schedule: Vec::new(),
                     arrivals: Default::default(),
+                    departures: Vec::new(),
                 });
                 level.destroyers.push(DestroyerSpec {
                     name: "end".to_owned(),
@@ -98,6 +99,7 @@ impl Template {
                         road: "main".to_owned(),
                         s_m: 480.0,
                     },
+                    arrivals_only: false,
                 });
                 level.telemetry.stats_from_s = 30.0;
                 level.expect = expectations(&[

@@ -555,6 +555,47 @@ impl Checker<'_> {
             }
             self.speed(p("speed_kmh"), s.speed_kmh);
             self.spawner_routes(i, s);
+            self.departures(i, s);
+        }
+    }
+
+    /// A spawner's timetable: times, profiles, its own routes and speeds that exist.
+    fn departures(&mut self, i: usize, s: &SpawnerSpec) {
+        for (k, d) in s.departures.iter().enumerate() {
+            let at = |f: &'static str| {
+                vec![
+                    Field("spawners"),
+                    Index(i),
+                    Field("departures"),
+                    Index(k),
+                    Field(f),
+                ]
+            };
+            if !finite_in(d.time_s, 0.0, 1e9) {
+                self.issue(
+                    at("time_s"),
+                    format!("time_s {}: expected a finite time ≥ 0 s", d.time_s),
+                );
+            }
+            self.profile_ref(at("profile"), &d.profile);
+            if let Some(route) = &d.route {
+                let known = s.routes.iter().any(|r| r.name == *route)
+                    || s.destination.as_ref() == Some(route);
+                if !known {
+                    let names: Vec<String> =
+                        s.routes.iter().map(|r| format!("`{}`", r.name)).collect();
+                    let list = if names.is_empty() {
+                        "the spawner has no routes".to_owned()
+                    } else {
+                        format!("its routes are {}", names.join(", "))
+                    };
+                    self.issue(
+                        at("route"),
+                        format!("`{route}` is not a route of this spawner; {list}"),
+                    );
+                }
+            }
+            self.speed(at("speed_kmh"), d.speed_kmh);
         }
     }
 
@@ -1137,6 +1178,26 @@ mod tests {
         assert_eq!(net_problems(SPLIT, routes), Vec::<String>::new());
         let level = parse_level(&net(SPLIT, routes), Path::new("t.ron")).expect("valid");
         assert!(super::warnings(&level).is_empty());
+    }
+
+    #[test]
+    fn a_timetable_names_its_spawner_s_routes_and_known_profiles() {
+        let ok = r#"spawners: [(name: "s", road: "a", interval_s: (min: 1.0, max: 1.0), profiles: [(profile: "auto", weight: 1.0)],
+            routes: [(name: "b", roads: ["a", "b"])],
+            departures: [(time_s: 0.0, profile: "auto", route: "b"), (time_s: 2.5, profile: "auto", speed_kmh: 0.0)])],"#;
+        assert_eq!(net_problems(SPLIT, ok), Vec::<String>::new());
+        let bad = r#"spawners: [(name: "s", road: "a", interval_s: (min: 1.0, max: 1.0), profiles: [(profile: "auto", weight: 1.0)],
+            routes: [(name: "b", roads: ["a", "b"])],
+            departures: [(time_s: -1.0, profile: "robot", route: "c", speed_kmh: 900.0)])],"#;
+        let problems = net_problems(SPLIT, bad).join("\n");
+        for expected in [
+            "time_s -1: expected a finite time ≥ 0 s",
+            "unknown driver profile `robot`",
+            "`c` is not a route of this spawner; its routes are `b`",
+            "speed 900 km/h",
+        ] {
+            assert!(problems.contains(expected), "{expected}: {problems}");
+        }
     }
 
     #[test]

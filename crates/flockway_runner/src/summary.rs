@@ -50,6 +50,12 @@ fn metrics_with(
     let settings = *world.resource::<TelemetrySettings>();
     put(Metric::VehiclesSpawned.key(), traffic.spawned as f64);
     put(Metric::VehiclesDestroyed.key(), traffic.destroyed as f64);
+    if level.spawners.iter().any(|s| !s.departures.is_empty()) {
+        put(
+            Metric::InsertionBacklog.key(),
+            traffic.insertion_backlog as f64,
+        );
+    }
     put(
         Metric::CollisionsGuardrail.key(),
         traffic.collisions_guardrail as f64,

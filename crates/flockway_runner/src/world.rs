@@ -6,8 +6,8 @@ use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
 use flockway_road::{Junctions, Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
-    CapacityWindows, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner, SsmThresholds,
-    TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect, spawn_driven,
+    CapacityWindows, Departure, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner,
+    SsmThresholds, TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect, spawn_driven,
 };
 use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
 use std::collections::BTreeMap;
@@ -139,12 +139,37 @@ pub fn populate(
     });
     let streams = *world.resource::<RngStreams>();
     for (i, sp) in level.spawners.iter().enumerate() {
-        let choices = sp
+        let mut choices = sp
             .profiles
             .iter()
             .map(|c| choice(&c.profile, c.weight))
             .collect::<Result<Vec<_>, _>>()?;
-        let spawner = Spawner::new(
+        let routes = spawn_routes(sp, &network).map_err(fail)?;
+        // A timetable's vehicles name their profile and route; a profile the shares leave out
+        // joins the choices with weight 0 (never drawn, only named).
+        let mut departures = Vec::with_capacity(sp.departures.len());
+        for d in &sp.departures {
+            let k = match choices.iter().position(|c| *c.profile == *d.profile) {
+                Some(k) => k,
+                None => {
+                    choices.push(choice(&d.profile, 0.0)?);
+                    choices.len() - 1
+                }
+            };
+            let route = match &d.route {
+                Some(name) => Some(routes.iter().position(|r| *r.name == **name).ok_or_else(
+                    || fail(format!("spawner `{}`: no route named `{name}`", sp.name)),
+                )?),
+                None => None,
+            };
+            departures.push(Departure {
+                tick: ticks_of(d.time_s),
+                choice: k,
+                route,
+                speed_mps: d.speed_kmh.map(|v| (v / 3.6) as f32),
+            });
+        }
+        let mut spawner = Spawner::new(
             sp.name.clone(),
             road(&sp.road)?,
             sp.lane,
@@ -156,7 +181,7 @@ pub fn populate(
             sp.max_vehicles,
             streams.stream(StableId::new(IdKind::Spawner, i as u32)),
         )
-        .with_routes(spawn_routes(sp, &network).map_err(fail)?)
+        .with_routes(routes)
         .with_schedule(
             sp.schedule
                 .iter()
@@ -170,6 +195,9 @@ pub fn populate(
                 .collect(),
         )
         .with_random_arrivals(sp.arrivals == flockway_level::Arrivals::Random);
+        if !departures.is_empty() {
+            spawner = spawner.with_timetable(departures);
+        }
         world.spawn((spawner, StableId::new(IdKind::Spawner, i as u32)));
     }
     for (i, d) in level.destroyers.iter().enumerate() {
@@ -187,6 +215,7 @@ pub fn populate(
             Destroyer {
                 name: d.name.clone(),
                 place,
+                arrivals_only: d.arrivals_only,
             },
             StableId::new(IdKind::Destroyer, i as u32),
         ));

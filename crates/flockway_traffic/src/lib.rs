@@ -18,7 +18,7 @@ pub use junctions::{
     QUEUED_MPS, SATURATED_M, measure_junctions,
 };
 pub use spawn::{
-    SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
+    Departure, SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
     spawn_driven,
 };
 pub use ssm::{

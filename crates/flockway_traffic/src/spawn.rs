@@ -7,6 +7,7 @@ use flockway_core::{EntityRng, IdKind, RngStreams, SimClock, StableId, TICKS_PER
 use flockway_drivers::{DriverLabel, DriverSpec, LaneIndex, LaneSignal, Route};
 use flockway_road::{RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{SpawnError, VehicleSpawn, VehicleType, spawn_vehicle};
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 /// A vehicle's stable number: spawn order across the run, the same on every run of a level and
@@ -53,6 +54,19 @@ pub struct SpawnRoute {
     pub weight: f64,
 }
 
+/// One vehicle of a spawner's timetable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Departure {
+    /// Tick it is due.
+    pub tick: u64,
+    /// Which of the spawner's choices it is.
+    pub choice: usize,
+    /// Which of the spawner's routes it takes; `None`: one drawn by weight.
+    pub route: Option<usize>,
+    /// Its speed when created, m/s; `None`: the spawner's.
+    pub speed_mps: Option<f32>,
+}
+
 /// Spawns a vehicle every T seconds (T uniform in an interval, from its own random stream) on a
 /// road and lane, choosing a profile by weight (and a route by weight, if it has several);
 /// waits while the spot is occupied.
@@ -89,6 +103,10 @@ pub struct Spawner {
     /// Intervals random beyond the shortest (exponential, with the range's mean) rather than
     /// uniform in the range.
     pub random_arrivals: bool,
+    /// Its timetable's vehicles not yet made, in the order due (see [`Spawner::with_timetable`]).
+    pub departures: VecDeque<Departure>,
+    /// Whether it runs a timetable (then it makes nothing else, even once the table is done).
+    pub timetabled: bool,
     next_due: Option<u64>,
     rng: EntityRng,
 }
@@ -124,6 +142,8 @@ impl Spawner {
             schedule: Vec::new(),
             waited_ticks: 0,
             random_arrivals: false,
+            departures: VecDeque::new(),
+            timetabled: false,
             next_due: None,
             rng,
         }
@@ -141,6 +161,23 @@ impl Spawner {
     pub fn with_routes(mut self, routes: Vec<SpawnRoute>) -> Spawner {
         self.routes = routes;
         self
+    }
+
+    /// Makes exactly these vehicles, each when due, in time order (those due at the same tick
+    /// in the order given); one whose spot is not clear waits, with those behind it.
+    pub fn with_timetable(mut self, mut departures: Vec<Departure>) -> Spawner {
+        departures.sort_by_key(|d| d.tick);
+        self.departures = departures.into();
+        self.timetabled = true;
+        self
+    }
+
+    /// How many of its timetable's vehicles are due by `tick` and not yet made.
+    pub fn backlog(&self, tick: u64) -> u64 {
+        self.departures
+            .iter()
+            .take_while(|d| d.tick <= tick)
+            .count() as u64
     }
 
     /// Changes its interval at these ticks: `(from tick, shortest s, longest s)`.
@@ -207,6 +244,66 @@ const INSERT_TTC_S: f64 = 1.5;
 /// Speed below which a car ahead of a spawn point counts as standing in a queue, m/s.
 const QUEUE_MPS: f32 = 5.0;
 
+/// How far back, m, along the lanes that lead onto a spawner's lane it looks for a car coming.
+const UPSTREAM_REACH_M: f64 = 60.0;
+
+/// The time gap, s, a car coming onto a spawner's road from behind must still be away from the
+/// spawn point (beyond the room the spawned car needs behind it).
+const UPSTREAM_GAP_S: f64 = 2.0;
+
+/// Whether a car on a lane leading onto `(road, lane)` (a junction's path, a linked road; up to
+/// `depth` more roads back) is coming within [`UPSTREAM_GAP_S`] of a spawn point `back_m` from
+/// the lane's start, or within `behind_m` of it: a car created there would be run into.
+fn upstream_blocked(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    (road, lane): (RoadId, u32),
+    back_m: f64,
+    behind_m: f64,
+    depth: u32,
+    near: &mut Vec<flockway_drivers::Seen>,
+) -> bool {
+    if back_m >= UPSTREAM_REACH_M {
+        return false;
+    }
+    for &(prev, prev_lane) in network.lane_prev(road, lane) {
+        let Some(g) = network.get(prev) else { continue };
+        if prev == road || g.is_closed() {
+            continue;
+        }
+        let length = g.length_m();
+        near.clear();
+        index.within(
+            prev,
+            prev_lane,
+            length,
+            UPSTREAM_REACH_M - back_m,
+            0.0,
+            None,
+            near,
+        );
+        let coming = near.iter().any(|n| {
+            let distance = back_m + (length - n.entry.s_m);
+            distance < behind_m + UPSTREAM_GAP_S * f64::from(n.entry.speed_mps.max(0.0))
+        });
+        if coming
+            || (depth > 0
+                && upstream_blocked(
+                    network,
+                    index,
+                    (prev, prev_lane),
+                    back_m + length,
+                    behind_m,
+                    depth - 1,
+                    near,
+                ))
+        {
+            return true;
+        }
+    }
+    false
+}
+
 /// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
 /// end of the system, in spawner order) and draws its next interval; otherwise it waits.
 pub fn run_spawners(
@@ -214,12 +311,20 @@ pub fn run_spawners(
     index: Res<LaneIndex>,
     network: Res<RoadNetwork>,
     mut spawners: Query<&mut Spawner>,
+    mut stats: ResMut<TrafficStats>,
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
     for mut sp in &mut spawners {
         if !sp.active || sp.max_vehicles.is_some_and(|m| sp.spawned >= m) || sp.choices.is_empty() {
             continue;
+        }
+        let timetabled = sp.timetabled.then(|| sp.departures.front().cloned());
+        if let Some(next) = &timetabled {
+            match next {
+                Some(d) if d.tick <= tick && d.choice < sp.choices.len() => {}
+                _ => continue,
+            }
         }
         // Random arrivals have no memory: when the demand steps, the wait still drawn at the
         // old rate is drawn again at the new one (else a long wait drawn at a low demand would
@@ -232,24 +337,31 @@ pub fn run_spawners(
             let redrawn = tick + sp.draw_interval_ticks(tick);
             sp.next_due = Some(redrawn);
         }
-        let due = match sp.next_due {
-            Some(t) => t,
+        let departure = timetabled.flatten();
+        let (choice, speed_mps) = match &departure {
+            Some(d) => (d.choice, d.speed_mps.or(sp.speed_mps)),
             None => {
-                let first = tick + sp.draw_interval_ticks(tick);
-                sp.next_due = Some(first);
-                first
+                let due = match sp.next_due {
+                    Some(t) => t,
+                    None => {
+                        let first = tick + sp.draw_interval_ticks(tick);
+                        sp.next_due = Some(first);
+                        first
+                    }
+                };
+                if tick < due {
+                    continue;
+                }
+                let weights: Vec<f64> = sp.choices.iter().map(|c| c.weight).collect();
+                let Some(choice) = sp.rng.weighted_index(&weights) else {
+                    continue;
+                };
+                (choice, sp.speed_mps)
             }
-        };
-        if tick < due {
-            continue;
-        }
-        let weights: Vec<f64> = sp.choices.iter().map(|c| c.weight).collect();
-        let Some(choice) = sp.rng.weighted_index(&weights) else {
-            continue;
         };
         let length = f64::from(sp.choices[choice].vehicle.params.chassis.length_m);
         let mut near = Vec::new();
-        let speed_guess = f64::from(sp.speed_mps.unwrap_or(0.0));
+        let speed_guess = f64::from(speed_mps.unwrap_or(0.0));
         let behind = length + SPAWN_CLEARANCE_M;
         // Ahead, also a short time gap at the spawn speed: a car appearing right behind a
         // slower one would have no room to brake.
@@ -259,6 +371,19 @@ pub fn run_spawners(
             sp.waited_ticks += 1;
             continue;
         }
+        if upstream_blocked(
+            &network,
+            &index,
+            (sp.road, sp.lane),
+            sp.s_m,
+            behind,
+            2,
+            &mut near,
+        ) {
+            sp.waited_ticks += 1;
+            continue;
+        }
+        near.clear();
         let Some(geometry) = network.get(sp.road) else {
             continue;
         };
@@ -285,9 +410,7 @@ pub fn run_spawners(
             sp.waited_ticks += 1;
             continue;
         }
-        let wanted = sp
-            .speed_mps
-            .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
+        let wanted = speed_mps.unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
         // Behind a queue (a car ahead at 5 m/s or less), never faster than it
         // can brake from, firmly, to that car's speed before it reaches it: a spawner feeding a
         // queue would otherwise launch cars into it. A spawner with no speed of its own starts
@@ -301,7 +424,7 @@ pub fn run_spawners(
         index.within(sp.road, sp.lane, sp.s_m, 0.0, reach, None, &mut near);
         let c = sp.choices[choice].clone();
         let envelope =
-            (sp.speed_mps.is_none() || c.driver.rear_weight() <= 0.0).then(|| *c.driver.safety());
+            (speed_mps.is_none() || c.driver.rear_weight() <= 0.0).then(|| *c.driver.safety());
         let speed = near
             .iter()
             .filter(|n| n.gap_m > 0.0)
@@ -325,9 +448,10 @@ pub fn run_spawners(
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
         // A route is drawn only when there is a choice, so a spawner's stream stays as it was
         // for levels without routes.
-        let route = match sp.routes.len() {
-            0 => None,
-            1 => Some(0),
+        let route = match (departure.as_ref().and_then(|d| d.route), sp.routes.len()) {
+            (Some(k), n) if k < n => Some(k),
+            (_, 0) => None,
+            (_, 1) => Some(0),
             _ => {
                 let weights: Vec<f64> = sp.routes.iter().map(|r| r.weight).collect();
                 sp.rng.weighted_index(&weights)
@@ -348,9 +472,20 @@ pub fn run_spawners(
             }
         });
         sp.spawned += 1;
-        let next = tick + sp.draw_interval_ticks(tick);
-        sp.next_due = Some(next);
+        if departure.is_some() {
+            sp.departures.pop_front();
+        } else {
+            let next = tick + sp.draw_interval_ticks(tick);
+            sp.next_due = Some(next);
+        }
     }
+    let backlog: u64 = spawners
+        .iter()
+        .filter(|sp| sp.active)
+        .map(|sp| sp.backlog(tick))
+        .sum();
+    stats.insertion_backlog = backlog;
+    stats.insertion_backlog_max = stats.insertion_backlog_max.max(backlog);
 }
 
 /// Spawns a driven vehicle: the body, its driver (a human draws its desired speed from the

@@ -3,7 +3,7 @@
 use crate::stats::{TelemetrySettings, TrafficStats};
 use bevy_ecs::prelude::*;
 use flockway_core::{SimClock, TICKS_PER_SECOND};
-use flockway_drivers::{DriverLabel, RoadSurface, SpeedLimit, SurfaceStretch};
+use flockway_drivers::{DriverLabel, RoadSurface, Route, SpeedLimit, SurfaceStretch};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
@@ -34,6 +34,8 @@ pub struct Destroyer {
     pub name: String,
     /// Where.
     pub place: DestroyerPlace,
+    /// Removes only vehicles whose route ends on the road it is on.
+    pub arrivals_only: bool,
 }
 
 /// When a vehicle appeared and where it was last tick (to see it pass a point).
@@ -231,6 +233,7 @@ type DestroyerView = (
     &'static mut Travel,
     Option<&'static DriverLabel>,
     Option<&'static SpeedLimit>,
+    Option<&'static Route>,
 );
 
 /// Removes vehicles that pass a destroyer's point or are inside its volume, recording their
@@ -246,10 +249,12 @@ pub fn run_destroyers(
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
-    for (entity, track, motion, mut travel, label, limit) in &mut vehicles {
+    for (entity, track, motion, mut travel, label, limit, route) in &mut vehicles {
         let passed = destroyers.iter().find(|d| match d.place {
             DestroyerPlace::OnRoad { road, s_m } => {
-                if track.road != road {
+                if track.road != road
+                    || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
+                {
                     return false;
                 }
                 let Some(g) = network.get(road) else {
