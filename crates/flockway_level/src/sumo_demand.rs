@@ -191,7 +191,7 @@ pub(crate) fn apply_demand(
     let used: BTreeSet<&str> = trips.iter().map(|t| t.vtype.as_str()).collect();
     level.driver_profiles = used
         .iter()
-        .map(|id| profile(id, &vtypes[*id], &mut report.warnings))
+        .filter_map(|id| Some(profile(id, vtypes.get(*id)?, &mut report.warnings)))
         .collect();
     // Spawners: one per edge, lane and position departures use.
     let mut spawners: BTreeMap<(String, u32, u64), SpawnerSpec> = BTreeMap::new();
@@ -206,7 +206,11 @@ pub(crate) fn apply_demand(
         })
         .collect();
     for trip in &trips {
-        let mut roads = routes[&trip.route].as_slice();
+        // Every trip's route was read (and checked against the level) before it was made.
+        let Some(route) = routes.get(&trip.route) else {
+            continue;
+        };
+        let mut roads = route.as_slice();
         // A stub of an edge (a joined cluster leaves some under a metre long) has no room for a
         // car: such a route starts on the next edge.
         while roads.len() > 1
@@ -217,10 +221,12 @@ pub(crate) fn apply_demand(
             roads = &roads[1..];
         }
         let roads = roads.to_vec();
-        let first = &roads[0];
-        let road = level
-            .road(first)
-            .expect("routes are checked against the level");
+        let (Some(first), Some(last)) = (roads.first(), roads.last()) else {
+            continue;
+        };
+        let Some(road) = level.road(first) else {
+            continue;
+        };
         let lanes = road.lanes;
         let lane = match trip.lane {
             DepartLane::Index(k) => k.min(lanes.saturating_sub(1)),
@@ -280,7 +286,6 @@ pub(crate) fn apply_demand(
             route: Some(trip.route.clone()),
             speed_kmh: trip.speed_kmh,
         });
-        let last = roads.last().expect("a route has an edge");
         if !sinks.contains(last) {
             arrivals.insert(last.clone());
         }
@@ -571,8 +576,32 @@ impl Reader<'_> {
         }
         let mut times = Vec::new();
         let first = rates.first().copied();
+        let one_rate = rates.len() == 1 || number.is_some();
+        let exp_rate = node
+            .attribute("period")
+            .and_then(|t| t.trim().strip_prefix("exp(")?.strip_suffix(')'));
         match first {
-            Some("vehsPerHour") | Some("period") if rates.len() == 1 || number.is_some() => {
+            Some("period") if one_rate && exp_rate.is_some() => {
+                let text = exp_rate.unwrap_or_default();
+                let rate: f64 = text
+                    .trim()
+                    .parse()
+                    .ok()
+                    .filter(|r: &f64| *r > 0.0)
+                    .ok_or_else(|| {
+                        format!("flow `{id}`: `period` exp(rate) needs a rate > 0, found {text:?}")
+                    })?;
+                // Poisson arrivals: exponential gaps with mean 1 / rate.
+                let mut t = begin;
+                loop {
+                    t += -libm::log(1.0 - uniform(&mut self.rng)) / rate;
+                    if t >= end || number.is_some_and(|n| times.len() as f64 >= n) {
+                        break;
+                    }
+                    times.push(t);
+                }
+            }
+            Some("vehsPerHour") | Some("period") if one_rate => {
                 let period = if first == Some("vehsPerHour") {
                     let vph = number_attr("vehsPerHour")?.unwrap_or(0.0);
                     if vph <= 0.0 {
@@ -580,38 +609,17 @@ impl Reader<'_> {
                     }
                     3600.0 / vph
                 } else {
-                    let text = node.attribute("period").unwrap_or_default();
-                    if let Some(rate) = text.strip_prefix("exp(").and_then(|r| r.strip_suffix(')'))
-                    {
-                        let rate: f64 = rate.trim().parse().ok().filter(|r: &f64| *r > 0.0).ok_or_else(|| {
-                            format!("flow `{id}`: `period` exp(rate) needs a rate > 0, found {text:?}")
-                        })?;
-                        // Poisson arrivals: exponential gaps with mean 1 / rate.
-                        let mut t = begin;
-                        loop {
-                            let u = uniform(&mut self.rng);
-                            t += -libm::log(1.0 - u) / rate;
-                            if t >= end || number.is_some_and(|n| times.len() as f64 >= n) {
-                                break;
-                            }
-                            times.push(t);
-                        }
-                        0.0
-                    } else {
-                        number_attr("period")?
-                            .filter(|p| *p > 0.0)
-                            .ok_or_else(|| format!("flow `{id}`: `period` must be > 0"))?
-                    }
+                    number_attr("period")?
+                        .filter(|p| *p > 0.0)
+                        .ok_or_else(|| format!("flow `{id}`: `period` must be > 0"))?
                 };
-                if period > 0.0 {
-                    let mut k = 0.0;
-                    while begin + k * period < end && number.is_none_or(|n| k < n) {
-                        times.push(begin + k * period);
-                        k += 1.0;
-                    }
+                let mut k = 0.0;
+                while begin + k * period < end && number.is_none_or(|n| k < n) {
+                    times.push(begin + k * period);
+                    k += 1.0;
                 }
             }
-            Some("probability") if rates.len() == 1 || number.is_some() => {
+            Some("probability") if one_rate => {
                 let p = number_attr("probability")?.unwrap_or(0.0);
                 if !(0.0..=1.0).contains(&p) {
                     return Err(format!("flow `{id}`: `probability` must be from 0 to 1"));
@@ -665,7 +673,9 @@ impl Reader<'_> {
         vtype: String,
         route: String,
     ) -> Result<Trip, String> {
-        let first = self.routes[&route][0].clone();
+        let Some(first) = self.routes.get(&route).and_then(|r| r.first()).cloned() else {
+            return Err(format!("unknown route `{route}`"));
+        };
         let lane = match node.attribute("departLane") {
             None | Some("first") => DepartLane::First,
             Some("best" | "free" | "allowed" | "best_prob" | "first_allowed") => DepartLane::Best,
@@ -728,24 +738,18 @@ fn need<'a>(node: roxmltree::Node<'a, '_>, key: &str) -> Result<&'a str, String>
 
 /// A SUMO time: seconds, or `h:m:s` / `d:h:m:s`.
 fn time(text: &str) -> Option<f64> {
-    let text = text.trim();
-    let value = if text.contains(':') {
-        text.split(':')
-            .map(|p| p.parse::<f64>().ok())
-            .try_fold(0.0, |acc, p| Some(acc * 60.0 + p?))
-            .map(|s| {
-                // d:h:m:s — the first field counts days.
-                if text.matches(':').count() == 3 {
-                    let parts: Vec<f64> = text.split(':').filter_map(|p| p.parse().ok()).collect();
-                    parts[0] * 86_400.0 + parts[1] * 3_600.0 + parts[2] * 60.0 + parts[3]
-                } else {
-                    s
-                }
-            })
-    } else {
-        text.parse().ok()
+    let parts: Vec<f64> = text
+        .trim()
+        .split(':')
+        .map(|p| p.parse().ok())
+        .collect::<Option<_>>()?;
+    let value = match parts.as_slice() {
+        [s] => *s,
+        [h, m, s] => h * 3_600.0 + m * 60.0 + s,
+        [d, h, m, s] => d * 86_400.0 + h * 3_600.0 + m * 60.0 + s,
+        _ => return None,
     };
-    value.filter(|v: &f64| v.is_finite() && *v >= 0.0)
+    (value.is_finite() && value >= 0.0).then_some(value)
 }
 
 /// A `speedFactor`: the mean and, for a distribution, the deviation and bounds.
@@ -941,6 +945,7 @@ mod tests {
         assert_eq!(time("1:00:00:10"), Some(86_410.0));
         assert_eq!(time("-1"), None);
         assert_eq!(time("soon"), None);
+        assert_eq!(time("1:00"), None);
     }
 
     #[test]

@@ -481,11 +481,10 @@ pub fn run_spawners(
     }
     let backlog: u64 = spawners
         .iter()
-        .filter(|sp| sp.active)
+        .filter(|sp| sp.active && sp.timetabled)
         .map(|sp| sp.backlog(tick))
         .sum();
     stats.insertion_backlog = backlog;
-    stats.insertion_backlog_max = stats.insertion_backlog_max.max(backlog);
 }
 
 /// Spawns a driven vehicle: the body, its driver (a human draws its desired speed from the

@@ -108,8 +108,6 @@ pub struct TrafficStats {
     pub final_at_limit_by_profile: BTreeMap<String, LimitShare>,
     /// Timetabled vehicles now due that have not yet found room to depart.
     pub insertion_backlog: u64,
-    /// The most there were at once.
-    pub insertion_backlog_max: u64,
 }
 
 /// Sum and count of vehicles' delays, s.
