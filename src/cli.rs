@@ -58,6 +58,48 @@ pub enum Command {
         #[arg(long, value_name = "A.rou.xml[,B.rou.xml]", value_delimiter = ',')]
         routes: Vec<PathBuf>,
     },
+    /// Run a level and the SUMO scenario it was imported from side by side, and compare them:
+    /// vehicles departed and arrived, mean travel time, trip speed and time lost, per route
+    /// (departure edge → arrival edge), per fringe edge, and each edge's vehicle count by the GEH
+    /// statistic.
+    ///
+    /// Both run for the same simulated time with the same seed. SUMO is `--sumo-bin`,
+    /// `$SUMO_HOME/bin/sumo` or `sumo` on the PATH (`python3 -m pip install eclipse-sumo`).
+    /// Exit status: 0 if the scenario matches (departed and arrived within 5 %, mean travel time
+    /// within 25 %, GEH < 5 on at least 85 % of edge counts), 1 if not, 2 if an input is invalid
+    /// or SUMO fails.
+    Compare {
+        /// The level (as `flockway import NET --routes ROUTES` wrote it).
+        #[arg(value_name = "LEVEL.ron")]
+        level: PathBuf,
+        /// The SUMO configuration to run (its network, demand and options).
+        #[arg(long, value_name = "SCENARIO.sumocfg", required_unless_present = "net", conflicts_with_all = ["net", "routes"])]
+        sumo: Option<PathBuf>,
+        /// The SUMO network to run (with --routes), instead of a configuration.
+        #[arg(long, value_name = "NET.net.xml", requires = "routes")]
+        net: Option<PathBuf>,
+        /// The demand to run on --net (several separated by commas or given again).
+        #[arg(
+            long,
+            value_name = "A.rou.xml[,B.rou.xml]",
+            value_delimiter = ',',
+            requires = "net"
+        )]
+        routes: Vec<PathBuf>,
+        /// Simulated seconds to run both for (default: the level's duration).
+        #[arg(long, value_name = "S")]
+        seconds: Option<f64>,
+        /// Seed for both (default: the level's).
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+        /// SUMO's `sumo` program, or the directory it is in.
+        #[arg(long, value_name = "PATH")]
+        sumo_bin: Option<PathBuf>,
+        /// Print one JSON object (keys seconds, totals, routes, fringe, edges, geh_match_share,
+        /// verdict) instead of tables.
+        #[arg(long)]
+        json: bool,
+    },
     /// Check that level files load and validate, without running them.
     ///
     /// Prints each problem as FILE:LINE:COLUMN: message. Exit status: 0 if all are valid, 2 if not.

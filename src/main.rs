@@ -25,6 +25,34 @@ fn main() -> ExitCode {
             output,
             routes,
         } => commands::import::import(&net, &output, &routes),
+        Command::Compare {
+            level,
+            sumo,
+            net,
+            routes,
+            seconds,
+            seed,
+            sumo_bin,
+            json,
+        } => {
+            let scenario = match (sumo, net) {
+                (Some(cfg), _) => commands::compare::Scenario::Config(cfg),
+                (None, Some(net)) => commands::compare::Scenario::NetRoutes(net, routes),
+                (None, None) => {
+                    return commands::fail(
+                        "give the SUMO scenario: --sumo SCENARIO.sumocfg, or --net NET.net.xml --routes A.rou.xml",
+                    );
+                }
+            };
+            commands::compare::compare_with_sumo(&commands::compare::CompareArgs {
+                level,
+                scenario,
+                seconds,
+                seed,
+                sumo_bin,
+                json,
+            })
+        }
         Command::Dyno { vehicle, json } => commands::dyno::dyno(vehicle.as_deref(), json),
         Command::Test {
             paths,

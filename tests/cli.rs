@@ -81,6 +81,38 @@ fn missing_files_and_bad_arguments_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     let out = flockway(&["check"]);
     assert_eq!(out.status.code(), Some(2));
+    // compare: a missing level, a missing network, no SUMO where it is said to be.
+    let net = "tests/fixtures/sumo/cross.net.xml";
+    let routes = "tests/fixtures/sumo/cross.rou.xml";
+    let out = flockway(&["compare", "no_such.ron", "--net", net, "--routes", routes]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no_such.ron"));
+    let level = "levels/sumo_grid_demand.ron";
+    let out = flockway(&[
+        "compare",
+        level,
+        "--net",
+        "none.net.xml",
+        "--routes",
+        routes,
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("none.net.xml: no such file"));
+    let out = flockway(&[
+        "compare",
+        level,
+        "--net",
+        net,
+        "--routes",
+        routes,
+        "--sumo-bin",
+        "/no/sumo/here",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("eclipse-sumo"), "{stderr}");
+    let out = flockway(&["compare", level]);
+    assert_eq!(out.status.code(), Some(2), "neither --sumo nor --net");
 }
 
 #[test]

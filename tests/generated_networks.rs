@@ -231,57 +231,81 @@ fn a_lane_drop_is_a_link_and_runs_without_a_contact() {
     }
 }
 
-/// The mean of SUMO's trip durations (`duration="…"` in a tripinfo file), s, and their count.
-fn sumo_trip_durations(tripinfo: &Path) -> (f64, usize) {
-    let text = std::fs::read_to_string(tripinfo).expect("SUMO's tripinfo output");
-    let durations: Vec<f64> = text
-        .split(" duration=\"")
-        .skip(1)
-        .filter_map(|rest| rest.split('"').next()?.parse().ok())
-        .collect();
-    let n = durations.len();
-    (durations.iter().sum::<f64>() / n.max(1) as f64, n)
+/// `flockway` with `args`, from the repository's root.
+fn flockway(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the flockway binary runs")
 }
 
-/// Runs `net` with the demand `trips` in SUMO and in Flockway (imported with the demand): every
-/// vehicle arrives in both, with no contact, and the mean time on the road is SUMO's within
-/// `band` (a share of it).
-fn runs_as_in_sumo(name: &str, net: &Path, trips: &Path, band: (f64, f64)) {
+/// Imports `net` with the demand `trips` as a user would (`flockway import --routes`), then runs
+/// it side by side with SUMO (`flockway compare --json`): every vehicle departs and arrives in
+/// both, with no contact, the mean travel time is SUMO's within `band` (a share of it) and the
+/// edge counts match SUMO's by GEH on at least `geh_share` of the edges.
+fn runs_as_in_sumo(name: &str, net: &Path, trips: &Path, band: (f64, f64), geh_share: f64) {
     let Some(sumo) = sumo_tool("sumo") else {
         return;
     };
     let dir = scratch(name);
-    let tripinfo = dir.join("tripinfo.xml");
-    let out = Command::new(sumo)
-        .args(["--no-step-log", "--seed", "1", "-n"])
-        .arg(net)
-        .arg("-r")
-        .arg(trips)
-        .arg("--tripinfo-output")
-        .arg(&tripinfo)
-        .output()
-        .expect("sumo runs");
+    let level = dir.join(format!("{name}.ron"));
+    let _ = std::fs::remove_file(&level);
+    let os = |p: &Path| p.as_os_str().to_owned();
+    let out = flockway(&[
+        "import".as_ref(),
+        net.as_os_str(),
+        "--routes".as_ref(),
+        trips.as_os_str(),
+        "-o".as_ref(),
+        level.as_os_str(),
+    ]);
     assert!(
         out.status.success(),
-        "{}",
+        "{name}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (sumo_mean, arrived) = sumo_trip_durations(&tripinfo);
-    let text = std::fs::read_to_string(net).expect("the network");
-    let demand = std::fs::read_to_string(trips).expect("the demand");
-    let (level, report) =
-        flockway::level::import_sumo(&text, net, name, &[(trips.to_owned(), demand)])
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert_eq!(report.vehicles, arrived, "{name}: SUMO ran another demand");
-    let m = run(level, &dir.join(format!("{name}.ron")), 5, None, None);
-    assert_eq!(m["vehicles_destroyed"], arrived as f64, "{name}: {m:#?}");
-    assert_eq!(m["insertion_backlog"], 0.0, "{name}: {m:#?}");
-    assert_eq!(m["collisions"], 0.0, "{name}: {m:#?}");
-    let ratio = m["mean_travel_time_s"] / sumo_mean;
+    let sumo = os(&sumo);
+    let out = flockway(&[
+        "compare".as_ref(),
+        level.as_os_str(),
+        "--net".as_ref(),
+        net.as_os_str(),
+        "--routes".as_ref(),
+        trips.as_os_str(),
+        "--sumo-bin".as_ref(),
+        &sumo,
+        "--json".as_ref(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(matches!(out.status.code(), Some(0 | 1)), "{name}: {stderr}");
+    let c: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("{name}: compare --json: {e}: {stderr}"));
+    let (s, f) = (&c["totals"]["sumo"], &c["totals"]["flockway"]);
+    assert!(s["arrived"].as_u64() > Some(0), "{name}: {c:#}");
+    for key in ["departed", "arrived"] {
+        assert_eq!(s[key], f[key], "{name}: {key}: {c:#}");
+    }
+    assert_eq!(
+        s["arrived"], s["departed"],
+        "{name}: SUMO left some on the roads"
+    );
+    assert_eq!(f["waiting"], 0, "{name}: {c:#}");
+    assert_eq!(f["collisions"], 0, "{name}: {c:#}");
+    let ratio = f["mean_travel_time_s"].as_f64().expect("a mean")
+        / s["mean_travel_time_s"].as_f64().expect("SUMO's mean");
     assert!(
         (band.0..band.1).contains(&ratio),
-        "{name}: mean time on the road {:.1} s, SUMO's {sumo_mean:.1} s",
-        m["mean_travel_time_s"]
+        "{name}: mean travel time {} s, SUMO's {} s",
+        f["mean_travel_time_s"],
+        s["mean_travel_time_s"]
+    );
+    let share = c["geh_match_share"].as_f64().expect("a share");
+    assert!(share >= geh_share, "{name}: GEH < 5 on {share}: {c:#}");
+    assert_eq!(
+        out.status.code() == Some(0),
+        c["verdict"]["all"] == true,
+        "{name}: the exit status says the verdict"
     );
 }
 
@@ -296,6 +320,7 @@ fn sumo_s_own_demand_runs_on_the_grid_as_in_sumo() {
         &fixtures.join("grid_sidewalks.net.xml"),
         &trips,
         (0.9, 1.35),
+        0.85,
     );
     if let Some((_, path)) = generate(
         "netgenerate",
@@ -303,6 +328,6 @@ fn sumo_s_own_demand_runs_on_the_grid_as_in_sumo() {
         &with(GRID, &["--tls.guess"]),
     ) {
         let net = path.with_extension("net.xml");
-        runs_as_in_sumo("grid_tls_demand", &net, &trips, (0.9, 1.35));
+        runs_as_in_sumo("grid_tls_demand", &net, &trips, (0.9, 1.35), 0.85);
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod analysis;
 pub mod check;
+pub mod compare;
 pub mod dyno;
 pub mod import;
 pub mod new;

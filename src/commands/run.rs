@@ -29,6 +29,7 @@ pub fn run(args: RunArgs) -> ExitCode {
             .map(|dir| (dir, PlotFormat::from(args.plot_format))),
         external: false,
         drivers: args.drivers.iter().cloned().collect(),
+        trips: false,
     };
     let score = level.score.clone();
     let mut runner = match Runner::new(level, &name, &options) {

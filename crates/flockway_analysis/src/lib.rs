@@ -6,6 +6,7 @@
 //! ([`Column`], [`TelemetryRow`], written with [`TelemetryWriter`], read by [`Trace`]; any CSV
 //! with the [`REQUIRED_COLUMNS`] can be analysed) and the run summary JSON ([`Summary`]).
 
+pub mod compare;
 mod plot;
 mod report;
 mod summary;
@@ -88,6 +89,14 @@ pub enum AnalysisError {
         /// The file being drawn.
         path: PathBuf,
         /// What went wrong.
+        message: String,
+    },
+    /// A SUMO output file does not read as one.
+    #[error("{}: {message}", path.display())]
+    Sumo {
+        /// The file.
+        path: PathBuf,
+        /// Where and what is wrong.
         message: String,
     },
     /// The summary JSON given to a report is not one `flockway run --summary` writes.

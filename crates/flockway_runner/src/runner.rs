@@ -4,12 +4,13 @@
 use crate::assets::{DriverProfiles, VehicleTypes, find_assets_dir, load_vehicle_types};
 use crate::summary::measure;
 use crate::world::{build_sim, populate};
+use flockway_analysis::compare::{EdgeCounts, ScenarioRun, Trip};
 use flockway_analysis::{PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
 use flockway_core::{Sim, TICKS_PER_SECOND};
 use flockway_drivers::BuiltinModel;
 use flockway_level::{Level, LevelError};
 use flockway_road::{RoadId, RoadNetwork, RoadNetworkError};
-use flockway_traffic::{Conflicts, SsmThresholds, TelemetrySamples};
+use flockway_traffic::{Conflicts, SsmThresholds, TelemetrySamples, TrafficStats, TripLog};
 use flockway_vehicle::VehicleParamsError;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -98,6 +99,9 @@ pub struct RunOptions {
     /// file, the default one, and no `set` overrides): how a challenge's custom profile is run
     /// with a built-in driver, whose score is the bar to beat.
     pub drivers: BTreeMap<String, BuiltinModel>,
+    /// Keep every vehicle's trip and every road's counts ([`Runner::scenario_run`]): what a
+    /// comparison with SUMO reads.
+    pub trips: bool,
 }
 
 /// Gives each profile named in `drivers` — by its name, or by its custom model's name (every
@@ -238,6 +242,9 @@ impl Runner {
             .clone()
             .unwrap_or_else(|| find_assets_dir(None));
         let mut sim = build_sim(&level, seed)?;
+        if options.trips {
+            sim.world_mut().insert_resource(TripLog::default());
+        }
         if options.external {
             sim.add_plugin(flockway_drivers::ExternalPlugin);
         }
@@ -305,6 +312,54 @@ impl Runner {
             plots: options.plots.clone(),
             trace: Trace::new(),
             stepping: Duration::ZERO,
+        })
+    }
+
+    /// What the run measured so far as a scenario to compare with another tool's: vehicles
+    /// departed, waiting and running, contacts, every finished trip and the counts of every road
+    /// of the level (not the junctions' inner paths), by road name. `None` unless the run keeps trips ([`RunOptions::trips`]).
+    pub fn scenario_run(&mut self) -> Option<ScenarioRun> {
+        let world = self.sim.world_mut();
+        let running = world
+            .query::<&flockway_traffic::VehicleId>()
+            .iter(world)
+            .count() as u64;
+        let log = world.get_resource::<TripLog>()?;
+        let network = world.resource::<RoadNetwork>();
+        let stats = world.resource::<TrafficStats>();
+        let name = |road: RoadId| network.get(road).map_or("?", |g| g.name()).to_owned();
+        Some(ScenarioRun {
+            departed: stats.spawned,
+            waiting: stats.insertion_backlog,
+            running,
+            collisions: stats.collisions_vehicle,
+            teleports: None,
+            trips: log
+                .trips
+                .iter()
+                .map(|t| Trip {
+                    depart_s: t.depart_s,
+                    depart_edge: name(t.depart_road),
+                    arrival_s: t.arrival_s,
+                    arrival_edge: name(t.arrival_road),
+                    length_m: t.length_m,
+                    time_loss_s: t.time_loss_s,
+                })
+                .collect(),
+            // Roads as the level has them: a junction's inner paths are not edges.
+            edges: log
+                .roads
+                .iter()
+                .filter(|(road, _)| network.junction_path(**road).is_none())
+                .map(|(&road, c)| {
+                    let counts = EdgeCounts {
+                        departed: c.departed,
+                        entered: c.entered,
+                        arrived: c.arrived,
+                    };
+                    (name(road), counts)
+                })
+                .collect(),
         })
     }
 

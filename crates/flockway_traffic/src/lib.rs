@@ -11,6 +11,7 @@ mod junctions;
 mod spawn;
 mod ssm;
 mod stats;
+mod trips;
 mod zones;
 
 pub use junctions::{
@@ -29,6 +30,7 @@ pub use stats::{
     AT_LIMIT_SHARE, DelayStats, LimitShare, SpeedStats, TelemetrySample, TelemetrySamples,
     TelemetrySettings, TrafficStats, sample_telemetry,
 };
+pub use trips::{RoadCounts, TripLog, TripRecord};
 pub use zones::{
     Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,
     run_destroyers, sync_road_surface,

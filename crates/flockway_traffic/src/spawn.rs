@@ -1,6 +1,7 @@
 //! Spawners and the vehicles they create.
 
 use crate::stats::TrafficStats;
+use crate::trips::TripLog;
 use crate::zones::Travel;
 use bevy_ecs::prelude::*;
 use flockway_core::{EntityRng, IdKind, RngStreams, SimClock, StableId, TICKS_PER_SECOND};
@@ -514,11 +515,16 @@ pub fn spawn_driven(
             road,
             s_m,
             free_flow_s: 0.0,
+            depart_road: road,
+            length_m: 0.0,
         },
         Route::follow_road(road),
         LaneSignal::default(),
     ));
     world.resource_mut::<TrafficStats>().spawned += 1;
+    if let Some(mut log) = world.get_resource_mut::<TripLog>() {
+        log.departed(road);
+    }
     Ok(entity)
 }
 

@@ -1,12 +1,15 @@
 //! Places on the roads that act on vehicles: destroyers and triggers, and collision accounting.
 
+use crate::VehicleId;
 use crate::stats::{TelemetrySettings, TrafficStats};
+use crate::trips::{TripLog, TripRecord};
 use bevy_ecs::prelude::*;
 use flockway_core::{SimClock, TICKS_PER_SECOND};
 use flockway_drivers::{DriverLabel, RoadSurface, Route, SpeedLimit, SurfaceStretch};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
+use std::sync::Arc;
 
 /// Where a destroyer acts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,6 +52,10 @@ pub struct Travel {
     pub s_m: f64,
     /// Time the distance it drove so far takes at the speed limits in force, s.
     pub free_flow_s: f64,
+    /// The road it was created on.
+    pub depart_road: RoadId,
+    /// The distance it drove so far along the roads, m.
+    pub length_m: f64,
 }
 
 /// What a trigger does to vehicles in it.
@@ -234,11 +241,13 @@ type DestroyerView = (
     Option<&'static DriverLabel>,
     Option<&'static SpeedLimit>,
     Option<&'static Route>,
+    Option<&'static VehicleId>,
 );
 
 /// Removes vehicles that pass a destroyer's point or are inside its volume, recording their
-/// travel time and the destroyer's count (after the warm-up). Updates every vehicle's
-/// [`Travel`] position.
+/// travel time and the destroyer's count (after the warm-up), and their trips in the
+/// [`TripLog`] when the run keeps one. Updates every vehicle's [`Travel`] position.
+#[allow(clippy::too_many_arguments)] // a system: each argument is a resource or query it reads
 pub fn run_destroyers(
     clock: Res<SimClock>,
     settings: Res<TelemetrySettings>,
@@ -246,10 +255,11 @@ pub fn run_destroyers(
     destroyers: Query<&Destroyer>,
     mut vehicles: Query<DestroyerView>,
     mut stats: ResMut<TrafficStats>,
+    mut trips: Option<ResMut<TripLog>>,
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
-    for (entity, track, motion, mut travel, label, limit, route) in &mut vehicles {
+    for (entity, track, motion, mut travel, label, limit, route, id) in &mut vehicles {
         let passed = destroyers.iter().find(|d| match d.place {
             DestroyerPlace::OnRoad { road, s_m } => {
                 if track.road != road
@@ -277,6 +287,28 @@ pub fn run_destroyers(
         });
         if let Some(d) = passed {
             stats.destroyed += 1;
+            if let Some(log) = trips.as_deref_mut() {
+                let moved = if travel.road == track.road {
+                    network
+                        .get(track.road)
+                        .map_or(0.0, |g| g.delta_s(travel.s_m, track.s_m).max(0.0))
+                } else {
+                    0.0
+                };
+                let depart_s = travel.spawned_tick as f64 / f64::from(TICKS_PER_SECOND);
+                let arrival_s = tick as f64 / f64::from(TICKS_PER_SECOND);
+                log.arrived(TripRecord {
+                    vehicle: id.map_or(u32::MAX, |v| v.0),
+                    profile: label.map_or_else(|| Arc::from(""), |l| l.profile.clone()),
+                    route: route.map_or_else(|| Arc::from(""), |r| r.name.clone()),
+                    depart_s,
+                    depart_road: travel.depart_road,
+                    arrival_s,
+                    arrival_road: track.road,
+                    length_m: travel.length_m + moved,
+                    time_loss_s: (arrival_s - depart_s - travel.free_flow_s).max(0.0),
+                });
+            }
             if tick >= settings.stats_from_tick {
                 *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
                 let time_s = (tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND);
@@ -324,6 +356,14 @@ pub fn run_destroyers(
             let limit_mps = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh)) / 3.6;
             if moved > 0.0 && limit_mps > 0.0 {
                 travel.free_flow_s += moved / limit_mps;
+            }
+            if moved > 0.0 {
+                travel.length_m += moved;
+            }
+            if travel.road != track.road
+                && let Some(log) = trips.as_deref_mut()
+            {
+                log.entered(track.road);
             }
             travel.road = track.road;
             travel.s_m = track.s_m;
