@@ -325,9 +325,33 @@ fn sumo_s_own_demand_runs_on_the_grid_as_in_sumo() {
     if let Some((_, path)) = generate(
         "netgenerate",
         "grid_tls_demand",
-        &with(GRID, &["--tls.guess"]),
+        &with(GRID, &["-j", "traffic_light"]),
     ) {
         let net = path.with_extension("net.xml");
         runs_as_in_sumo("grid_tls_demand", &net, &trips, (0.9, 1.35), 0.85);
     }
+}
+
+#[test]
+fn a_roundabout_and_a_motorway_with_ramps_run_as_in_sumo() {
+    // Flows from every arm to every other exit of a roundabout netconvert built
+    // (`--roundabouts.guess`, the ring the major road).
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/sumo");
+    runs_as_in_sumo(
+        "roundabout_demand",
+        &fixtures.join("roundabout.net.xml"),
+        &fixtures.join("roundabout.rou.xml"),
+        (0.95, 1.25),
+        0.85,
+    );
+    // A motorway with an on- and an off-ramp (`--ramps.guess`): every vehicle through, but
+    // 1.6 times SUMO's travel time, the motorway in single file through the junctions at the
+    // ramps (see docs/import.md); the band fails when that is fixed, to be narrowed then.
+    runs_as_in_sumo(
+        "ramps_demand",
+        &fixtures.join("ramps.net.xml"),
+        &fixtures.join("ramps.rou.xml"),
+        (1.4, 1.8),
+        0.85,
+    );
 }

@@ -648,7 +648,8 @@ fn expected_arrival_s(to_line_m: f64, inside_m: f64, speed_mps: f32, through_mps
 /// conflict inside (front bumper, on its road).
 fn held_stop(network: &RoadNetwork, track: &RoadTrack, a: &Approach) -> f64 {
     if !a.inside {
-        return network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M;
+        let back = network.junctions()[a.junction].paths[a.path].hold_back_m;
+        return network.get(track.road).map_or(0.0, |g| g.length_m()) - STOP_LINE_MARGIN_M - back;
     }
     network.junctions()[a.junction].paths[a.path]
         .conflicts
@@ -793,7 +794,9 @@ fn decide_at_line(
     } else {
         None
     };
-    let stopped_now = a.speed_mps < STOPPED_MPS && a.to_line_m < AT_LINE_M;
+    // At the line: as near it as it waits (short of it where another lane's path passes close).
+    let at_line = a.to_line_m - path.hold_back_m < AT_LINE_M;
+    let stopped_now = a.speed_mps < STOPPED_MPS && at_line;
     let stopped_tick = stopped_tick.or(stopped_now.then_some(tick));
     // Let go by the deadlock rule: it goes, the others wait for it.
     let released = gate.released && gate.path == path_road;
@@ -930,11 +933,11 @@ fn decide_at_line(
         states.is_some(),
         tick,
     );
-    let deadlock = deadlock && a.to_line_m < AT_LINE_M;
+    let deadlock = deadlock && at_line;
     (
         JunctionGate {
             stop_at_m: if hold && !deadlock {
-                Some(line)
+                Some(line - path.hold_back_m)
             } else {
                 inside_stop.map(|stop| line + STOP_LINE_MARGIN_M + stop)
             },

@@ -242,7 +242,8 @@ impl Sample {
     }
 }
 
-/// The first and last centre positions along `a` at which a car there touches path `b`.
+/// The first and last centre positions along `a` at which a car there touches path `b` (a
+/// car's positions: negative ones are short of the path's start).
 fn touching(a: &[Sample], b: &[Sample]) -> Option<(f64, f64)> {
     let first = a.iter().find(|x| x.touches(b))?;
     let last = a.iter().rev().find(|x| x.touches(b))?;
@@ -270,7 +271,8 @@ pub struct Conflict {
     pub merge: bool,
     /// Where along this path the conflict starts: the first position of a car's centre at
     /// which its body ([`BODY_LENGTH_M`] × [`BODY_WIDTH_M`]) comes within
-    /// [`CONFLICT_CLEARANCE_M`] of a car on the other path, m.
+    /// [`CONFLICT_CLEARANCE_M`] of a car on the other path, m (negative where a car whose
+    /// front is over the line, its centre still short of the path, already comes that close).
     pub at_m: f64,
     /// Where along the other path it starts, the same way, m.
     pub other_at_m: f64,
@@ -301,7 +303,14 @@ pub struct JunctionPath {
     /// overlap (a car's centre short of where its body clears the other), m: a car there is
     /// in front of a car on either.
     pub siblings: Vec<(usize, f64)>,
+    /// How far before the line a car waiting to enter stops its front bumper so that its body
+    /// keeps clear of the other lanes' paths, m: 0 except where a path from another lane passes
+    /// close by the end of this one's lane (a tight corner where two lanes meet).
+    pub hold_back_m: f64,
 }
+
+/// The farthest a car waits back from its line to keep clear of other paths, m.
+pub const MAX_HOLD_BACK_M: f64 = 8.0;
 
 /// A junction with its paths built and their conflicts found.
 #[derive(Debug, Clone)]
@@ -512,6 +521,7 @@ impl Junction {
                 heading_in,
                 conflicts: Vec::new(),
                 siblings: Vec::new(),
+                hold_back_m: 0.0,
             });
         }
         check_control(spec)?;
@@ -542,6 +552,45 @@ impl Junction {
                 Err(_) => Vec::new(),
             })
             .collect();
+        // A car waiting at the line, its centre half a body before the path's start (and any
+        // farther back, along the lane's end): the first place where it touches no path from
+        // another lane.
+        for i in 0..self.paths.len() {
+            let Some(start) = samples[i].first().map(|x| x.pos) else {
+                continue;
+            };
+            let heading = self.paths[i].heading_in;
+            let foes: Vec<&[Sample]> = (0..self.paths.len())
+                .filter(|&j| self.paths[j].from != self.paths[i].from)
+                .map(|j| samples[j].as_slice())
+                .collect();
+            let mut back = 0.0;
+            while back < MAX_HOLD_BACK_M {
+                let s = -0.5 * BODY_LENGTH_M - back;
+                let waiting = Sample::new(s, start + heading * s, heading);
+                if !foes.iter().any(|b| waiting.touches(b)) {
+                    break;
+                }
+                back += SAMPLE_M;
+            }
+            self.paths[i].hold_back_m = back;
+        }
+        // Where a car's body is: from half over the line (its centre half a body before the
+        // path's start, along its lane's end) to the path's end.
+        let bodies: Vec<Vec<Sample>> = (0..self.paths.len())
+            .map(|i| {
+                let Some(first) = samples[i].first() else {
+                    return Vec::new();
+                };
+                let heading = self.paths[i].heading_in;
+                let n = (0.5 * BODY_LENGTH_M / SAMPLE_M).ceil() as usize;
+                let lead_in = (1..=n).rev().map(|k| {
+                    let s = -(k as f64) * SAMPLE_M;
+                    Sample::new(s, first.pos + heading * s, heading)
+                });
+                lead_in.chain(samples[i].iter().copied()).collect()
+            })
+            .collect();
         for i in 0..self.paths.len() {
             for j in 0..self.paths.len() {
                 if i == j {
@@ -559,8 +608,8 @@ impl Junction {
                     continue;
                 }
                 let merge = self.paths[i].to == self.paths[j].to;
-                let here = touching(a, b);
-                let there = touching(b, a);
+                let here = touching(&bodies[i], b);
+                let there = touching(&bodies[j], a);
                 let conflict = match (here, there) {
                     // Merging: a car a body and a gap past where the two meet is ahead of
                     // whoever comes along the other path, which follows it from then on.
