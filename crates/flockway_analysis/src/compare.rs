@@ -347,19 +347,19 @@ pub fn compare(sumo: &ScenarioRun, flockway: &ScenarioRun, seconds: f64) -> Comp
         flockway: Totals::of(flockway),
     };
     let mut routes: BTreeMap<(String, String), Pair<Vec<f64>>> = BTreeMap::new();
-    for (side, run) in [(0, sumo), (1, flockway)] {
+    for (is_sumo, run) in [(true, sumo), (false, flockway)] {
         for t in &run.trips {
             let key = (t.depart_edge.clone(), t.arrival_edge.clone());
-            let entry = routes.entry(key).or_insert_with(|| Pair {
+            let times = routes.entry(key).or_insert_with(|| Pair {
                 sumo: Vec::new(),
                 flockway: Vec::new(),
             });
-            let list = if side == 0 {
-                &mut entry.sumo
+            let side = if is_sumo {
+                &mut times.sumo
             } else {
-                &mut entry.flockway
+                &mut times.flockway
             };
-            list.push(t.duration_s());
+            side.push(t.duration_s());
         }
     }
     let mut routes: Vec<RouteRow> = routes

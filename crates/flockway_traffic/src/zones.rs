@@ -58,6 +58,33 @@ pub struct Travel {
     pub length_m: f64,
 }
 
+impl Travel {
+    /// Its time on the road at `tick`, s.
+    pub fn time_s(&self, tick: u64) -> f64 {
+        (tick - self.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND)
+    }
+
+    /// Its delay at `tick`: time on the road above the free-flow time, s.
+    pub fn delay_s(&self, tick: u64) -> f64 {
+        (self.time_s(tick) - self.free_flow_s).max(0.0)
+    }
+
+    /// How far it moved since last tick along the roads, to `track` (across a road's end onto
+    /// the next road too), m.
+    fn moved_m(&self, network: &RoadNetwork, track: &RoadTrack) -> f64 {
+        if self.road == track.road {
+            network
+                .get(track.road)
+                .map_or(0.0, |g| g.delta_s(self.s_m, track.s_m))
+        } else {
+            network
+                .get(self.road)
+                .map_or(0.0, |g| (g.length_m() - self.s_m).max(0.0))
+                + track.s_m
+        }
+    }
+}
+
 /// What a trigger does to vehicles in it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TriggerEffect {
@@ -288,32 +315,23 @@ pub fn run_destroyers(
         if let Some(d) = passed {
             stats.destroyed += 1;
             if let Some(log) = trips.as_deref_mut() {
-                let moved = if travel.road == track.road {
-                    network
-                        .get(track.road)
-                        .map_or(0.0, |g| g.delta_s(travel.s_m, track.s_m).max(0.0))
-                } else {
-                    0.0
-                };
-                let depart_s = travel.spawned_tick as f64 / f64::from(TICKS_PER_SECOND);
-                let arrival_s = tick as f64 / f64::from(TICKS_PER_SECOND);
+                let seconds = |t: u64| t as f64 / f64::from(TICKS_PER_SECOND);
                 log.arrived(TripRecord {
                     vehicle: id.map_or(u32::MAX, |v| v.0),
                     profile: label.map_or_else(|| Arc::from(""), |l| l.profile.clone()),
                     route: route.map_or_else(|| Arc::from(""), |r| r.name.clone()),
-                    depart_s,
+                    depart_s: seconds(travel.spawned_tick),
                     depart_road: travel.depart_road,
-                    arrival_s,
+                    arrival_s: seconds(tick),
                     arrival_road: track.road,
-                    length_m: travel.length_m + moved,
-                    time_loss_s: (arrival_s - depart_s - travel.free_flow_s).max(0.0),
+                    length_m: travel.length_m + travel.moved_m(&network, track).max(0.0),
+                    time_loss_s: travel.delay_s(tick),
                 });
             }
             if tick >= settings.stats_from_tick {
                 *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
-                let time_s = (tick - travel.spawned_tick) as f64 / f64::from(TICKS_PER_SECOND);
-                stats.travel_times_s.push(time_s);
-                let delay_s = (time_s - travel.free_flow_s).max(0.0);
+                stats.travel_times_s.push(travel.time_s(tick));
+                let delay_s = travel.delay_s(tick);
                 stats.delay.add(delay_s);
                 if let Some(l) = label {
                     stats
@@ -343,16 +361,7 @@ pub fn run_destroyers(
         } else {
             // The distance driven since last tick, at the limit in force, adds to the free-flow
             // time.
-            let moved = if travel.road == track.road {
-                network
-                    .get(track.road)
-                    .map_or(0.0, |g| g.delta_s(travel.s_m, track.s_m))
-            } else {
-                network
-                    .get(travel.road)
-                    .map_or(0.0, |g| (g.length_m() - travel.s_m).max(0.0))
-                    + track.s_m
-            };
+            let moved = travel.moved_m(&network, track);
             let limit_mps = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh)) / 3.6;
             if moved > 0.0 && limit_mps > 0.0 {
                 travel.free_flow_s += moved / limit_mps;
