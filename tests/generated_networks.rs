@@ -1,10 +1,11 @@
 //! Networks nobody here wrote, made as the tests run by SUMO's own `netgenerate` and `netconvert`
 //! (from the Python registry's `eclipse-sumo`, which `scripts/test` installs; they are found in
 //! the directory `FLOCKWAY_SUMO_BIN` names, else on `PATH`): grids, spiders and random networks
-//! of three seeds, each with and without traffic lights, a grid with sidewalks and pedestrian
-//! crossings, random junctions joined into clusters, a motorway with ramps and a lane drop. Each
-//! imports into a valid level that builds and, run with a seed nobody tuned for, spawns vehicles
-//! that reach its exits. Without the tools every test here says so on stderr and passes.
+//! of three seeds, each with and without traffic lights (the grid's actuated), a grid with
+//! sidewalks and pedestrian crossings, random junctions joined into clusters, a motorway with
+//! ramps and a lane drop. Each imports into a valid level that builds and, run with a seed nobody
+//! tuned for, spawns vehicles that reach its exits. Without the tools every test here says so on
+//! stderr and passes.
 
 #[allow(dead_code, reason = "shared with the tests that run shipped levels")]
 mod common;
@@ -119,12 +120,38 @@ fn a_grid_of_priority_junctions_carries_traffic() {
     }
 }
 
+/// netgenerate's actuated programs (fixed-time ones run side by side with SUMO below): imported
+/// by the command as a user would, they run as their fixed-time default with a warning that
+/// says so.
 #[test]
-fn a_grid_of_traffic_lights_carries_traffic() {
-    let args = with(GRID, &["-j", "traffic_light"]);
-    if let Some(net) = generate("netgenerate", "grid_tls", &args) {
-        carries_traffic("grid_tls", net, 11, 120.0);
-    }
+fn a_grid_of_actuated_traffic_lights_carries_traffic_and_the_import_says_how() {
+    let args = with(
+        GRID,
+        &["-j", "traffic_light", "--tls.default-type", "actuated"],
+    );
+    let Some((level, path)) = generate("netgenerate", "grid_tls", &args) else {
+        return;
+    };
+    assert!(level.junctions.iter().any(|j| j.signal.is_some()));
+    let dir = scratch("grid_tls");
+    let out_level = dir.join("grid_tls_cli.ron");
+    let _ = std::fs::remove_file(&out_level);
+    let out = flockway(&[
+        "import".as_ref(),
+        dir.join("grid_tls.net.xml").as_os_str(),
+        "-o".as_ref(),
+        out_level.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert_eq!(
+        stderr
+            .matches("traffic lights with `actuated` programs run here as fixed-time programs")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    carries_traffic("grid_tls", (level, path), 11, 120.0);
 }
 
 #[test]

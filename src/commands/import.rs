@@ -101,14 +101,15 @@ fn read_input(path: &Path, kind: &str) -> Result<String, String> {
 }
 
 /// The network's text: the file as it is, or unpacked when it is gzip-compressed (netconvert
-/// writes `.net.xml.gz` when asked for that name), at most [`MAX_NET_BYTES`] either way.
+/// writes `.net.xml.gz` when asked for that name; netedit writes several gzip members one after
+/// another, all read), at most [`MAX_NET_BYTES`] either way.
 fn read_net(net: &Path) -> Result<String, String> {
     let bytes = std::fs::read(net).map_err(|e| e.to_string())?;
     if !bytes.starts_with(&[0x1f, 0x8b]) {
         return String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"));
     }
     let mut text = String::new();
-    flate2::read::GzDecoder::new(bytes.as_slice())
+    flate2::read::MultiGzDecoder::new(bytes.as_slice())
         .take(MAX_NET_BYTES + 1)
         .read_to_string(&mut text)
         .map_err(|e| format!("a gzip-compressed file that does not unpack to UTF-8 text: {e}"))?;

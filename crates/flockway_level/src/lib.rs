@@ -12,7 +12,6 @@ mod prefab;
 mod schema;
 mod score;
 mod sumo;
-mod sumo_demand;
 mod template;
 mod validate;
 
@@ -29,8 +28,7 @@ pub use schema::{
     SpawnerSpec, SsmSpec, TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use score::{Better, Formula, Medal, Medals, ScoreError, ScoreSpec};
-pub use sumo::{ImportError, import_sumo_net};
-pub use sumo_demand::{DemandReport, import_sumo};
+pub use sumo::{DemandReport, ImportError, import_sumo, import_sumo_net};
 pub use template::{
     AUTONOMOUS_PROFILE, HUMAN_PROFILE, Template, mixed_shares, reference_profiles,
     reference_vehicle_types,

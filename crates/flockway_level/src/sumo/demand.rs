@@ -9,11 +9,11 @@
 //! `departLane`, `departPos`, `departSpeed`), `trip` (the same with `from`/`to`/`via`) and `flow`
 //! (`begin`, `end`, and one of `vehsPerHour`, `period`, `probability`, `number`).
 
+use super::{ImportError, LaneMaps, error_at, parse_xml};
 use crate::schema::{
     DepartureSpec, DestroyerPlaceSpec, DestroyerSpec, DriverModel, DriverProfileSpec, Level,
     ProfileShare, Range, RouteSpec, SpawnerSpec,
 };
-use crate::sumo::{ImportError, LaneMaps, error_at, parse_xml};
 use rand_chacha::ChaCha8Rng;
 use rand_core::{Rng, SeedableRng};
 use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
@@ -43,14 +43,15 @@ const LONGEST_S: f64 = 86_400.0;
 /// How far before the end of the edge a route ends on a vehicle arrives, m.
 const ARRIVE_BEFORE_END_M: f64 = 2.0;
 
-/// What the demand added, for the command to report.
+/// What an import did, for the command to report: what the demand added, and what the level
+/// does not do as SUMO would (the network's warnings first, then the demand's).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DemandReport {
     /// Vehicles in the timetables.
     pub vehicles: usize,
     /// Vehicles left out, by vehicle class (classes the sedan does not stand for).
     pub skipped: BTreeMap<String, usize>,
-    /// Things read but not modelled as SUMO would (each once).
+    /// Things read but not modelled as SUMO would (each once): the network's, then the demand's.
     pub warnings: Vec<String>,
 }
 
@@ -107,11 +108,16 @@ pub fn import_sumo(
     name: &str,
     routes: &[(PathBuf, String)],
 ) -> Result<(Level, DemandReport), ImportError> {
-    let (mut level, lane_maps) = crate::sumo::import_net(net, net_path, name)?;
+    let (mut level, lane_maps, net_warnings) = super::import_net(net, net_path, name)?;
     if routes.is_empty() {
-        return Ok((level, DemandReport::default()));
+        let report = DemandReport {
+            warnings: net_warnings,
+            ..DemandReport::default()
+        };
+        return Ok((level, report));
     }
-    let report = apply_demand(&mut level, &lane_maps, routes)?;
+    let mut report = apply_demand(&mut level, &lane_maps, routes)?;
+    report.warnings.splice(0..0, net_warnings);
     let names: Vec<String> = routes
         .iter()
         .map(|(p, _)| {

@@ -1,0 +1,614 @@
+//! The level made from the network Flockway drives: a road per edge, links where lanes continue
+//! one another, a junction per node with its right of way and signal program, and traffic where
+//! the network is open.
+
+use super::net::{At, Connection, Edge, Junction, Net, Program, signal_letter};
+use super::network::{Fringe, main_road};
+use super::{ImportError, LaneMaps};
+use crate::expect::Expectation;
+use crate::schema::{
+    DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec,
+};
+use crate::template::{AUTONOMOUS_PROFILE, reference_profiles, reference_vehicle_types};
+use flockway_road::{ConnectionSpec, Control, JunctionSpec, LinkSpec, RoadSpec, SignalProgram};
+use glam::DVec3;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// Two lanes a connection joins whose ends are closer than this, m, continue one another (a
+/// simple join, a lane added or dropped along a road): the roads are linked, not a junction.
+const JOIN_GAP_M: f64 = 1.0;
+/// Seconds between vehicles a spawner of an imported network draws from, per lane.
+const SPAWN_INTERVAL_S: Range = Range {
+    min: 8.0,
+    max: 12.0,
+};
+/// How far along its edge a spawner stands, m (half way along an edge shorter than twice this).
+const SPAWN_AT_M: f64 = 5.0;
+/// The time gap the imported level's autonomous cars keep, s (city traffic, queues at lights).
+const AUTONOMOUS_TIME_GAP_S: f64 = 1.8;
+/// How far before the end of an exit edge its destroyer stands, m.
+const DESTROYER_BEFORE_END_M: f64 = 10.0;
+/// Simulated time an imported level runs for, s.
+const DURATION_S: f64 = 600.0;
+
+/// The level named `name` for the network `net` as read from `path`, with the connections among
+/// its car lanes `connections` (after the network is made drivable); validated, an invalid one
+/// being an error at the element it came from.
+pub(super) fn level(
+    net: &Net,
+    connections: &[Connection],
+    path: &Path,
+    name: &str,
+) -> Result<(Level, LaneMaps), ImportError> {
+    let mut level = Level::new(1, DURATION_S);
+    level.name = name.to_owned();
+    level.description = format!("Imported from the SUMO network {}.", super::file_name(path));
+    level.vehicle_types = reference_vehicle_types();
+    level.driver_profiles = reference_profiles();
+    // The autonomous cars, keeping a time gap (the human-like profile is there to assign; its
+    // reaction delay makes rear-end contacts in queues at lights).
+    for p in &mut level.driver_profiles {
+        if p.model == crate::DriverModel::FlockLanes {
+            p.set.insert("time_gap_s".to_owned(), AUTONOMOUS_TIME_GAP_S);
+        }
+    }
+    level.roads = net.edges.iter().map(road_of).collect();
+
+    let by_id: BTreeMap<&str, &Edge> = net.edges.iter().map(|e| (e.id.as_str(), e)).collect();
+    let (links, at_node) = links_and_junctions(&by_id, connections);
+    for ((from, to), lanes) in links {
+        if let Some(road) = level.roads.iter_mut().find(|r| r.name == from) {
+            road.links.push(LinkSpec { to, lanes });
+        }
+    }
+    for (node, conns) in at_node {
+        level
+            .junctions
+            .push(junction(node, conns, &by_id, net, path)?);
+    }
+
+    let fringe = Fringe::of(&net.edges, connections);
+    if fringe.sources.is_empty() {
+        return Err(net.at.error(
+            path,
+            "the network has no entry: every edge is reached from another, so no traffic can \
+             come in; give it fringe edges (netgenerate `--grid.attach-length 100` or \
+             `--spider.attach-length 100`, or a road that starts at a dead end)"
+                .to_owned(),
+        ));
+    }
+    add_traffic(&mut level, &fringe);
+    level.telemetry.stats_from_s = 60.0;
+    level.expect = ["collisions == 0", "vehicles_spawned > 0"]
+        .iter()
+        .filter_map(|t| Expectation::parse(t).ok())
+        .collect();
+    if let Some(issue) = crate::validate(&level).first() {
+        let at = issue_at(issue, &level, net).unwrap_or(net.at);
+        return Err(at.error(
+            path,
+            format!(
+                "the network does not make a valid level: {}: {}",
+                issue.subject(&level),
+                issue.message
+            ),
+        ));
+    }
+    let lane_maps = net
+        .edges
+        .iter()
+        .filter(|e| level.road(&e.id).is_some())
+        .map(|e| (e.id.clone(), e.lane_map.clone()))
+        .collect();
+    Ok((level, lane_maps))
+}
+
+/// Lane pairs to link per (from, to) edge pair, and the connections of each junction by the
+/// node they cross: a connection whose lanes continue one another (within [`JOIN_GAP_M`]) is a
+/// link, the rest are grouped by the node their edge ends at.
+#[allow(clippy::type_complexity)]
+fn links_and_junctions<'c>(
+    by_id: &BTreeMap<&str, &Edge>,
+    connections: &'c [Connection],
+) -> (
+    BTreeMap<(String, String), Vec<(u32, u32)>>,
+    BTreeMap<String, Vec<&'c Connection>>,
+) {
+    let mut links: BTreeMap<(String, String), Vec<(u32, u32)>> = BTreeMap::new();
+    let mut at_node: BTreeMap<String, Vec<&Connection>> = BTreeMap::new();
+    for conn in connections {
+        let (from, to) = (by_id[conn.from.as_str()], by_id[conn.to.as_str()]);
+        let end = from.lanes[conn.from_lane as usize].shape.last().copied();
+        let start = to.lanes[conn.to_lane as usize].shape.first().copied();
+        let joined = matches!((end, start), (Some(a), Some(b)) if a.distance(b) < JOIN_GAP_M);
+        // Joined lanes are linked even under a traffic light (a light where a road simply goes
+        // on, for a crossing the importer leaves out): a link has no signal, so that light is
+        // left out for them.
+        if joined {
+            links
+                .entry((conn.from.clone(), conn.to.clone()))
+                .or_default()
+                .push((conn.from_lane, conn.to_lane));
+        } else {
+            at_node.entry(from.to.clone()).or_default().push(conn);
+        }
+    }
+    (links, at_node)
+}
+
+/// The junction at the node `node` with the connections `conns` across it: its control from the
+/// SUMO junction's type, at a traffic light its program with a letter per connection.
+fn junction(
+    node: String,
+    mut conns: Vec<&Connection>,
+    by_id: &BTreeMap<&str, &Edge>,
+    net: &Net,
+    path: &Path,
+) -> Result<JunctionSpec, ImportError> {
+    let kind = net
+        .junctions
+        .get(&node)
+        .map_or("priority", |j| j.kind.as_str());
+    let signal = conns.iter().find_map(|c| c.tl.clone());
+    // At a traffic light, the connections in link-index order (the phases' letters).
+    if signal.is_some() {
+        conns.sort_by_key(|c| c.link_index.unwrap_or(usize::MAX));
+    }
+    let incoming: BTreeSet<&str> = conns.iter().map(|c| c.from.as_str()).collect();
+    let top = incoming
+        .iter()
+        .filter_map(|e| by_id.get(e).map(|e| e.priority))
+        .max()
+        .unwrap_or(0);
+    let tied: Vec<&Edge> = incoming
+        .iter()
+        .filter_map(|e| by_id.get(e).copied())
+        .filter(|e| e.priority == top)
+        .collect();
+    let major = main_road(&tied);
+    let (control, program) = match (kind, &signal) {
+        (k, Some(tl)) if k.starts_with("traffic_light") => {
+            let program = net.programs.get(tl).ok_or_else(|| {
+                conns[0].at.error(
+                    path,
+                    format!("connection under traffic light `{tl}`, which has no <tlLogic>"),
+                )
+            })?;
+            (
+                Control::Signal,
+                Some(signal_program(tl, program, &conns, path)?),
+            )
+        }
+        ("right_before_left" | "left_before_right", _) => (Control::RightBeforeLeft, None),
+        ("allway_stop", _) => (Control::AllWayStop, None),
+        ("priority_stop", _) => (Control::Priority { major, stop: true }, None),
+        _ => (Control::Priority { major, stop: false }, None),
+    };
+    Ok(JunctionSpec {
+        name: node,
+        control,
+        connections: conns
+            .iter()
+            .map(|c| ConnectionSpec {
+                from: c.from.clone(),
+                from_lane: c.from_lane,
+                to: c.to.clone(),
+                to_lane: c.to_lane,
+            })
+            .collect(),
+        signal: program,
+    })
+}
+
+/// The traffic light `tl`'s program for a junction whose connections are `conns` (in
+/// link-index order): each phase's state a letter per connection, read at its link index.
+fn signal_program(
+    tl: &str,
+    sumo: &Program,
+    conns: &[&Connection],
+    path: &Path,
+) -> Result<SignalProgram, ImportError> {
+    let mut program = sumo.program.clone();
+    for (phase, states) in program.phases.iter_mut().zip(&sumo.states) {
+        let letters: Vec<char> = states.chars().collect();
+        let mut state = String::with_capacity(conns.len());
+        for c in conns {
+            // A connection the light does not control (no `tl`, as older networks write for a
+            // slip road at a signalised node): always green, giving way unless SUMO made it a
+            // major link (`state="M"`).
+            if c.tl.is_none() {
+                state.push(if c.major { 'G' } else { 'g' });
+                continue;
+            }
+            let k = c.link_index.ok_or_else(|| {
+                c.at.error(
+                    path,
+                    "a connection under a traffic light needs a `linkIndex`".to_owned(),
+                )
+            })?;
+            let letter = letters.get(k).copied().ok_or_else(|| {
+                sumo.at.error(
+                    path,
+                    format!(
+                        "a phase of `{tl}` has {} letters, but a connection has link index {k}",
+                        letters.len()
+                    ),
+                )
+            })?;
+            state.push(signal_letter(letter).unwrap_or('r'));
+        }
+        phase.state = state;
+    }
+    Ok(program)
+}
+
+/// Traffic where the network is open: a spawner on every lane of each source, its vehicles
+/// routed to every sink it reaches (the fewest edges there), and a destroyer near the end of
+/// each sink.
+fn add_traffic(level: &mut Level, fringe: &Fringe) {
+    let shares = vec![ProfileShare {
+        profile: AUTONOMOUS_PROFILE.to_owned(),
+        weight: 1.0,
+    }];
+    for e in &fringe.sources {
+        let routes: Vec<RouteSpec> = fringe
+            .routes_from(&e.id)
+            .into_iter()
+            .map(|roads| RouteSpec {
+                name: roads.last().cloned().unwrap_or_default(),
+                roads,
+                weight: 1.0,
+            })
+            .collect();
+        for lane in 0..e.lanes.len() as u32 {
+            level.spawners.push(SpawnerSpec {
+                name: if e.lanes.len() > 1 {
+                    format!("{} lane {lane}", e.id)
+                } else {
+                    e.id.clone()
+                },
+                road: e.id.clone(),
+                lane,
+                s_m: SPAWN_AT_M.min(0.5 * polyline_length(&e.lanes[lane as usize].shape)),
+                interval_s: SPAWN_INTERVAL_S,
+                profiles: shares.clone(),
+                speed_kmh: None,
+                active: true,
+                max_vehicles: None,
+                routes: routes.clone(),
+                destination: None,
+                schedule: Vec::new(),
+                arrivals: Default::default(),
+                departures: Vec::new(),
+            });
+        }
+    }
+    for sink in &fringe.sinks {
+        let length = polyline_length(&sink.lanes[0].shape);
+        level.destroyers.push(DestroyerSpec {
+            name: sink.id.clone(),
+            place: DestroyerPlaceSpec::OnRoad {
+                road: sink.id.clone(),
+                s_m: (length - DESTROYER_BEFORE_END_M).max(0.5 * length),
+            },
+            arrivals_only: false,
+        });
+    }
+}
+
+/// The place in the file a validation issue comes from, where it can be told: the edge of a
+/// road, the junction element of a junction.
+fn issue_at(issue: &crate::Issue, level: &Level, net: &Net) -> Option<At> {
+    use crate::PathStep;
+    match issue.path.as_slice() {
+        [PathStep::Field("roads"), PathStep::Index(i), ..] => {
+            let name = &level.roads.get(*i)?.name;
+            net.edges.iter().find(|e| &e.id == name).map(|e| e.at)
+        }
+        [PathStep::Field("junctions"), PathStep::Index(i), ..] => net
+            .junctions
+            .get(&level.junctions.get(*i)?.name)
+            .map(|j: &Junction| j.at),
+        _ => None,
+    }
+}
+
+/// The length of a polyline, m.
+pub(super) fn polyline_length(points: &[DVec3]) -> f64 {
+    points.windows(2).map(|w| w[0].distance(w[1])).sum()
+}
+
+/// A road for an edge: its centre line midway between its outer lanes (SUMO gives each lane's
+/// centre line), its speed limit the fastest lane's.
+fn road_of(e: &Edge) -> RoadSpec {
+    let n = e.lanes.len();
+    let (right, left) = (&e.lanes[0].shape, &e.lanes[n - 1].shape);
+    let centre: Vec<DVec3> = if right.len() == left.len() {
+        right.iter().zip(left).map(|(a, b)| 0.5 * (a + b)).collect()
+    } else {
+        // Lanes drawn with different points: the right lane's line, moved to the centre.
+        let half = 0.5 * (n as f64 - 1.0) * e.lanes[0].width_m;
+        offset_left(right, half)
+    };
+    let centre = dedup(centre);
+    let speed = e.lanes.iter().map(|l| l.speed_mps).fold(0.0, f64::max);
+    let mut road = RoadSpec::through(&e.id, n as u32, speed * 3.6, &centre);
+    road.lane_width_m = e.lanes.iter().map(|l| l.width_m).sum::<f64>() / n as f64;
+    for p in &mut road.points {
+        p.guardrail_left = false;
+        p.guardrail_right = false;
+    }
+    road
+}
+
+/// A polyline moved `d` metres to its left.
+fn offset_left(points: &[DVec3], d: f64) -> Vec<DVec3> {
+    (0..points.len())
+        .map(|i| {
+            let a = points[i.saturating_sub(1)];
+            let b = points[(i + 1).min(points.len() - 1)];
+            let t = (b - a).truncate().normalize_or_zero();
+            points[i] + d * DVec3::new(-t.y, t.x, 0.0)
+        })
+        .collect()
+}
+
+/// Points closer than 10 cm to the one before dropped (a spline needs distinct points).
+fn dedup(points: Vec<DVec3>) -> Vec<DVec3> {
+    let mut out: Vec<DVec3> = Vec::with_capacity(points.len());
+    for p in points {
+        if out.last().is_none_or(|q| q.distance(p) > 0.1) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{net, network};
+    use super::*;
+
+    /// The level for the network of `body` inside a `<net>` element.
+    fn import(body: &str) -> Result<Level, ImportError> {
+        let path = Path::new("t.net.xml");
+        let mut net = net::read(&format!("<net>\n{body}\n</net>\n"), path)?;
+        let mut conns = network::car_connections(&net, path)?;
+        network::close_simple_nodes(&mut net.edges, &mut conns);
+        level(&net, &conns, path, "t").map(|(level, _)| level)
+    }
+
+    /// An edge `id` from node `a` to node `b` with `lanes` lanes, 3.2 m apart, from `p` to `q`.
+    fn edge(id: &str, a: &str, b: &str, lanes: u32, p: (f64, f64), q: (f64, f64)) -> String {
+        let (dx, dy) = (q.0 - p.0, q.1 - p.1);
+        let len = dx.hypot(dy);
+        // Lane k lies 3.2 k m to the left of lane 0.
+        let (lx, ly) = (-dy / len * 3.2, dx / len * 3.2);
+        let lanes: String = (0..lanes)
+            .map(|k| {
+                let (ox, oy) = (lx * f64::from(k), ly * f64::from(k));
+                format!(
+                    r#"<lane index="{k}" speed="13.89" shape="{},{} {},{}"/>"#,
+                    p.0 + ox,
+                    p.1 + oy,
+                    q.0 + ox,
+                    q.1 + oy
+                )
+            })
+            .collect();
+        format!(r#"<edge id="{id}" from="{a}" to="{b}" priority="1">{lanes}</edge>"#)
+    }
+
+    /// A tee: `w` → `e` straight on and `w` → `s` turning right, under traffic light `J` when
+    /// `tl`, link indices 1 and 0.
+    fn tee(kind: &str, tl: bool) -> String {
+        let tl = |k: u32| {
+            if tl {
+                format!(r#" tl="J" linkIndex="{k}""#)
+            } else {
+                String::new()
+            }
+        };
+        [
+            edge("w", "W", "J", 1, (0.0, -1.6), (93.0, -1.6)),
+            edge("e", "J", "E", 1, (107.0, -1.6), (200.0, -1.6)),
+            edge("s", "J", "S", 1, (101.6, -7.0), (101.6, -100.0)),
+            format!(r#"<junction id="J" type="{kind}" x="100" y="0"/>"#),
+            r#"<tlLogic id="J" type="static" offset="0"><phase duration="30" state="rG"/><phase duration="3" state="ry"/><phase duration="20" state="Gr"/></tlLogic>"#.to_owned(),
+            format!(r#"<connection from="w" to="e" fromLane="0" toLane="0" dir="s"{}/>"#, tl(1)),
+            format!(r#"<connection from="w" to="s" fromLane="0" toLane="0" dir="r"{}/>"#, tl(0)),
+        ]
+        .join("\n")
+    }
+
+    #[test]
+    fn a_junction_keeps_its_right_of_way_and_signal_letters_in_link_index_order() {
+        let signal = import(&tee("traffic_light", true)).expect("imports");
+        let j = &signal.junctions[0];
+        assert_eq!(j.name, "J");
+        assert_eq!(j.control, Control::Signal);
+        // Link index 0 (w → s) first: each phase's letters read in that order.
+        let order: Vec<&str> = j.connections.iter().map(|c| c.to.as_str()).collect();
+        assert_eq!(order, ["s", "e"]);
+        let states: Vec<&str> = j
+            .signal
+            .as_ref()
+            .expect("a program")
+            .phases
+            .iter()
+            .map(|p| p.state.as_str())
+            .collect();
+        assert_eq!(states, ["rG", "ry", "Gr"]);
+        for (kind, control) in [
+            ("right_before_left", Control::RightBeforeLeft),
+            ("allway_stop", Control::AllWayStop),
+            (
+                "priority_stop",
+                Control::Priority {
+                    major: vec!["w".to_owned()],
+                    stop: true,
+                },
+            ),
+            (
+                "priority",
+                Control::Priority {
+                    major: vec!["w".to_owned()],
+                    stop: false,
+                },
+            ),
+        ] {
+            let level = import(&tee(kind, false)).expect("imports");
+            assert_eq!(level.junctions[0].control, control, "{kind}");
+            assert!(level.junctions[0].signal.is_none());
+        }
+    }
+
+    #[test]
+    fn a_link_the_light_does_not_control_is_always_green() {
+        // An older network's slip road at a signalised node: no `tl`, no `linkIndex`.
+        let mut body = tee("traffic_light", true);
+        body = body.replace(
+            r#"dir="r" tl="J" linkIndex="0"/>"#,
+            r#"dir="r" state="M"/>"#,
+        );
+        body = body.replace(
+            r#"dir="s" tl="J" linkIndex="1""#,
+            r#"dir="s" tl="J" linkIndex="0""#,
+        );
+        body = body.replace(r#"state="rG""#, r#"state="G""#);
+        body = body.replace(r#"state="ry""#, r#"state="y""#);
+        body = body.replace(r#"state="Gr""#, r#"state="r""#);
+        let level = import(&body).expect("imports");
+        let states: Vec<&str> = level.junctions[0]
+            .signal
+            .as_ref()
+            .expect("a program")
+            .phases
+            .iter()
+            .map(|p| p.state.as_str())
+            .collect();
+        // w → e at link index 0 reads the program; w → s, uncontrolled and major, is green.
+        let order: Vec<&str> = level.junctions[0]
+            .connections
+            .iter()
+            .map(|c| c.to.as_str())
+            .collect();
+        assert_eq!(order, ["e", "s"]);
+        assert_eq!(states, ["GG", "yG", "rG"]);
+        let minor = import(&body.replace(r#"state="M""#, r#"state="m""#)).expect("imports");
+        let first = &minor.junctions[0]
+            .signal
+            .as_ref()
+            .expect("a program")
+            .phases[0];
+        assert_eq!(first.state, "Gg");
+    }
+
+    #[test]
+    fn a_spawner_on_a_short_edge_stands_half_way_along_it() {
+        let level = import(
+            &[
+                edge("a", "A", "J", 1, (0.0, 0.0), (3.0, 0.0)),
+                edge("b", "J", "B", 1, (3.0, 0.0), (100.0, 0.0)),
+                r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+            ]
+            .join("\n"),
+        )
+        .expect("imports");
+        assert_eq!(level.spawners[0].s_m, 1.5);
+    }
+
+    #[test]
+    fn a_signal_connection_that_the_program_does_not_reach_is_an_error() {
+        let short = tee("traffic_light", true).replace("state=\"rG\"", "state=\"r\"");
+        let e = import(&short).expect_err("a phase too short");
+        assert!(
+            e.message
+                .contains("has 1 letters, but a connection has link index 1"),
+            "{}",
+            e.message
+        );
+        let unknown = tee("traffic_light", true).replace("tlLogic id=\"J\"", "tlLogic id=\"K\"");
+        let e = import(&unknown).expect_err("no program");
+        assert!(
+            e.message.contains("which has no <tlLogic>"),
+            "{}",
+            e.message
+        );
+    }
+
+    #[test]
+    fn roads_that_go_on_are_linked_and_open_ends_get_spawners_and_destroyers() {
+        // Two lanes going on as two across a node with no gap: a link, no junction.
+        let level = import(
+            &[
+                edge("a", "A", "J", 2, (0.0, 0.0), (100.0, 0.0)),
+                edge("b", "J", "B", 2, (100.0, 0.0), (200.0, 0.0)),
+                r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+                r#"<connection from="a" to="b" fromLane="1" toLane="1" dir="s"/>"#.to_owned(),
+            ]
+            .join("\n"),
+        )
+        .expect("imports");
+        assert!(level.junctions.is_empty());
+        assert_eq!(level.roads[0].links[0].to, "b");
+        assert_eq!(level.roads[0].links[0].lanes, [(0, 0), (1, 1)]);
+        let spawners: Vec<(&str, u32)> = level
+            .spawners
+            .iter()
+            .map(|s| (s.name.as_str(), s.lane))
+            .collect();
+        assert_eq!(spawners, [("a lane 0", 0), ("a lane 1", 1)]);
+        assert_eq!(level.spawners[0].routes[0].roads, ["a", "b"]);
+        assert_eq!(level.destroyers.len(), 1);
+        assert_eq!(level.destroyers[0].name, "b");
+        assert_eq!(
+            level.destroyers[0].place,
+            DestroyerPlaceSpec::OnRoad {
+                road: "b".to_owned(),
+                s_m: 90.0
+            }
+        );
+        let expected: Vec<String> = level.expect.iter().map(|e| e.to_string()).collect();
+        assert_eq!(expected, ["collisions == 0", "vehicles_spawned > 0"]);
+    }
+
+    #[test]
+    fn a_network_with_no_way_in_is_an_error_that_says_so() {
+        let e = import(
+            &[
+                edge("a", "A", "B", 1, (0.0, 0.0), (100.0, 0.0)),
+                edge("b", "B", "C", 1, (100.0, 0.0), (50.0, 80.0)),
+                edge("c", "C", "A", 1, (50.0, 80.0), (0.0, 0.0)),
+                r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="l"/>"#.to_owned(),
+                r#"<connection from="b" to="c" fromLane="0" toLane="0" dir="l"/>"#.to_owned(),
+                r#"<connection from="c" to="a" fromLane="0" toLane="0" dir="l"/>"#.to_owned(),
+            ]
+            .join("\n"),
+        )
+        .expect_err("a closed loop");
+        assert_eq!((e.line, e.column), (1, 1));
+        assert!(
+            e.message.contains("the network has no entry"),
+            "{}",
+            e.message
+        );
+    }
+
+    #[test]
+    fn an_invalid_level_is_an_error_at_the_edge_it_came_from() {
+        // A lane 40 m wide is more than a road may have.
+        let wide = edge("a", "A", "B", 1, (0.0, 0.0), (100.0, 0.0))
+            .replace("speed=\"13.89\"", "speed=\"13.89\" width=\"40\"");
+        let e = import(&format!("<junction id=\"A\" type=\"dead_end\"/>\n{wide}"))
+            .expect_err("too wide");
+        assert_eq!((e.line, e.column), (3, 1), "{}", e.message);
+        assert!(
+            e.message
+                .contains("the network does not make a valid level: road `a`"),
+            "{}",
+            e.message
+        );
+    }
+}
