@@ -211,6 +211,57 @@ fn a_route_that_ends_inside_the_network_arrives_there_and_through_traffic_drives
     assert!((through - 6.0).abs() < 0.01, "{m:#?}");
 }
 
+/// Route and type distributions: each vehicle draws its own route and type, in proportion to
+/// the members' probabilities, the same way for the same seed.
+#[test]
+fn route_and_type_distributions_are_drawn_per_vehicle() {
+    let demand = r#"<routes>
+  <route id="straight" edges="WC CE"/>
+  <vTypeDistribution id="mix">
+    <vType id="calm" accel="1.5" probability="3"/>
+    <vType id="brisk" accel="3.0" probability="1"/>
+    <vType id="lorry" vClass="truck" probability="1"/>
+  </vTypeDistribution>
+  <vTypeDistribution id="listed" vTypes="calm brisk" probabilities="0 1"/>
+  <routeDistribution id="ways">
+    <route refId="straight" probability="1"/>
+    <route edges="WC CN" probability="1"/>
+    <route id="right" edges="WC CS" probability="0"/>
+  </routeDistribution>
+  <flow id="f" type="mix" route="ways" begin="0" end="400" period="1"/>
+  <vehicle id="v" type="listed" route="ways" depart="3"/>
+</routes>"#;
+    let level = import_cross(demand).expect("the demand imports");
+    let departures: Vec<&flockway::level::DepartureSpec> =
+        level.spawners.iter().flat_map(|s| &s.departures).collect();
+    let count =
+        |f: &dyn Fn(&&&flockway::level::DepartureSpec) -> bool| departures.iter().filter(f).count();
+    // 400 from the flow, a fifth of them lorries left out, and the one vehicle.
+    let total = departures.len();
+    assert!((310..=330).contains(&total), "{total} departures");
+    let calm = count(&|d| d.profile == "calm");
+    let brisk = count(&|d| d.profile == "brisk");
+    assert_eq!(calm + brisk, total);
+    // 3 : 1, within what 400 draws allow.
+    assert!(
+        (2.4..3.8).contains(&(calm as f64 / (brisk as f64 - 1.0))),
+        "{calm} : {brisk}"
+    );
+    let route = |name: &str| count(&|d| d.route.as_deref() == Some(name));
+    assert_eq!(route("right"), 0);
+    assert_eq!(route("straight") + route("ways#1"), total);
+    let straight = route("straight") as f64 / total as f64;
+    assert!((0.42..0.58).contains(&straight), "{straight}");
+    assert_eq!(import_cross(demand).expect("imports"), level);
+    let bad =
+        import_cross("<routes>\n  <routeDistribution id=\"d\" routes=\"nowhere\"/>\n</routes>")
+            .expect_err("an unknown member");
+    assert!(
+        bad.contains("demand.rou.xml:2:3: routeDistribution `d`: unknown route `nowhere`"),
+        "{bad}"
+    );
+}
+
 #[test]
 fn bad_demand_is_an_error_at_its_line_and_column() {
     let cases = [

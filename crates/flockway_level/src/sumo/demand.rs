@@ -7,7 +7,11 @@
 //! `normc(mean,dev,min,max)`, `speedDev`, `length`, `maxSpeed`), `route` (`id`, `edges`),
 //! `vehicle` (`id`, `type`, `route` or a `route` child or `from`/`to`/`via`, `depart`,
 //! `departLane`, `departPos`, `departSpeed`), `trip` (the same with `from`/`to`/`via`) and `flow`
-//! (`begin`, `end`, and one of `vehsPerHour`, `period`, `probability`, `number`).
+//! (`begin`, `end`, and one of `vehsPerHour`, `period`, `probability`, `number`),
+//! `routeDistribution` and `vTypeDistribution` (members as child elements, each with its
+//! `probability`, or referred to by `refId`, or listed in `routes`/`vTypes` with
+//! `probabilities`): a vehicle whose `route` or `type` names one draws a member for itself, with
+//! the level's seed.
 
 use super::{ImportError, LaneMaps, error_at, parse_xml};
 use crate::schema::{
@@ -91,6 +95,10 @@ struct Reader<'a> {
     lane_maps: &'a LaneMaps,
     vtypes: BTreeMap<String, VType>,
     routes: BTreeMap<String, Vec<String>>,
+    /// Route distributions: member route ids with their probabilities.
+    route_dists: BTreeMap<String, Vec<(String, f64)>>,
+    /// Vehicle type distributions: member type ids with their probabilities.
+    type_dists: BTreeMap<String, Vec<(String, f64)>>,
     trips: Vec<Trip>,
     report: DemandReport,
     rng: ChaCha8Rng,
@@ -149,6 +157,8 @@ pub(crate) fn apply_demand(
         lane_maps,
         vtypes: BTreeMap::new(),
         routes: BTreeMap::new(),
+        route_dists: BTreeMap::new(),
+        type_dists: BTreeMap::new(),
         trips: Vec::new(),
         report: DemandReport::default(),
         rng: ChaCha8Rng::seed_from_u64(level.seed),
@@ -340,14 +350,11 @@ impl Reader<'_> {
                 }
                 "vehicle" | "trip" => self.vehicle(node).map_err(|m| at(node, m))?,
                 "flow" => self.flow(node).map_err(|m| at(node, m))?,
-                "routeDistribution" | "vTypeDistribution" => {
-                    return Err(at(
-                        node,
-                        format!(
-                            "<{}> is not read: give each vehicle its own `type` and `route`",
-                            node.tag_name().name()
-                        ),
-                    ));
+                "routeDistribution" => {
+                    self.route_distribution(node, &at)?;
+                }
+                "vTypeDistribution" => {
+                    self.type_distribution(node, &at)?;
                 }
                 "person" | "personFlow" | "container" | "containerFlow" => {
                     *self
@@ -361,6 +368,110 @@ impl Reader<'_> {
             }
         }
         Ok(())
+    }
+
+    /// A `<routeDistribution>`: its routes (defined inside, or `refId`s of routes defined
+    /// before, or listed in `routes`) with their probabilities.
+    fn route_distribution(
+        &mut self,
+        node: roxmltree::Node,
+        at: &dyn Fn(roxmltree::Node, String) -> ImportError,
+    ) -> Result<(), ImportError> {
+        let id = need(node, "id").map_err(|m| at(node, m))?.to_owned();
+        let mut members = listed(node, "routes").map_err(|m| at(node, m))?;
+        for (k, child) in node
+            .children()
+            .filter(|n| n.has_tag_name("route"))
+            .enumerate()
+        {
+            let probability = probability(child).map_err(|m| at(child, m))?;
+            let route = match child.attribute("refId") {
+                Some(r) => r.to_owned(),
+                None => {
+                    let edges = self.route_edges(child).map_err(|m| at(child, m))?;
+                    // SUMO names a member without an id after the distribution.
+                    let own = child
+                        .attribute("id")
+                        .map_or_else(|| format!("{id}#{k}"), str::to_owned);
+                    self.routes.insert(own.clone(), edges);
+                    own
+                }
+            };
+            members.push((route, probability));
+        }
+        for (route, _) in &members {
+            if !self.routes.contains_key(route) {
+                return Err(at(
+                    node,
+                    format!(
+                        "routeDistribution `{id}`: unknown route `{route}` (routes must be \
+                         defined before use)"
+                    ),
+                ));
+            }
+        }
+        if members.iter().all(|(_, p)| *p <= 0.0) {
+            return Err(at(
+                node,
+                format!("routeDistribution `{id}` needs a route with a probability > 0"),
+            ));
+        }
+        self.route_dists.insert(id, members);
+        Ok(())
+    }
+
+    /// A `<vTypeDistribution>`: its types (defined inside, or listed in `vTypes`) with their
+    /// probabilities.
+    fn type_distribution(
+        &mut self,
+        node: roxmltree::Node,
+        at: &dyn Fn(roxmltree::Node, String) -> ImportError,
+    ) -> Result<(), ImportError> {
+        let id = need(node, "id").map_err(|m| at(node, m))?.to_owned();
+        let mut members = listed(node, "vTypes").map_err(|m| at(node, m))?;
+        for child in node.children().filter(|n| n.has_tag_name("vType")) {
+            let probability = probability(child).map_err(|m| at(child, m))?;
+            self.vtype(child).map_err(|m| at(child, m))?;
+            members.push((
+                need(child, "id").map_err(|m| at(child, m))?.to_owned(),
+                probability,
+            ));
+        }
+        for (vtype, _) in &members {
+            if !self.vtypes.contains_key(vtype) {
+                return Err(at(
+                    node,
+                    format!(
+                        "vTypeDistribution `{id}`: unknown vType `{vtype}` (types must be \
+                         defined before use)"
+                    ),
+                ));
+            }
+        }
+        if members.iter().all(|(_, p)| *p <= 0.0) {
+            return Err(at(
+                node,
+                format!("vTypeDistribution `{id}` needs a vType with a probability > 0"),
+            ));
+        }
+        self.type_dists.insert(id, members);
+        Ok(())
+    }
+
+    /// The type one vehicle of type `vtype` has: itself, or drawn from the distribution of
+    /// that name; `None` (counted) when the type drawn is not a car's.
+    fn draw_type(&mut self, vtype: &str) -> Option<String> {
+        let Some(members) = self.type_dists.get(vtype) else {
+            return Some(vtype.to_owned());
+        };
+        let drawn = draw(members, &mut self.rng);
+        let class = self.vtypes.get(&drawn).map(|t| t.class.clone())?;
+        if CAR_CLASSES.contains(&class.as_str()) {
+            Some(drawn)
+        } else {
+            *self.report.skipped.entry(class).or_insert(0) += 1;
+            None
+        }
     }
 
     fn vtype(&mut self, node: roxmltree::Node) -> Result<(), String> {
@@ -463,7 +574,7 @@ impl Reader<'_> {
             return Ok(Some(own.to_owned()));
         }
         if let Some(id) = node.attribute("route") {
-            return if self.routes.contains_key(id) {
+            return if self.routes.contains_key(id) || self.route_dists.contains_key(id) {
                 Ok(Some(id.to_owned()))
             } else {
                 Err(format!(
@@ -520,6 +631,10 @@ impl Reader<'_> {
     /// a car's (counted).
     fn type_of(&mut self, node: roxmltree::Node) -> Result<Option<String>, String> {
         let id = node.attribute("type").unwrap_or(DEFAULT_VTYPE);
+        // A distribution: each vehicle draws its type (`draw_type`).
+        if self.type_dists.contains_key(id) {
+            return Ok(Some(id.to_owned()));
+        }
         let Some(t) = self.vtypes.get(id) else {
             return Err(format!(
                 "unknown vType `{id}` (types must be defined before use)"
@@ -544,8 +659,10 @@ impl Reader<'_> {
             self.unroutable(node, &id);
             return Ok(());
         };
-        let trip = self.trip(node, time_s, vtype, route)?;
-        self.trips.push(trip);
+        if let Some(vtype) = self.draw_type(&vtype) {
+            let trip = self.trip(node, time_s, vtype, route)?;
+            self.trips.push(trip);
+        }
         Ok(())
     }
 
@@ -664,8 +781,10 @@ impl Reader<'_> {
             }
         }
         for t in times {
-            let trip = self.trip(node, t, vtype.clone(), route.clone())?;
-            self.trips.push(trip);
+            if let Some(vtype) = self.draw_type(&vtype) {
+                let trip = self.trip(node, t, vtype, route.clone())?;
+                self.trips.push(trip);
+            }
         }
         Ok(())
     }
@@ -679,6 +798,10 @@ impl Reader<'_> {
         vtype: String,
         route: String,
     ) -> Result<Trip, String> {
+        let route = match self.route_dists.get(&route) {
+            Some(members) => draw(members, &mut self.rng),
+            None => route,
+        };
         let Some(first) = self.routes.get(&route).and_then(|r| r.first()).cloned() else {
             return Err(format!("unknown route `{route}`"));
         };
@@ -734,6 +857,67 @@ impl Reader<'_> {
             speed_kmh,
         })
     }
+}
+
+/// A member's `probability` (1 when not given), a number ≥ 0.
+fn probability(node: roxmltree::Node) -> Result<f64, String> {
+    match node.attribute("probability") {
+        None => Ok(1.0),
+        Some(v) => v
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|p| p.is_finite() && *p >= 0.0)
+            .ok_or_else(|| format!("`probability` must be a number ≥ 0, found {v:?}")),
+    }
+}
+
+/// The members a distribution lists in its attribute `key` (`routes` or `vTypes`), with their
+/// `probabilities` (each 1 when not given).
+fn listed(node: roxmltree::Node, key: &str) -> Result<Vec<(String, f64)>, String> {
+    let Some(ids) = node.attribute(key) else {
+        return Ok(Vec::new());
+    };
+    let ids: Vec<&str> = ids.split([' ', ',']).filter(|s| !s.is_empty()).collect();
+    let probabilities: Vec<f64> = match node.attribute("probabilities") {
+        None => vec![1.0; ids.len()],
+        Some(list) => list
+            .split([' ', ','])
+            .filter(|s| !s.is_empty())
+            .map(|v| v.parse::<f64>().ok().filter(|p| p.is_finite() && *p >= 0.0))
+            .collect::<Option<Vec<f64>>>()
+            .ok_or_else(|| format!("`probabilities` must be numbers ≥ 0, found {list:?}"))?,
+    };
+    if probabilities.len() != ids.len() {
+        return Err(format!(
+            "`{key}` lists {} and `probabilities` {}: one each",
+            ids.len(),
+            probabilities.len()
+        ));
+    }
+    Ok(ids
+        .into_iter()
+        .map(str::to_owned)
+        .zip(probabilities)
+        .collect())
+}
+
+/// A member drawn from `members` in proportion to their probabilities.
+fn draw(members: &[(String, f64)], rng: &mut ChaCha8Rng) -> String {
+    let total: f64 = members.iter().map(|(_, p)| p.max(0.0)).sum();
+    let mut x = uniform(rng) * total;
+    for (id, p) in members {
+        x -= p.max(0.0);
+        if x < 0.0 {
+            return id.clone();
+        }
+    }
+    // Rounding at the very top: the last member with weight.
+    members
+        .iter()
+        .rev()
+        .find(|(_, p)| *p > 0.0)
+        .map_or_else(String::new, |(id, _)| id.clone())
 }
 
 /// An attribute that must be there.
