@@ -9,6 +9,10 @@
 //! nobody tuned for: vehicles come in and leave. The networks no passenger car may use (rail, a
 //! race track for a `vip` class) are refused with a message that says so.
 //!
+//! OSM's bridges come flat unless netconvert is asked for their height: roads that cross
+//! without meeting are at different levels, and their cars must pass without touching (the
+//! motorway interchange has ramps drawn along and across the motorway).
+//!
 //! Known defect, held where it stands rather than hidden: on several of these networks cars
 //! still touch (junctions where a sharp turn's car swings out of its lane, motorway merges);
 //! [`NETWORKS`] lets each have no more contacts than it has today, so that a regression fails
@@ -44,7 +48,7 @@ const NETWORKS: [(&str, Outcome); 28] = [
     (
         "game/A10KW/osm.net.xml",
         Runs {
-            most_contacts: 21.0,
+            most_contacts: 17.0,
         },
     ),
     ("game/DRT/osm.net.xml", Runs { most_contacts: 2.0 }),
@@ -70,12 +74,7 @@ const NETWORKS: [(&str, Outcome); 28] = [
         },
     ),
     ("game/grid6/grid6.net.xml", Runs { most_contacts: 9.0 }),
-    (
-        "game/highway/highway.net.xml",
-        Runs {
-            most_contacts: 52.0,
-        },
-    ),
+    ("game/highway/highway.net.xml", Runs { most_contacts: 0.0 }),
     ("game/hiking/hiking.net.xml", Runs { most_contacts: 0.0 }),
     ("game/kuehne/kuehne.net.xml", Runs { most_contacts: 0.0 }),
     ("game/ramp/ramp.net.xml", Runs { most_contacts: 0.0 }),

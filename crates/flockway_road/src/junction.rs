@@ -929,6 +929,52 @@ mod tests {
     }
 
     #[test]
+    fn a_junction_s_paths_and_arms_meet_there_and_a_bridge_over_it_crosses_them() {
+        let net = crossroads(priority());
+        assert!(net.crossings().is_empty(), "{:?}", net.crossings());
+        // A road over the junction, joined to nothing: it crosses the paths and the arms.
+        let mut roads = arms();
+        roads.push(RoadSpec::through(
+            "bridge",
+            2,
+            80.0,
+            &[DVec3::new(-60.0, -60.0, 0.0), DVec3::new(60.0, 60.0, 0.0)],
+        ));
+        // And one over the western arms, far from the junction.
+        roads.push(RoadSpec::through(
+            "flyover",
+            2,
+            80.0,
+            &[DVec3::new(-50.0, -60.0, 0.0), DVec3::new(-50.0, 60.0, 0.0)],
+        ));
+        let junction = JunctionSpec {
+            name: "x".into(),
+            control: priority(),
+            connections: movements(),
+            signal: None,
+        };
+        let net = RoadNetwork::build_with(&roads, &[junction]).expect("valid");
+        let name = |id: crate::RoadId| net.get(id).expect("a road").name();
+        let pairs: Vec<(&str, &str)> = net
+            .crossings()
+            .iter()
+            .map(|&(a, b)| (name(a), name(b)))
+            .collect();
+        // The flyover crosses the two western arms; the bridge the junction's paths through
+        // its centre (and the flyover); no path crosses another or an arm.
+        assert!(pairs.contains(&("w in", "flyover")), "{pairs:?}");
+        assert!(pairs.contains(&("w out", "flyover")), "{pairs:?}");
+        assert!(pairs.contains(&("bridge", "flyover")), "{pairs:?}");
+        assert!(pairs.contains(&("bridge", "x#0")), "{pairs:?}");
+        assert!(
+            pairs.iter().all(
+                |(a, b)| ["bridge", "flyover"].contains(a) || ["bridge", "flyover"].contains(b)
+            ),
+            "{pairs:?}"
+        );
+    }
+
+    #[test]
     fn each_connection_is_a_road_from_its_lane_end_to_its_lane_start_linked_both_ways() {
         let net = crossroads(priority());
         assert_eq!(net.len(), 8 + 12);

@@ -11,6 +11,7 @@
 //! Conventions: x east, y north, z up (metres); lateral offsets are positive to the left of the
 //! direction of travel; lane 0 is the rightmost lane.
 
+mod crossing;
 mod error;
 mod geometry;
 mod grid;

@@ -124,6 +124,8 @@ pub struct RoadNetwork {
     paths: BTreeMap<RoadId, (usize, usize)>,
     /// Per junction, its paths' roads in connection order.
     path_roads: Vec<Vec<RoadId>>,
+    /// Pairs of roads that cross without meeting (a bridge), smaller id first, sorted.
+    crossings: Vec<(RoadId, RoadId)>,
 }
 
 /// The junction path a vehicle is about to enter ([`RoadNetwork::junction_ahead`]).
@@ -344,13 +346,22 @@ impl RoadNetwork {
                 slot.links = links;
             }
         }
+        let crossings = crossings_of(&slots, &junctions, &path_roads);
         Ok(RoadNetwork {
             slots,
             by_name,
             junctions,
             paths,
             path_roads,
+            crossings,
         })
+    }
+
+    /// Pairs of roads whose centre lines cross where no junction or link joins them (a bridge,
+    /// or a bridge netconvert drew flat): cars on the one pass cars on the other without
+    /// touching. Smaller id first, sorted.
+    pub fn crossings(&self) -> &[(RoadId, RoadId)] {
+        &self.crossings
     }
 
     /// The junctions, in the level's order.
@@ -627,6 +638,50 @@ impl SimPlugin for RoadPlugin {
         sim.world_mut().init_resource::<Junctions>();
         sim.add_systems(StepSet::Prepare, rebuild_roads);
     }
+}
+
+/// The roads of `slots` that cross without meeting: roads meet at a junction (its paths, the
+/// roads into and out of it) and where one links onto another.
+fn crossings_of(
+    slots: &[Option<Slot>],
+    junctions: &[Junction],
+    path_roads: &[Vec<RoadId>],
+) -> Vec<(RoadId, RoadId)> {
+    let mut places: Vec<Vec<u32>> = vec![Vec::new(); slots.len()];
+    let mut add = |road: u32, place: u32| {
+        if let Some(p) = places.get_mut(road as usize) {
+            p.push(place);
+        }
+    };
+    for (j, junction) in junctions.iter().enumerate() {
+        for path in &junction.paths {
+            add(path.from.0, j as u32);
+            add(path.to.0, j as u32);
+        }
+        for road in path_roads.get(j).into_iter().flatten() {
+            add(road.0, j as u32);
+        }
+    }
+    let mut place = junctions.len() as u32;
+    for (i, slot) in slots.iter().enumerate() {
+        for link in slot.iter().flat_map(|s| &s.links) {
+            add(i as u32, place);
+            add(link.to.0, place);
+            place += 1;
+        }
+    }
+    let roads: Vec<crate::crossing::CrossingRoad> = slots
+        .iter()
+        .enumerate()
+        .filter_map(|(i, slot)| {
+            Some(crate::crossing::CrossingRoad {
+                id: RoadId(i as u32),
+                geometry: slot.as_ref()?.geometry.as_ref(),
+                places: std::mem::take(&mut places[i]),
+            })
+        })
+        .collect();
+    crate::crossing::crossings(&roads)
 }
 
 /// Rebuilds the shapes of edited roads and then the network. An invalid edit leaves the last

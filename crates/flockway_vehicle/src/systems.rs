@@ -47,10 +47,18 @@ impl RailGate {
     }
 }
 
-/// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided.
-pub fn gate_guardrails(mut physics: ResMut<Physics>, mut gates: Query<&mut RailGate>) {
+/// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided,
+/// and notes each car's road where roads cross without meeting.
+pub fn gate_guardrails(
+    mut physics: ResMut<Physics>,
+    mut gates: Query<(&mut RailGate, &RoadTrack)>,
+) {
     let gating = physics.rail_gates;
-    for mut gate in &mut gates {
+    let crossings = physics.has_crossings();
+    for (mut gate, track) in &mut gates {
+        if crossings {
+            physics.note_vehicle_road(gate.collider, track.road);
+        }
         let want_open = gate.want_open || !gating;
         if want_open == gate.open {
             continue;

@@ -554,3 +554,58 @@ fn a_car_follows_a_connection_onto_the_next_road_and_tracks_it() {
         m.position.z
     );
 }
+
+#[test]
+fn cars_on_roads_that_cross_without_meeting_pass_without_touching() {
+    // A bridge drawn flat: two roads cross with no junction between them.
+    let ew = RoadSpec::through(
+        "ew",
+        1,
+        50.0,
+        &[DVec3::new(-100.0, 0.0, 0.0), DVec3::new(100.0, 0.0, 0.0)],
+    );
+    let ns = RoadSpec::through(
+        "ns",
+        1,
+        50.0,
+        &[DVec3::new(0.0, -100.0, 0.0), DVec3::new(0.0, 100.0, 0.0)],
+    );
+    let mut sim = world_with(vec![ew, ns]);
+    assert_eq!(
+        sim.world()
+            .resource::<flockway_road::RoadNetwork>()
+            .crossings(),
+        [(RoadId(0), RoadId(1))]
+    );
+    // Both reach the crossing at the same moment (the two runs are mirror images), and are
+    // past it after 3 s.
+    let east = spawn(&mut sim, 0, 85.0, 0.0, 10.0);
+    let north = spawn(&mut sim, 1, 85.0, 0.0, 10.0);
+    for car in [east, north] {
+        set(
+            &mut sim,
+            car,
+            Controls {
+                throttle: 0.3,
+                ..Controls::default()
+            },
+        );
+    }
+    let mut seen = Vec::new();
+    for _ in 0..ticks(3.0) {
+        sim.step();
+        let messages = sim.world().resource::<Messages<VehicleContact>>();
+        seen.extend(messages.iter_current_update_messages().copied());
+    }
+    assert!(seen.is_empty(), "{seen:?}");
+    assert!(
+        motion(&sim, east).position.x > 3.0,
+        "{:?}",
+        motion(&sim, east)
+    );
+    assert!(
+        motion(&sim, north).position.y > 3.0,
+        "{:?}",
+        motion(&sim, north)
+    );
+}
