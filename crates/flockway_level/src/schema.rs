@@ -113,6 +113,41 @@ impl Level {
         out
     }
 
+    /// [`Level::leads_to`] of every road that leads anywhere, found in one pass over the
+    /// links and junctions (a city's network asks it of thousands of roads).
+    pub fn successors(&self) -> BTreeMap<&str, Vec<&str>> {
+        let names: std::collections::BTreeSet<&str> =
+            self.roads.iter().map(|r| r.name.as_str()).collect();
+        let mut pairs: Vec<(&str, &str)> = Vec::new();
+        for road in &self.roads {
+            let Some(&from) = names.get(road.name.as_str()) else {
+                continue;
+            };
+            // As `RoadSpec::outgoing` orders them: `next`, then the links.
+            if let Some(&to) = road.next.as_deref().and_then(|n| names.get(n)) {
+                pairs.push((from, to));
+            }
+            for link in &road.links {
+                if let Some(&to) = names.get(link.to.as_str()) {
+                    pairs.push((from, to));
+                }
+            }
+        }
+        for c in self.junctions.iter().flat_map(|j| &j.connections) {
+            if let Some(&from) = names.get(c.from.as_str()) {
+                pairs.push((from, c.to.as_str()));
+            }
+        }
+        let mut out: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+        for (from, to) in pairs {
+            let list = out.entry(from).or_default();
+            if !list.contains(&to) {
+                list.push(to);
+            }
+        }
+        out
+    }
+
     /// The road with this name.
     pub fn road(&self, name: &str) -> Option<&RoadSpec> {
         self.roads.iter().find(|r| r.name == name)

@@ -5,7 +5,7 @@ use crate::expect::{Qualifier, metric_info};
 use crate::locate::PathStep::{self, Field, Index};
 use crate::schema::*;
 use flockway_road::{RoadError, RoadGeometry};
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Most vehicles a level may place at the start, over all groups.
 pub const MAX_INITIAL_VEHICLES: u64 = 100_000;
@@ -104,6 +104,8 @@ struct Checker<'a> {
     level: &'a Level,
     roads: Vec<Option<RoadGeometry>>,
     issues: Vec<Issue>,
+    /// Where each road leads ([`Level::successors`]), found once.
+    next: BTreeMap<&'a str, Vec<&'a str>>,
 }
 
 /// Checks everything that parsing alone cannot; returns every problem found, in file order.
@@ -112,6 +114,7 @@ pub fn validate(level: &Level) -> Vec<Issue> {
         level,
         roads: Vec::new(),
         issues: Vec::new(),
+        next: level.successors(),
     };
     c.run();
     c.issues
@@ -661,7 +664,7 @@ impl Checker<'_> {
     }
 
     fn leads_onto(&self, a: &str, b: &str) -> bool {
-        self.level.leads_to(a).contains(&b)
+        self.next.get(a).is_some_and(|n| n.contains(&b))
     }
 
     fn spawner_routes(&mut self, i: usize, s: &SpawnerSpec) {
@@ -745,7 +748,7 @@ impl Checker<'_> {
             if r == to {
                 return true;
             }
-            for to in self.level.leads_to(&r) {
+            for &to in self.next.get(r.as_str()).into_iter().flatten() {
                 if seen.insert(to.to_owned()) {
                     todo.push(to.to_owned());
                 }
@@ -1307,6 +1310,12 @@ mod tests {
         assert_eq!(j.connections[1].to, "c");
         assert_eq!(j.signal.as_ref().map(|s| s.offset_s), Some(5.0));
         assert_eq!(level.leads_to("a"), vec!["b", "c"]);
+        // All roads at once, the same way.
+        for road in &level.roads {
+            let all = level.successors();
+            let next = all.get(road.name.as_str()).cloned().unwrap_or_default();
+            assert_eq!(next, level.leads_to(&road.name), "{}", road.name);
+        }
         // Written back and read again, the same level.
         let again = parse_level(
             &crate::level_to_string(&level).expect("ron"),

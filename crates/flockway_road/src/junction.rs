@@ -227,24 +227,84 @@ impl Sample {
 
     /// Whether a car here comes within the clearance of a car on the path `other` (its centre
     /// line plus half a car's width).
-    fn touches(&self, other: &[Sample]) -> bool {
-        let reach = 0.5 * BODY_WIDTH_M + CONFLICT_CLEARANCE_M;
+    fn touches(&self, other: &Swept) -> bool {
+        let reach = REACH_M;
         self.outline.iter().any(|&p| {
-            other.windows(2).any(|seg| {
-                let (q0, q1) = (seg[0].pos, seg[1].pos);
-                let d = q1 - q0;
-                let u = ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
-                let q = q0 + u * d;
-                let (dx, dy) = (p.x - q.x, p.y - q.y);
-                dx * dx + dy * dy < reach * reach
+            other.runs.iter().any(|run| {
+                run.near(p)
+                    && other.samples[run.first..=run.last].windows(2).any(|seg| {
+                        let (q0, q1) = (seg[0].pos, seg[1].pos);
+                        let d = q1 - q0;
+                        let u = ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                        let q = q0 + u * d;
+                        let (dx, dy) = (p.x - q.x, p.y - q.y);
+                        dx * dx + dy * dy < reach * reach
+                    })
             })
         })
     }
 }
 
+/// How close a body's outline may come to another path's centre line before it touches a car
+/// there, m: half a car's width and the clearance.
+const REACH_M: f64 = 0.5 * BODY_WIDTH_M + CONFLICT_CLEARANCE_M;
+
+/// Segments of a path's centre line measured together for [`Sample::touches`].
+const RUN_SEGMENTS: usize = 8;
+
+/// A path's samples, with the bounding box (grown by [`REACH_M`]) of each run of
+/// [`RUN_SEGMENTS`] segments between them: a point outside a run's box is out of reach of all
+/// its segments, so most of a path is passed over without measuring a segment, and the answer
+/// is the one measuring every segment gives (this search dominated importing a city).
+struct Swept {
+    samples: Vec<Sample>,
+    runs: Vec<Run>,
+}
+
+/// Segments `first`..`last` (sample indices) of a [`Swept`] path and their grown bounding box.
+struct Run {
+    first: usize,
+    last: usize,
+    min: DVec3,
+    max: DVec3,
+}
+
+impl Run {
+    /// Whether `p` lies inside the run's box on the ground plan.
+    fn near(&self, p: DVec3) -> bool {
+        p.x >= self.min.x && p.x <= self.max.x && p.y >= self.min.y && p.y <= self.max.y
+    }
+}
+
+impl Swept {
+    fn new(samples: Vec<Sample>) -> Self {
+        // A hair beyond the reach, so that rounding in the measured distance cannot matter.
+        let grow = DVec3::splat(REACH_M + 1e-6);
+        let segments = samples.len().saturating_sub(1);
+        let mut runs = Vec::new();
+        let mut first = 0;
+        while first < segments {
+            let last = (first + RUN_SEGMENTS).min(segments);
+            let (min, max) = samples[first..=last]
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), x| {
+                    (lo.min(x.pos), hi.max(x.pos))
+                });
+            runs.push(Run {
+                first,
+                last,
+                min: min - grow,
+                max: max + grow,
+            });
+            first = last;
+        }
+        Swept { samples, runs }
+    }
+}
+
 /// The first and last centre positions along `a` at which a car there touches path `b` (a
 /// car's positions: negative ones are short of the path's start).
-fn touching(a: &[Sample], b: &[Sample]) -> Option<(f64, f64)> {
+fn touching(a: &[Sample], b: &Swept) -> Option<(f64, f64)> {
     let first = a.iter().find(|x| x.touches(b))?;
     let last = a.iter().rev().find(|x| x.touches(b))?;
     Some((first.s, last.s))
@@ -536,33 +596,35 @@ impl Junction {
     /// Finds every pair of paths from different lanes where a car on one would come too close
     /// to a car on the other, or that lead onto the same lane.
     fn find_conflicts(&mut self) {
-        let samples: Vec<Vec<Sample>> = self
+        let samples: Vec<Swept> = self
             .paths
             .iter()
             .map(|p| match RoadGeometry::new(&p.spec) {
                 Ok(g) => {
                     let n = (g.length_m() / SAMPLE_M).ceil().max(1.0) as usize;
-                    (0..=n)
-                        .map(|i| {
-                            let s = g.length_m() * i as f64 / n as f64;
-                            Sample::new(s, g.pos_at(s), g.frame_at(s).tangent)
-                        })
-                        .collect()
+                    Swept::new(
+                        (0..=n)
+                            .map(|i| {
+                                let s = g.length_m() * i as f64 / n as f64;
+                                Sample::new(s, g.pos_at(s), g.frame_at(s).tangent)
+                            })
+                            .collect(),
+                    )
                 }
-                Err(_) => Vec::new(),
+                Err(_) => Swept::new(Vec::new()),
             })
             .collect();
         // A car waiting at the line, its centre half a body before the path's start (and any
         // farther back, along the lane's end): the first place where it touches no path from
         // another lane.
         for i in 0..self.paths.len() {
-            let Some(start) = samples[i].first().map(|x| x.pos) else {
+            let Some(start) = samples[i].samples.first().map(|x| x.pos) else {
                 continue;
             };
             let heading = self.paths[i].heading_in;
-            let foes: Vec<&[Sample]> = (0..self.paths.len())
+            let foes: Vec<&Swept> = (0..self.paths.len())
                 .filter(|&j| self.paths[j].from != self.paths[i].from)
-                .map(|j| samples[j].as_slice())
+                .map(|j| &samples[j])
                 .collect();
             let mut back = 0.0;
             while back < MAX_HOLD_BACK_M {
@@ -579,7 +641,7 @@ impl Junction {
         // path's start, along its lane's end) to the path's end.
         let bodies: Vec<Vec<Sample>> = (0..self.paths.len())
             .map(|i| {
-                let Some(first) = samples[i].first() else {
+                let Some(first) = samples[i].samples.first() else {
                     return Vec::new();
                 };
                 let heading = self.paths[i].heading_in;
@@ -588,7 +650,7 @@ impl Junction {
                     let s = -(k as f64) * SAMPLE_M;
                     Sample::new(s, first.pos + heading * s, heading)
                 });
-                lead_in.chain(samples[i].iter().copied()).collect()
+                lead_in.chain(samples[i].samples.iter().copied()).collect()
             })
             .collect();
         for i in 0..self.paths.len() {
@@ -601,9 +663,10 @@ impl Junction {
                     // Siblings: together until the first point where a body on this one is
                     // clear of the other.
                     let part = a
+                        .samples
                         .iter()
                         .find(|x| !x.touches(b))
-                        .map_or_else(|| a.last().map_or(0.0, |x| x.s), |x| x.s);
+                        .map_or_else(|| a.samples.last().map_or(0.0, |x| x.s), |x| x.s);
                     self.paths[i].siblings.push((j, part));
                     continue;
                 }
@@ -618,7 +681,7 @@ impl Junction {
                     }
                     (Some(mine), Some(theirs)) => Some((mine, theirs)),
                     _ if merge => {
-                        let end = |s: &[Sample]| s.last().map_or(0.0, |x| x.s);
+                        let end = |s: &Swept| s.samples.last().map_or(0.0, |x| x.s);
                         Some(((end(a), end(a)), (end(b), end(b))))
                     }
                     _ => None,

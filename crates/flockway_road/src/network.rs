@@ -201,15 +201,21 @@ impl RoadNetwork {
         let mut path_roads = vec![Vec::new(); junction_specs.len()];
         let mut path_links = Vec::new();
         let mut next_id = shapes.iter().map(|(id, _, _)| id.0 + 1).max().unwrap_or(0);
+        // The level's roads by name (the first of a name, as a search would find it), for the
+        // junctions' connections: a city has thousands.
+        let mut named: BTreeMap<String, (u32, Arc<RoadGeometry>)> = BTreeMap::new();
+        for (id, g, _) in &shapes {
+            named
+                .entry(g.name().to_owned())
+                .or_insert_with(|| (id.0, Arc::clone(g)));
+        }
+        let mut junction_names = std::collections::BTreeSet::new();
         for (j, spec) in junction_specs.iter().enumerate() {
-            if junction_specs[..j].iter().any(|o| o.name == spec.name) {
+            if !junction_names.insert(spec.name.as_str()) {
                 return Err(NetworkError::DuplicateJunction(spec.name.clone()));
             }
             let junction = Junction::build(spec, |name| {
-                shapes
-                    .iter()
-                    .find(|(_, g, _)| g.name() == name)
-                    .map(|(id, g, _)| (id.0, g.as_ref()))
+                named.get(name).map(|(id, g)| (*id, g.as_ref()))
             })?;
             let mut built = Vec::with_capacity(junction.paths.len());
             for (k, path) in junction.paths.iter().enumerate() {

@@ -22,15 +22,6 @@ pub(super) struct At {
 }
 
 impl At {
-    /// Where `node` starts.
-    fn of(node: roxmltree::Node) -> At {
-        let pos = node.document().text_pos_at(node.range().start);
-        At {
-            line: pos.row,
-            column: pos.col,
-        }
-    }
-
     /// An import error here in the file `path`.
     pub fn error(self, path: &Path, message: String) -> ImportError {
         ImportError {
@@ -118,7 +109,13 @@ pub(super) struct Program {
 pub(super) fn read(text: &str, path: &Path) -> Result<Net, ImportError> {
     let doc = parse_xml(text, path)?;
     let root = doc.root_element();
-    let here = Reader { path };
+    let here = Reader {
+        path,
+        text,
+        line_starts: std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(k, _)| k + 1))
+            .collect(),
+    };
     if root.tag_name().name() != "net" {
         return Err(here.error(
             root,
@@ -129,7 +126,7 @@ pub(super) fn read(text: &str, path: &Path) -> Result<Net, ImportError> {
         ));
     }
     let mut net = Net {
-        at: At::of(root),
+        at: here.at(root),
         edges: Vec::new(),
         skipped_edges: BTreeSet::new(),
         connections: Vec::new(),
@@ -166,7 +163,7 @@ pub(super) fn read(text: &str, path: &Path) -> Result<Net, ImportError> {
                     id,
                     Junction {
                         kind,
-                        at: At::of(node),
+                        at: here.at(node),
                     },
                 );
             }
@@ -207,11 +204,30 @@ pub(super) fn read(text: &str, path: &Path) -> Result<Net, ImportError> {
 /// Reads elements of the file at `path`, with errors placed in it.
 struct Reader<'p> {
     path: &'p Path,
+    text: &'p str,
+    /// Where each line of `text` starts (byte offsets), so that an element's place is found
+    /// without counting the lines before it each time.
+    line_starts: Vec<usize>,
 }
 
 impl Reader<'_> {
+    /// Where `node` starts in the file.
+    fn at(&self, node: roxmltree::Node) -> At {
+        let offset = node.range().start;
+        let line = self.line_starts.partition_point(|&k| k <= offset).max(1);
+        let start = self.line_starts[line - 1];
+        let column = self
+            .text
+            .get(start..offset)
+            .map_or(0, |t| t.chars().count());
+        At {
+            line: line as u32,
+            column: column as u32 + 1,
+        }
+    }
+
     fn error(&self, node: roxmltree::Node, message: String) -> ImportError {
-        At::of(node).error(self.path, message)
+        self.at(node).error(self.path, message)
     }
 
     /// The attribute `key` of `node`, which must be there.
@@ -303,7 +319,7 @@ impl Reader<'_> {
             id,
             lanes: car_lanes,
             lane_map,
-            at: At::of(node),
+            at: self.at(node),
         }))
     }
 
@@ -331,7 +347,7 @@ impl Reader<'_> {
             major: node.attribute("state") == Some("M"),
             from,
             to,
-            at: At::of(node),
+            at: self.at(node),
         }))
     }
 
@@ -383,7 +399,7 @@ impl Reader<'_> {
             Program {
                 program: SignalProgram { offset_s, phases },
                 states,
-                at: At::of(node),
+                at: self.at(node),
             },
         ))
     }
