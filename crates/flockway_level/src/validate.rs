@@ -126,6 +126,7 @@ pub fn validate(level: &Level) -> Vec<Issue> {
 /// edit (a road is drawn before its destroyer).
 pub fn warnings(level: &Level) -> Vec<Issue> {
     let mut out = Vec::new();
+    let next = level.successors();
     for (i, spec) in level.roads.iter().enumerate() {
         if spec.closed {
             continue;
@@ -147,7 +148,7 @@ pub fn warnings(level: &Level) -> Vec<Issue> {
             }
         });
         let outgoing = spec.outgoing();
-        if outgoing.is_empty() && level.leads_to(&spec.name).is_empty() {
+        if outgoing.is_empty() && next.get(spec.name.as_str()).is_none_or(Vec::is_empty) {
             if !destroyed {
                 out.push(Issue {
                     path: vec![Field("roads"), Index(i), Field("points"), Index(last)],

@@ -6,7 +6,7 @@
 
 use crate::{RoadGeometry, RoadId};
 use glam::DVec2;
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Longest piece of a centre line tested for crossings, m.
 const PIECE_M: f64 = 4.0;
@@ -49,7 +49,8 @@ pub(crate) fn crossings(roads: &[CrossingRoad]) -> Vec<(RoadId, RoadId)> {
     }
     let cell =
         |p: DVec2| -> (i64, i64) { ((p.x / CELL_M).floor() as i64, (p.y / CELL_M).floor() as i64) };
-    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    // Ordered, so that the pieces are compared in the same order every run.
+    let mut grid: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
     for (k, &(_, a, b, half)) in pieces.iter().enumerate() {
         let (lo, hi) = (
             cell(a.min(b) - DVec2::splat(half)),

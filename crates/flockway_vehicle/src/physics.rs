@@ -6,7 +6,7 @@ use flockway_core::DT_S;
 use flockway_road::{GUARDRAIL_HEIGHT_M, RoadId, RoadNetwork};
 use glam::{DVec3, Quat, Vec3};
 use rapier3d::prelude::*;
-use std::collections::HashSet;
+use std::collections::BTreeSet;
 use std::sync::Mutex;
 
 /// Collision group of vehicle bodies.
@@ -113,7 +113,7 @@ pub struct Physics {
     ground_z: f32,
     /// Pairs of roads that cross without meeting ([`RoadNetwork::crossings`]): their cars
     /// pass without touching.
-    crossings: HashSet<(u32, u32)>,
+    crossings: BTreeSet<(u32, u32)>,
     /// The road each vehicle collider's car is on, by the collider's index (kept only while
     /// there are `crossings`).
     vehicle_roads: Vec<u32>,
@@ -138,7 +138,7 @@ impl Default for Physics {
             events: EventCollector::default(),
             statics: Vec::new(),
             ground_z: 0.0,
-            crossings: HashSet::new(),
+            crossings: BTreeSet::new(),
             vehicle_roads: Vec::new(),
         }
     }
@@ -340,7 +340,7 @@ const SEPARATION_MARGIN_M: f32 = 0.05;
 ///
 /// They also skip two cars on roads that cross without meeting (one passes over the other).
 struct SeparatedBoxes<'a> {
-    crossings: &'a HashSet<(u32, u32)>,
+    crossings: &'a BTreeSet<(u32, u32)>,
     vehicle_roads: &'a [u32],
 }
 

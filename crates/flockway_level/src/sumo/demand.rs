@@ -399,23 +399,10 @@ impl Reader<'_> {
             };
             members.push((route, probability));
         }
-        for (route, _) in &members {
-            if !self.routes.contains_key(route) {
-                return Err(at(
-                    node,
-                    format!(
-                        "routeDistribution `{id}`: unknown route `{route}` (routes must be \
-                         defined before use)"
-                    ),
-                ));
-            }
-        }
-        if members.iter().all(|(_, p)| *p <= 0.0) {
-            return Err(at(
-                node,
-                format!("routeDistribution `{id}` needs a route with a probability > 0"),
-            ));
-        }
+        check_members("routeDistribution", &id, "route", &members, |r| {
+            self.routes.contains_key(r)
+        })
+        .map_err(|m| at(node, m))?;
         self.route_dists.insert(id, members);
         Ok(())
     }
@@ -437,23 +424,10 @@ impl Reader<'_> {
                 probability,
             ));
         }
-        for (vtype, _) in &members {
-            if !self.vtypes.contains_key(vtype) {
-                return Err(at(
-                    node,
-                    format!(
-                        "vTypeDistribution `{id}`: unknown vType `{vtype}` (types must be \
-                         defined before use)"
-                    ),
-                ));
-            }
-        }
-        if members.iter().all(|(_, p)| *p <= 0.0) {
-            return Err(at(
-                node,
-                format!("vTypeDistribution `{id}` needs a vType with a probability > 0"),
-            ));
-        }
+        check_members("vTypeDistribution", &id, "vType", &members, |t| {
+            self.vtypes.contains_key(t)
+        })
+        .map_err(|m| at(node, m))?;
         self.type_dists.insert(id, members);
         Ok(())
     }
@@ -900,6 +874,28 @@ fn listed(node: roxmltree::Node, key: &str) -> Result<Vec<(String, f64)>, String
         .map(str::to_owned)
         .zip(probabilities)
         .collect())
+}
+
+/// Checks the members of the distribution `<kind id>`, each a `what`: every one `known`
+/// (defined before use), at least one with a probability above 0.
+fn check_members(
+    kind: &str,
+    id: &str,
+    what: &str,
+    members: &[(String, f64)],
+    known: impl Fn(&str) -> bool,
+) -> Result<(), String> {
+    if let Some((member, _)) = members.iter().find(|(m, _)| !known(m)) {
+        return Err(format!(
+            "{kind} `{id}`: unknown {what} `{member}` ({what}s must be defined before use)"
+        ));
+    }
+    if members.iter().all(|(_, p)| *p <= 0.0) {
+        return Err(format!(
+            "{kind} `{id}` needs a {what} with a probability > 0"
+        ));
+    }
+    Ok(())
 }
 
 /// A member drawn from `members` in proportion to their probabilities.
