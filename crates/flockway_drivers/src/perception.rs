@@ -108,6 +108,8 @@ pub struct LaneIndex {
     vehicles: usize,
     /// Vehicles signalling a lane change.
     signalling: usize,
+    /// The [`RoadNetwork::revision`] the roads' links, lanes and paths beside were read from.
+    read_from: Option<u64>,
 }
 
 impl LaneIndex {
@@ -122,6 +124,41 @@ impl LaneIndex {
             road.lanes.iter_mut().for_each(Vec::clear);
         }
         self.signalling = 0;
+        if self.read_from != Some(network.revision()) {
+            self.read_network(network);
+        }
+        self.vehicles = 0;
+        for (entity, track, length_m, signal) in vehicles {
+            if !track.on_road {
+                continue;
+            }
+            let Some(road) = self.roads.get_mut(&track.road) else {
+                continue;
+            };
+            let Some(lane) = road.lanes.get_mut(track.lane as usize) else {
+                continue;
+            };
+            self.signalling += usize::from(signal != 0);
+            lane.push(LaneEntry {
+                entity,
+                s_m: track.s_m,
+                lateral_m: track.lateral_m as f32,
+                speed_mps: track.speed_along_mps,
+                length_m,
+                signal,
+            });
+            self.vehicles += 1;
+        }
+        for road in self.roads.values_mut() {
+            for lane in &mut road.lanes {
+                lane.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
+            }
+        }
+    }
+
+    /// Reads what the index needs of `network` apart from its vehicles: each road's length,
+    /// links and lanes in, and the paths beside each junction path.
+    fn read_network(&mut self, network: &RoadNetwork) {
         self.roads.retain(|id, _| network.get(*id).is_some());
         for (id, g) in network.iter() {
             let road = self.roads.entry(id).or_default();
@@ -166,33 +203,7 @@ impl LaneIndex {
                     }));
             }
         }
-        self.vehicles = 0;
-        for (entity, track, length_m, signal) in vehicles {
-            if !track.on_road {
-                continue;
-            }
-            let Some(road) = self.roads.get_mut(&track.road) else {
-                continue;
-            };
-            let Some(lane) = road.lanes.get_mut(track.lane as usize) else {
-                continue;
-            };
-            self.signalling += usize::from(signal != 0);
-            lane.push(LaneEntry {
-                entity,
-                s_m: track.s_m,
-                lateral_m: track.lateral_m as f32,
-                speed_mps: track.speed_along_mps,
-                length_m,
-                signal,
-            });
-            self.vehicles += 1;
-        }
-        for road in self.roads.values_mut() {
-            for lane in &mut road.lanes {
-                lane.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
-            }
-        }
+        self.read_from = Some(network.revision());
     }
 
     /// Number of vehicles indexed.

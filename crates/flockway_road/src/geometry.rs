@@ -108,6 +108,8 @@ pub struct RoadGeometry {
     segments: Vec<SegmentData>,
     length_m: f64,
     grid: SegmentGrid,
+    /// A box the centre line stays within (min, max corners).
+    bounds: (DVec3, DVec3),
     /// Per [`CURVATURE_BIN_M`] of centre line, the ground-plane curvature of largest magnitude
     /// in the bin, 1/m (signed, positive turning left).
     curvature: Vec<f32>,
@@ -159,11 +161,16 @@ impl RoadGeometry {
                 .map(|s| (&s.cubic, s.len()))
                 .collect::<Vec<_>>(),
         );
+        let bounds = segments.iter().map(|s| s.cubic.bounds()).fold(
+            (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
+        );
         let mut road = RoadGeometry {
             spec: spec.clone(),
             segments,
             length_m: s0,
             grid,
+            bounds,
             curvature: Vec::new(),
         };
         road.curvature = road.curvature_profile();
@@ -386,6 +393,15 @@ impl RoadGeometry {
         let seg = self.param_at(s_m).seg;
         let p = &self.spec.points[seg];
         (p.guardrail_left, p.guardrail_right)
+    }
+
+    /// A lower bound on [`project`](Self::project)'s `distance_m` for `pos` (its distance from a
+    /// box the centre line stays within), for ruling a road out cheaply.
+    pub fn distance_bound(&self, pos: DVec3) -> f64 {
+        let (lo, hi) = self.bounds;
+        let outside = (lo - pos).max(pos - hi).max(DVec3::ZERO);
+        // Less a hair, so that rounding in the exact distance can never fall below it.
+        (outside.length() - 1.0e-6).max(0.0)
     }
 
     /// The closest point of the road to a world position. Uses the spatial index, then refines on

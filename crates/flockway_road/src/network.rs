@@ -8,6 +8,7 @@ use glam::DVec3;
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Largest gap allowed between a road's end and the start of the road it leads onto, in metres.
 pub const MAX_CONNECTION_GAP_M: f64 = 1.0;
@@ -126,7 +127,12 @@ pub struct RoadNetwork {
     path_roads: Vec<Vec<RoadId>>,
     /// Pairs of roads that cross without meeting (a bridge), smaller id first, sorted.
     crossings: Vec<(RoadId, RoadId)>,
+    /// Which build this is ([`revision`](Self::revision)).
+    revision: u64,
 }
+
+/// The revision the next network built gets (0 is the empty default network's).
+static NEXT_REVISION: AtomicU64 = AtomicU64::new(1);
 
 /// The junction path a vehicle is about to enter ([`RoadNetwork::junction_ahead`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -360,7 +366,14 @@ impl RoadNetwork {
             paths,
             path_roads,
             crossings,
+            revision: NEXT_REVISION.fetch_add(1, Ordering::Relaxed),
         })
+    }
+
+    /// Tells one build of a network from another (a clone keeps it): what is worked out from
+    /// a network once can be kept while this stays the same. Never reaches any output.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     /// Pairs of roads whose centre lines cross where no junction or link joins them (a bridge,
@@ -614,15 +627,35 @@ impl RoadNetwork {
     }
 
     /// The road closest to a world position and where on it the position lies.
+    ///
+    /// The same answer as projecting onto every road, but a road whose box is farther than the
+    /// best distance found so far is not projected onto (in a city most are kilometres away).
     pub fn project(&self, pos: DVec3) -> Option<(RoadId, RoadProjection)> {
-        self.iter()
-            .map(|(id, g)| (id, g.project(pos)))
+        let bounds: Vec<(f64, RoadId, &RoadGeometry)> = self
+            .iter()
+            .map(|(id, g)| (g.distance_bound(pos), id, g.as_ref()))
+            .collect();
+        // Start from the road with the nearest box, so the rest are mostly ruled out.
+        let &(_, first, g) = bounds
+            .iter()
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))?;
+        let mut best = (first, g.project(pos));
+        for &(bound, id, g) in &bounds {
+            // Strictly farther: a tie could still win on its lower id.
+            if id == first || bound > best.1.distance_m {
+                continue;
+            }
+            let p = g.project(pos);
             // Ties go to the lower id, so the answer never depends on anything but the data.
-            .min_by(|a, b| {
-                a.1.distance_m
-                    .total_cmp(&b.1.distance_m)
-                    .then(a.0.cmp(&b.0))
-            })
+            if p.distance_m
+                .total_cmp(&best.1.distance_m)
+                .then(id.cmp(&best.0))
+                == std::cmp::Ordering::Less
+            {
+                best = (id, p);
+            }
+        }
+        Some(best)
     }
 }
 
@@ -973,5 +1006,49 @@ mod tests {
             RoadNetwork::build(&specs),
             Err(NetworkError::DuplicateLink { .. })
         ));
+    }
+
+    #[test]
+    fn the_nearest_road_is_the_one_projecting_onto_every_road_finds() {
+        // Curving roads in a fan and a ring of points around and among them, some above.
+        let specs: Vec<RoadSpec> = (0..12)
+            .map(|k| {
+                let a = f64::from(k) * 0.5;
+                let (c, s) = (a.cos(), a.sin());
+                RoadSpec::through(
+                    &format!("r{k}"),
+                    1 + k as u32 % 3,
+                    50.0,
+                    &[
+                        DVec3::new(20.0 * c, 20.0 * s, 0.0),
+                        DVec3::new(60.0 * c - 10.0 * s, 60.0 * s + 10.0 * c, f64::from(k)),
+                        DVec3::new(120.0 * c, 120.0 * s, 0.0),
+                    ],
+                )
+            })
+            .collect();
+        let network = RoadNetwork::build(&specs).expect("roads apart");
+        for i in 0..400 {
+            let t = f64::from(i);
+            let pos = DVec3::new(
+                (t * 0.37).sin() * (20.0 + t * 0.3),
+                (t * 0.53).cos() * (20.0 + t * 0.3),
+                (t * 0.11).sin() * 6.0,
+            );
+            let every = network
+                .iter()
+                .map(|(id, g)| (id, g.project(pos)))
+                .min_by(|a, b| {
+                    a.1.distance_m
+                        .total_cmp(&b.1.distance_m)
+                        .then(a.0.cmp(&b.0))
+                })
+                .expect("roads");
+            let (id, p) = network.project(pos).expect("roads");
+            assert_eq!((id, p), every, "at {pos}");
+            for (_, g) in network.iter() {
+                assert!(g.distance_bound(pos) <= g.project(pos).distance_m);
+            }
+        }
     }
 }

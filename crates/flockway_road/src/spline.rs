@@ -23,6 +23,16 @@ impl Cubic {
         }
     }
 
+    /// The box the curve on `u` in [0, 1] stays within: its Bézier control points' box (a
+    /// Bézier curve lies in the convex hull of its control points).
+    pub(crate) fn bounds(&self) -> (DVec3, DVec3) {
+        let p0 = self.a;
+        let p3 = self.a + self.b + self.c + self.d;
+        let p1 = p0 + self.b / 3.0;
+        let p2 = p3 - self.d1(1.0) / 3.0;
+        (p0.min(p1).min(p2).min(p3), p0.max(p1).max(p2).max(p3))
+    }
+
     #[inline]
     pub(crate) fn pos(&self, u: f64) -> DVec3 {
         self.a + u * (self.b + u * (self.c + u * self.d))

@@ -9,6 +9,7 @@ use flockway_drivers::{DriverLabel, RoadSurface, Route, SpeedLimit, SurfaceStret
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Where a destroyer acts.
@@ -271,6 +272,29 @@ type DestroyerView = (
     Option<&'static VehicleId>,
 );
 
+/// The positions in two ascending lists, in ascending order.
+fn merged<'a>(a: &'a [usize], b: &'a [usize]) -> impl Iterator<Item = usize> + 'a {
+    let (mut i, mut j) = (0, 0);
+    std::iter::from_fn(move || {
+        let next = match (a.get(i), b.get(j)) {
+            (Some(&x), Some(&y)) if x <= y => {
+                i += 1;
+                x
+            }
+            (_, Some(&y)) => {
+                j += 1;
+                y
+            }
+            (Some(&x), None) => {
+                i += 1;
+                x
+            }
+            (None, None) => return None,
+        };
+        Some(next)
+    })
+}
+
 /// Removes vehicles that pass a destroyer's point or are inside its volume, recording their
 /// travel time and the destroyer's count (after the warm-up), and their trips in the
 /// [`TripLog`] when the run keeps one. Updates every vehicle's [`Travel`] position.
@@ -286,32 +310,47 @@ pub fn run_destroyers(
     mut commands: Commands,
 ) {
     let tick = clock.tick().0;
+    // Destroyers on each road and those that are volumes, as positions in the query's order:
+    // a vehicle is measured against those that can take it, not against every destroyer.
+    let all: Vec<&Destroyer> = destroyers.iter().collect();
+    let mut on_road: BTreeMap<RoadId, Vec<usize>> = BTreeMap::new();
+    let mut volumes: Vec<usize> = Vec::new();
+    for (k, d) in all.iter().enumerate() {
+        match d.place {
+            DestroyerPlace::OnRoad { road, .. } => on_road.entry(road).or_default().push(k),
+            DestroyerPlace::Volume { .. } => volumes.push(k),
+        }
+    }
     for (entity, track, motion, mut travel, label, limit, route, id) in &mut vehicles {
-        let passed = destroyers.iter().find(|d| match d.place {
-            DestroyerPlace::OnRoad { road, s_m } => {
-                if track.road != road
-                    || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
-                {
-                    return false;
+        let here = on_road.get(&track.road).map_or(&[][..], Vec::as_slice);
+        // The first that takes it in the query's order, as if every destroyer were asked.
+        let passed = merged(here, &volumes)
+            .map(|k| all[k])
+            .find(|d| match d.place {
+                DestroyerPlace::OnRoad { road, s_m } => {
+                    if track.road != road
+                        || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
+                    {
+                        return false;
+                    }
+                    let Some(g) = network.get(road) else {
+                        return false;
+                    };
+                    if travel.road == road {
+                        // Crossed between last tick and this one (forwards, across a loop's join too).
+                        let moved = g.delta_s(travel.s_m, track.s_m);
+                        let to_point = g.delta_s(travel.s_m, s_m);
+                        moved > 0.0 && to_point > 0.0 && to_point <= moved
+                    } else {
+                        // Came onto the road this tick already past the point.
+                        track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+                    }
                 }
-                let Some(g) = network.get(road) else {
-                    return false;
-                };
-                if travel.road == road {
-                    // Crossed between last tick and this one (forwards, across a loop's join too).
-                    let moved = g.delta_s(travel.s_m, track.s_m);
-                    let to_point = g.delta_s(travel.s_m, s_m);
-                    moved > 0.0 && to_point > 0.0 && to_point <= moved
-                } else {
-                    // Came onto the road this tick already past the point.
-                    track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+                DestroyerPlace::Volume { min, max } => {
+                    let p = motion.position;
+                    p.cmpge(min).all() && p.cmple(max).all()
                 }
-            }
-            DestroyerPlace::Volume { min, max } => {
-                let p = motion.position;
-                p.cmpge(min).all() && p.cmple(max).all()
-            }
-        });
+            });
         if let Some(d) = passed {
             stats.destroyed += 1;
             if let Some(log) = trips.as_deref_mut() {
