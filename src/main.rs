@@ -1,6 +1,23 @@
 //! The `flockway` command: parses the command line (`cli`) and hands each command to its
 //! module in `commands`. Exit status: 0 all good, 1 an expectation failed, 2 bad input.
 
+/// `print!` that gives up quietly when standard output is gone (`flockway run … | head`): the
+/// command still finishes, writes its files and exits with its own status.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `println!` that gives up quietly when standard output is gone, as [`out!`].
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod cli;
 mod commands;
 

@@ -115,6 +115,24 @@ fn missing_files_and_bad_arguments_exit_2() {
     assert_eq!(out.status.code(), Some(2), "neither --sumo nor --net");
 }
 
+/// Output read only in part (`flockway run … | head -1`) is no crash: the command finishes
+/// and exits with its own status.
+#[test]
+fn a_reader_that_stops_early_is_no_crash() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .args(["check", "levels/dense_road.ron", "levels/on_ramp.ron"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the flockway binary runs");
+    // Nothing reads its output: the first line written finds the pipe closed.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("it finishes");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
+
 #[test]
 fn help_documents_every_run_option() {
     let out = flockway(&["run", "--help"]);

@@ -293,3 +293,126 @@ networks! {
     rilsa_example3_net => "sumolib/scenario/scenarios/RealWorld/RiLSA_example3/net.net.xml",
     rilsa_example4_net => "sumolib/scenario/scenarios/RealWorld/RiLSA_example4/net.net.xml",
 }
+
+/// How long the OpenStreetMap town runs, s: its fringe fills it with hundreds of cars.
+const TOWN_SECONDS: f64 = 40.0;
+/// The vehicle contacts the town has in [`TOWN_SECONDS`] s today (a known defect, as above).
+const TOWN_CONTACTS: f64 = 1.0;
+
+/// The options docs/import.md recommends for netconvert on OpenStreetMap.
+const OSM_OPTIONS: [&str; 8] = [
+    "--geometry.remove",
+    "--ramps.guess",
+    "--junctions.join",
+    "--tls.guess-signals",
+    "--tls.discard-simple",
+    "--tls.join",
+    "--roundabouts.guess",
+    "--remove-edges.isolated",
+];
+
+/// Runs SUMO's netconvert on the fixture `input` (under tests/fixtures) read as `kind`
+/// (`osm` or `opendrive`) with `options`, imports the network with `flockway import`, checks
+/// the level with `flockway check`: the level, where it is; `None` (and a note on stderr)
+/// without netconvert.
+fn through_netconvert(
+    kind: &str,
+    input: &str,
+    options: &[&str],
+) -> Option<(flockway::level::Level, PathBuf)> {
+    let Some(bin) = std::env::var_os("FLOCKWAY_SUMO_BIN") else {
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: netconvert is not there (install SUMO with `pip install \
+             eclipse-sumo==1.28.0` and set FLOCKWAY_SUMO_BIN to its environment's bin directory)"
+        );
+        return None;
+    };
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("sumo_networks");
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    let name = input.rsplit('/').next().and_then(|f| f.split('.').next());
+    let name = name.expect("a file name");
+    let net = dir.join(format!("{name}.net.xml"));
+    let out = Command::new(Path::new(&bin).join("netconvert"))
+        .arg(format!("--{kind}-files"))
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/fixtures")
+                .join(input),
+        )
+        .args(options)
+        .args(["--no-warnings", "-o"])
+        .arg(&net)
+        .output()
+        .expect("netconvert runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{input}: {stderr}");
+    let level = dir.join(format!("{name}.ron"));
+    let _ = std::fs::remove_file(&level);
+    let flockway = |args: &[&std::ffi::OsStr]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
+            .args(args)
+            .output()
+            .expect("the flockway binary runs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{input}: {stderr}");
+    };
+    flockway(&[
+        "import".as_ref(),
+        net.as_ref(),
+        "-o".as_ref(),
+        level.as_ref(),
+    ]);
+    flockway(&["check".as_ref(), level.as_ref()]);
+    let loaded = load_level(&level).unwrap_or_else(|e| panic!("{input}: {e}"));
+    Some((loaded, level))
+}
+
+/// A real OpenStreetMap extract (`tests/fixtures/osm/town.osm`) made into a SUMO network by
+/// netconvert with the options docs/import.md recommends, then imported, checked and run as a
+/// user would: streets, a motorway with its links, cycle tracks and footways the importer
+/// leaves out.
+#[test]
+fn an_openstreetmap_town_through_netconvert_imports_and_runs() {
+    let Some((level, path)) = through_netconvert("osm", "osm/town.osm", &OSM_OPTIONS) else {
+        return;
+    };
+    assert!(level.roads.len() > 500, "{} roads", level.roads.len());
+    assert!(
+        level.spawners.len() > 50,
+        "{} spawners",
+        level.spawners.len()
+    );
+    let m = run(level, &path, SEED, Some(TOWN_SECONDS), None);
+    assert!(m["vehicles_spawned"] > 200.0, "{m:#?}");
+    assert!(m["vehicles_destroyed"] > 5.0, "{m:#?}");
+    assert!(
+        m["collisions_vehicle"] <= TOWN_CONTACTS,
+        "{} vehicle contacts in {TOWN_SECONDS} s (at most {TOWN_CONTACTS} known)",
+        m["collisions_vehicle"]
+    );
+    assert_eq!(m["collisions_guardrail"], 0.0, "{m:#?}");
+}
+
+/// An OpenDRIVE road (`tests/fixtures/opendrive/curve.xodr`: a line then an arc, climbing 2 %,
+/// a lane each way and a sidewalk) through netconvert: both directions carry traffic, the
+/// sidewalk is left out, the climb is kept.
+#[test]
+fn an_opendrive_road_through_netconvert_imports_and_runs() {
+    let Some((level, path)) = through_netconvert("opendrive", "opendrive/curve.xodr", &[]) else {
+        return;
+    };
+    assert_eq!(level.roads.len(), 2, "{:#?}", level.roads);
+    for road in &level.roads {
+        assert_eq!(road.lanes, 1, "{}: the sidewalk is not a lane", road.name);
+        let (first, last) = (&road.points[0].pos, &road.points[road.points.len() - 1].pos);
+        assert!(
+            (last.z - first.z).abs() > 3.0,
+            "{}: the 2 % climb is kept",
+            road.name
+        );
+    }
+    let m = run(level, &path, SEED, Some(120.0), None);
+    assert!(m["vehicles_destroyed"] > 10.0, "{m:#?}");
+    assert_eq!(m["collisions_vehicle"], 0.0, "{m:#?}");
+}

@@ -34,7 +34,7 @@ pub fn plot(
     match flockway::analysis::write_plots_sized(&trace, &info, dir, format, size) {
         Ok(files) => {
             for f in files {
-                println!("wrote {}", f.display());
+                outln!("wrote {}", f.display());
             }
             ExitCode::SUCCESS
         }
@@ -56,7 +56,7 @@ pub fn report(
     let wave = flockway::analysis::wave_of(&trace, &info, summary.as_ref());
     match flockway::analysis::write_report(&trace, &info, summary.as_ref(), wave.as_ref(), out) {
         Ok(()) => {
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display());
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),

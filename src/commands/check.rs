@@ -18,7 +18,7 @@ pub fn check(levels: &[PathBuf]) -> ExitCode {
         match loaded {
             Ok((level, name)) => {
                 super::print_warnings(&level, path);
-                println!(
+                outln!(
                     "ok    {} ({}, {} road(s), {} vehicle type(s))",
                     path.display(),
                     name,

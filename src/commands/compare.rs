@@ -60,11 +60,11 @@ pub fn compare_with_sumo(args: &CompareArgs) -> ExitCode {
     let comparison = compare(&sumo, &flockway, seconds);
     if args.json {
         match serde_json::to_string_pretty(&comparison) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => return fail(e),
         }
     } else {
-        println!(
+        outln!(
             "{name}: SUMO and Flockway side by side over {seconds} s, seed {seed}\n\n{}",
             comparison.table()
         );

@@ -21,11 +21,11 @@ pub fn dyno(vehicle: Option<&std::path::Path>, json: bool) -> ExitCode {
     let report = run_dyno(&model, &DynoSettings::default());
     if json {
         match serde_json::to_string_pretty(&report) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => return fail(e),
         }
     } else {
-        print!("{}", dyno_table(&name, &report));
+        out!("{}", dyno_table(&name, &report));
     }
     ExitCode::SUCCESS
 }

@@ -63,7 +63,7 @@ pub fn import(net: &Path, output: &Path, routes: &[PathBuf]) -> ExitCode {
     if let Err(e) = write_atomic(output, format!("{header}{body}").as_bytes()) {
         return fail(e);
     }
-    println!(
+    outln!(
         "wrote {} ({} roads, {} junctions, {} spawners, {} destroyers)",
         output.display(),
         level.roads.len(),
@@ -72,14 +72,14 @@ pub fn import(net: &Path, output: &Path, routes: &[PathBuf]) -> ExitCode {
         level.destroyers.len()
     );
     if !demand.is_empty() {
-        println!(
+        outln!(
             "demand: {} vehicles in timetables, {} driver profiles, {} s to run",
             report.vehicles,
             level.driver_profiles.len(),
             level.duration_s
         );
     }
-    println!("run it:   flockway run {}", output.display());
+    outln!("run it:   flockway run {}", output.display());
     ExitCode::SUCCESS
 }
 

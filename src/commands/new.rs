@@ -27,9 +27,9 @@ pub fn new_level(path: &std::path::Path, template: Template) -> ExitCode {
         return fail(e);
     }
     let shown = shell_quote(&path.display().to_string());
-    println!("wrote {} ({})", path.display(), template.summary());
-    println!("run it:   flockway run {shown}");
-    println!("edit it:  flockway edit {shown}");
+    outln!("wrote {} ({})", path.display(), template.summary());
+    outln!("run it:   flockway run {shown}");
+    outln!("edit it:  flockway edit {shown}");
     ExitCode::SUCCESS
 }
 

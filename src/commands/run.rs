@@ -97,10 +97,10 @@ pub fn run(args: RunArgs) -> ExitCode {
         }
     }
     if !args.quiet {
-        print!("{}", report.to_text());
+        out!("{}", report.to_text());
         if let Some(spec) = &score {
             let outcome = spec.formula.evaluate(&report.metrics);
-            println!("score            {}", spec.describe(&outcome));
+            outln!("score            {}", spec.describe(&outcome));
         }
     }
     if report.passed {

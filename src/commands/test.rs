@@ -33,7 +33,7 @@ pub fn test(
     };
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let results = batch::run_all(&runs, settings, jobs, |run, outcome| match outcome {
-        Ok(r) => println!(
+        Ok(r) => outln!(
             "{} {} seed {} ({:.0} s simulated in {:.1} s){}",
             if r.passed { "PASS" } else { "FAIL" },
             run.path.display(),
@@ -42,7 +42,7 @@ pub fn test(
             r.wall_seconds,
             score_note(r)
         ),
-        Err(e) => println!("ERROR {}: {e}", run.path.display()),
+        Err(e) => outln!("ERROR {}: {e}", run.path.display()),
     });
     let (mut passed, mut failed, mut errors) = (0, 0, 0);
     for (run, r) in runs.iter().zip(&results) {
@@ -54,7 +54,7 @@ pub fn test(
                     let value = e
                         .value
                         .map_or("not measured".to_owned(), |v| format!("{v:.3}"));
-                    println!(
+                    outln!(
                         "  {} seed {}: {} (measured {value})",
                         run.path.display(),
                         summary.seed,
@@ -81,7 +81,7 @@ pub fn test(
         }
     }
     print_scores(&runs, &results);
-    println!("{passed} passed, {} failed", failed + errors);
+    outln!("{passed} passed, {} failed", failed + errors);
     if errors > 0 {
         ExitCode::from(2)
     } else if failed > 0 {
@@ -119,7 +119,7 @@ fn print_scores(runs: &[batch::BatchRun], results: &[Result<Summary, flockway::r
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
                 (lo.min(*s), hi.max(*s))
             });
-        println!(
+        outln!(
             "score {}: mean {mean:.2} over {} seeds ({lo:.2} to {hi:.2})",
             path.display(),
             scores.len()

@@ -68,7 +68,7 @@ pub fn render(
     };
     match render_level(level, &name, &snapshot, out) {
         Ok(r) => {
-            println!(
+            outln!(
                 "wrote {} ({}×{}, {} vehicles at {:.2} s, {})",
                 out.display(),
                 size.0,

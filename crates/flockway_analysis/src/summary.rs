@@ -257,7 +257,8 @@ impl Summary {
             }
         }
         for (d, v) in &self.flow_veh_per_h {
-            out.push_str(&format!("flow {d:<12}{} veh/h\n", fmt_value(*v)));
+            // A space after the name however long it is.
+            out.push_str(&format!("flow {d:<11} {} veh/h\n", fmt_value(*v)));
         }
         // Each junction's measures, on one line.
         let junctions = self
