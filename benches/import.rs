@@ -12,7 +12,7 @@ use std::hint::black_box;
 use std::path::Path;
 
 /// Junctions per side of the grid.
-const SIDE: usize = 34;
+const SIDE: usize = 43;
 /// Distance between junctions, m.
 const BLOCK_M: f64 = 150.0;
 /// How far an edge stops short of a junction's centre, m (the junction's area).

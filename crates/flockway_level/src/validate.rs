@@ -106,6 +106,8 @@ struct Checker<'a> {
     issues: Vec<Issue>,
     /// Where each road leads ([`Level::successors`]), found once.
     next: BTreeMap<&'a str, Vec<&'a str>>,
+    /// The roads' names, for the many routes that name them.
+    names: BTreeSet<&'a str>,
 }
 
 /// Checks everything that parsing alone cannot; returns every problem found, in file order.
@@ -115,6 +117,7 @@ pub fn validate(level: &Level) -> Vec<Issue> {
         roads: Vec::new(),
         issues: Vec::new(),
         next: level.successors(),
+        names: level.roads.iter().map(|r| r.name.as_str()).collect(),
     };
     c.run();
     c.issues
@@ -693,7 +696,7 @@ impl Checker<'_> {
             let mut prev = s.road.as_str();
             for (m, name) in route.roads.iter().enumerate() {
                 let path = at(&[Field("roads"), Index(m)]);
-                if self.level.road(name).is_none() {
+                if !self.names.contains(name.as_str()) {
                     let msg = format!("unknown road `{name}`; {}", self.road_names());
                     self.issue(path, msg);
                     break;
@@ -716,7 +719,7 @@ impl Checker<'_> {
         }
         if let Some(dest) = &s.destination {
             let path = [&base[..], &[Field("destination")]].concat();
-            if self.level.road(dest).is_none() {
+            if !self.names.contains(dest.as_str()) {
                 let msg = format!("unknown road `{dest}`; {}", self.road_names());
                 self.issue(path, msg);
             } else if !self.reachable(&s.road, dest) {

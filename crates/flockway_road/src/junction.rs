@@ -230,17 +230,20 @@ impl Sample {
     fn touches(&self, other: &Swept) -> bool {
         let reach = REACH_M;
         self.outline.iter().any(|&p| {
-            other.runs.iter().any(|run| {
-                run.near(p)
-                    && other.samples[run.first..=run.last].windows(2).any(|seg| {
-                        let (q0, q1) = (seg[0].pos, seg[1].pos);
-                        let d = q1 - q0;
-                        let u = ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
-                        let q = q0 + u * d;
-                        let (dx, dy) = (p.x - q.x, p.y - q.y);
-                        dx * dx + dy * dy < reach * reach
-                    })
-            })
+            // Outside every run's box at once: most of a junction's pairs of paths never meet.
+            other.whole.near(p)
+                && other.runs.iter().any(|run| {
+                    run.near(p)
+                        && other.samples[run.first..=run.last].windows(2).any(|seg| {
+                            let (q0, q1) = (seg[0].pos, seg[1].pos);
+                            let d = q1 - q0;
+                            let u =
+                                ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                            let q = q0 + u * d;
+                            let (dx, dy) = (p.x - q.x, p.y - q.y);
+                            dx * dx + dy * dy < reach * reach
+                        })
+                })
         })
     }
 }
@@ -259,6 +262,8 @@ const RUN_SEGMENTS: usize = 8;
 struct Swept {
     samples: Vec<Sample>,
     runs: Vec<Run>,
+    /// The box of all its runs.
+    whole: Run,
 }
 
 /// Segments `first`..`last` (sample indices) of a [`Swept`] path and their grown bounding box.
@@ -298,7 +303,17 @@ impl Swept {
             });
             first = last;
         }
-        Swept { samples, runs }
+        let whole = Run {
+            first: 0,
+            last: segments,
+            min: runs.iter().fold(DVec3::INFINITY, |lo, r| lo.min(r.min)),
+            max: runs.iter().fold(DVec3::NEG_INFINITY, |hi, r| hi.max(r.max)),
+        };
+        Swept {
+            samples,
+            runs,
+            whole,
+        }
     }
 }
 

@@ -234,41 +234,44 @@ impl<'n> Fringe<'n> {
     }
 
     /// The way from `source` to each sink it reaches, by the fewest edges (a sink that is the
-    /// source itself is no way).
+    /// source itself is no way), in the sinks' order.
     pub fn routes_from(&self, source: &str) -> Vec<Vec<String>> {
+        let back = breadth_first(&self.next, source);
         self.sinks
             .iter()
-            .filter_map(|sink| shortest(&self.next, source, &sink.id))
+            .filter_map(|sink| {
+                let mut at = back.get(sink.id.as_str()).map(|_| sink.id.as_str())?;
+                let mut path = vec![at.to_owned()];
+                while let Some(&Some(p)) = back.get(at) {
+                    path.push(p.to_owned());
+                    at = p;
+                }
+                path.reverse();
+                Some(path)
+            })
             .filter(|roads| roads.len() > 1)
             .collect()
     }
 }
 
-/// The fewest edges from `from` to `to` through the connections (breadth first, in name order,
-/// so the same network always gives the same routes).
-fn shortest(next: &BTreeMap<&str, BTreeSet<&str>>, from: &str, to: &str) -> Option<Vec<String>> {
-    let mut back: BTreeMap<&str, &str> = BTreeMap::new();
+/// Every edge reachable from `from` through the connections by the fewest edges, with the edge
+/// it is reached from (`None` for `from`): breadth first, in name order, so the same network
+/// always gives the same routes.
+fn breadth_first<'a>(
+    next: &BTreeMap<&'a str, BTreeSet<&'a str>>,
+    from: &'a str,
+) -> BTreeMap<&'a str, Option<&'a str>> {
+    let mut back = BTreeMap::from([(from, None)]);
     let mut queue = VecDeque::from([from]);
-    let mut seen = BTreeSet::from([from]);
     while let Some(e) = queue.pop_front() {
-        if e == to {
-            let mut path = vec![to.to_owned()];
-            let mut at = to;
-            while let Some(&p) = back.get(at) {
-                path.push(p.to_owned());
-                at = p;
-            }
-            path.reverse();
-            return Some(path);
-        }
         for &n in next.get(e).into_iter().flatten() {
-            if seen.insert(n) {
-                back.insert(n, e);
+            if let std::collections::btree_map::Entry::Vacant(v) = back.entry(n) {
+                v.insert(Some(e));
                 queue.push_back(n);
             }
         }
     }
-    None
+    back
 }
 
 #[cfg(test)]
@@ -476,10 +479,10 @@ mod tests {
         next.insert("a", BTreeSet::from(["b", "c"]));
         next.insert("b", BTreeSet::from(["d"]));
         next.insert("c", BTreeSet::from(["d"]));
-        assert_eq!(
-            shortest(&next, "a", "d"),
-            Some(vec!["a".to_owned(), "b".to_owned(), "d".to_owned()])
-        );
-        assert_eq!(shortest(&next, "d", "a"), None);
+        // d is reached from b, the first in name order at the same depth as c.
+        let back = breadth_first(&next, "a");
+        assert_eq!(back.get("d"), Some(&Some("b")));
+        assert_eq!(back.get("a"), Some(&None));
+        assert_eq!(breadth_first(&next, "d").get("a"), None);
     }
 }
