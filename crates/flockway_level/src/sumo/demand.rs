@@ -93,6 +93,8 @@ enum DepartLane {
 struct Reader<'a> {
     level: &'a Level,
     lane_maps: &'a LaneMaps,
+    /// Edges the import left out inside junctions: routes pass over them.
+    inside_junctions: &'a BTreeSet<String>,
     vtypes: BTreeMap<String, VType>,
     routes: BTreeMap<String, Vec<String>>,
     /// Route distributions: member route ids with their probabilities.
@@ -116,7 +118,12 @@ pub fn import_sumo(
     name: &str,
     routes: &[(PathBuf, String)],
 ) -> Result<(Level, DemandReport), ImportError> {
-    let (mut level, lane_maps, net_warnings) = super::import_net(net, net_path, name)?;
+    let super::Imported {
+        mut level,
+        lane_maps,
+        warnings: net_warnings,
+        inside_junctions,
+    } = super::import_net(net, net_path, name)?;
     if routes.is_empty() {
         let report = DemandReport {
             warnings: net_warnings,
@@ -124,7 +131,7 @@ pub fn import_sumo(
         };
         return Ok((level, report));
     }
-    let mut report = apply_demand(&mut level, &lane_maps, routes)?;
+    let mut report = apply_demand(&mut level, &lane_maps, &inside_junctions, routes)?;
     report.warnings.splice(0..0, net_warnings);
     let names: Vec<String> = routes
         .iter()
@@ -145,16 +152,18 @@ pub fn import_sumo(
 }
 
 /// Puts the demand in `files` (path and text, read in order) on `level`, imported from a
-/// network with these lane maps: its spawners are replaced by timetables, its profiles by the
-/// demand's vehicle types.
+/// network with these lane maps and these edges left out inside junctions: its spawners are
+/// replaced by timetables, its profiles by the demand's vehicle types.
 pub(crate) fn apply_demand(
     level: &mut Level,
     lane_maps: &LaneMaps,
+    inside_junctions: &BTreeSet<String>,
     files: &[(PathBuf, String)],
 ) -> Result<DemandReport, ImportError> {
     let mut reader = Reader {
         level,
         lane_maps,
+        inside_junctions,
         vtypes: BTreeMap::new(),
         routes: BTreeMap::new(),
         route_dists: BTreeMap::new(),
@@ -507,6 +516,7 @@ impl Reader<'_> {
     fn route_edges(&self, node: roxmltree::Node) -> Result<Vec<String>, String> {
         let edges: Vec<String> = need(node, "edges")?
             .split_whitespace()
+            .filter(|e| !self.inside_junctions.contains(*e))
             .map(str::to_owned)
             .collect();
         if edges.is_empty() {
@@ -530,6 +540,11 @@ impl Reader<'_> {
     fn known_edge(&self, e: &str) -> Result<(), String> {
         if self.level.road(e).is_some() {
             Ok(())
+        } else if self.inside_junctions.contains(e) {
+            Err(format!(
+                "edge `{e}` lies inside a junction of the imported level (it is shorter than \
+                 3 m between two junctions): start or end the trip on an edge before or after it"
+            ))
         } else {
             Err(format!(
                 "unknown edge `{e}`: it is not in the network, or it has no lane cars may use"
@@ -1122,6 +1137,47 @@ fn quickest(level: &Level, from: &str, to: &str) -> Option<Vec<String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two junctions half a metre apart along `a` → `s` → `b` (side roads `c` out of the first,
+    /// `d` into the second): the import makes them one and leaves `s` out.
+    const CLOSE_PAIR: &str = r#"<net>
+<edge id="a" from="A" to="J1"><lane index="0" speed="13.89" shape="0,0 100,0"/></edge>
+<edge id="s" from="J1" to="J2"><lane index="0" speed="13.89" shape="104,0 104.5,0"/></edge>
+<edge id="b" from="J2" to="B"><lane index="0" speed="13.89" shape="110,0 200,0"/></edge>
+<edge id="c" from="J1" to="C"><lane index="0" speed="13.89" shape="104,20 200,20"/></edge>
+<edge id="d" from="D" to="J2"><lane index="0" speed="13.89" shape="0,-20 100,-20"/></edge>
+<connection from="a" to="s" fromLane="0" toLane="0" dir="s"/>
+<connection from="a" to="c" fromLane="0" toLane="0" dir="l"/>
+<connection from="s" to="b" fromLane="0" toLane="0" dir="s"/>
+<connection from="d" to="b" fromLane="0" toLane="0" dir="r"/>
+</net>"#;
+
+    #[test]
+    fn a_route_passes_over_an_edge_left_out_inside_a_junction() {
+        let rou = r#"<routes>
+<route id="through" edges="a s b"/>
+<vehicle id="v" route="through" depart="1"/>
+</routes>"#;
+        let files = [(PathBuf::from("t.rou.xml"), rou.to_owned())];
+        let (level, report) =
+            import_sumo(CLOSE_PAIR, Path::new("t.net.xml"), "t", &files).expect("imports");
+        assert!(level.road("s").is_none());
+        assert_eq!(report.vehicles, 1);
+        let route = level
+            .spawners
+            .iter()
+            .flat_map(|s| &s.routes)
+            .find(|r| r.name == "through")
+            .expect("the route");
+        assert_eq!(route.roads, ["a", "b"]);
+        // A trip that starts on it is told why it cannot.
+        let trip = r#"<routes><trip id="t" from="s" to="b" depart="0"/></routes>"#;
+        let files = [(PathBuf::from("t.rou.xml"), trip.to_owned())];
+        let Err(e) = import_sumo(CLOSE_PAIR, Path::new("t.net.xml"), "t", &files) else {
+            panic!("a trip from inside a junction is an error");
+        };
+        assert!(e.message.contains("lies inside a junction"), "{e}");
+    }
 
     #[test]
     fn times_read_as_seconds_or_clock_times() {

@@ -29,7 +29,7 @@ mod network;
 pub use demand::{DemandReport, import_sumo};
 
 use crate::schema::Level;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Why a SUMO network could not be imported: where in the file, and what was expected.
@@ -79,25 +79,37 @@ pub(crate) fn error_at(path: &Path, node: roxmltree::Node, message: String) -> I
 
 /// Reads a SUMO network file into a level named `name`.
 pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, ImportError> {
-    import_net(text, path, name).map(|(level, ..)| level)
+    import_net(text, path, name).map(|i| i.level)
 }
 
 /// For each imported edge, the car lane each of SUMO's lane indices became (`None`: a lane cars
 /// may not use, left out).
 pub(crate) type LaneMaps = BTreeMap<String, Vec<Option<u32>>>;
 
-/// [`import_sumo_net`], with the lane numbering of each edge it kept and what the level does
-/// not do as SUMO would (warnings, each once).
-pub(crate) fn import_net(
-    text: &str,
-    path: &Path,
-    name: &str,
-) -> Result<(Level, LaneMaps, Vec<String>), ImportError> {
+/// A network imported: the level, and what its demand needs to know of the import.
+pub(crate) struct Imported {
+    pub level: Level,
+    /// The lane numbering of each edge kept.
+    pub lane_maps: LaneMaps,
+    /// What the level does not do as SUMO would, each once.
+    pub warnings: Vec<String>,
+    /// Edges left out because they lie inside a junction (a route passes over them).
+    pub inside_junctions: BTreeSet<String>,
+}
+
+/// [`import_sumo_net`], with what a demand read onto the level needs.
+pub(crate) fn import_net(text: &str, path: &Path, name: &str) -> Result<Imported, ImportError> {
     let mut net = net::read(text, path)?;
     let mut connections = network::car_connections(&net, path)?;
     network::close_simple_nodes(&mut net.edges, &mut connections);
+    let inside_junctions = network::merge_close_junctions(&mut net, &mut connections);
     let (level, lane_maps) = build::level(&net, &connections, path, name)?;
-    Ok((level, lane_maps, net.warnings))
+    Ok(Imported {
+        level,
+        lane_maps,
+        warnings: net.warnings,
+        inside_junctions: inside_junctions.into_iter().collect(),
+    })
 }
 
 /// The file name of `path`, for a level's description.

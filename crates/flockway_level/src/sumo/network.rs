@@ -145,6 +145,112 @@ pub(super) fn close_simple_nodes(edges: &mut [Edge], connections: &mut Vec<Conne
     });
 }
 
+/// An edge between two junctions whose lanes are all shorter than this, m, lies inside one
+/// junction: OpenStreetMap draws a crossing as several nodes a few metres apart (a cycle
+/// track's crossing, a dual carriageway's two halves), and a car on the first's path could not
+/// stop short of the second's line.
+const INSIDE_JUNCTION_M: f64 = 3.0;
+
+/// Makes one junction of two joined by an edge shorter than [`INSIDE_JUNCTION_M`]: each
+/// connection onto the edge followed by one off it (lane to the same lane) becomes one
+/// connection across both, the edge is left out, and the nodes are one (the one with the traffic
+/// light, else the second; the short edge the other way then lies inside it too). Not where
+/// lights at both ends control it. The ids of the edges left out, in the order they were.
+pub(super) fn merge_close_junctions(
+    net: &mut Net,
+    connections: &mut Vec<Connection>,
+) -> Vec<String> {
+    let mut merged = Vec::new();
+    loop {
+        let mut ins: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+        let mut outs: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+        for (k, c) in connections.iter().enumerate() {
+            ins.entry(c.to.as_str()).or_default().push(k);
+            outs.entry(c.from.as_str()).or_default().push(k);
+        }
+        let controlled = |ks: &[usize]| ks.iter().any(|&k| connections[k].tl.is_some());
+        let found = net.edges.iter().position(|e| {
+            let (Some(i), Some(o)) = (ins.get(e.id.as_str()), outs.get(e.id.as_str())) else {
+                return false;
+            };
+            !e.lanes.is_empty()
+                && e.lanes
+                    .iter()
+                    .all(|l| polyline_length(&l.shape) < INSIDE_JUNCTION_M)
+                && !(controlled(i) && controlled(o))
+        });
+        let Some(at) = found else {
+            break;
+        };
+        let edge = net.edges.remove(at);
+        let (into, out_of) = (&ins[edge.id.as_str()], &outs[edge.id.as_str()]);
+        let (keep, gone) = if controlled(into) {
+            (edge.from.clone(), edge.to.clone())
+        } else {
+            (edge.to.clone(), edge.from.clone())
+        };
+        let ends: BTreeMap<&str, (&str, &str)> = net
+            .edges
+            .iter()
+            .map(|e| (e.id.as_str(), (e.from.as_str(), e.to.as_str())))
+            .collect();
+        let mut across = Vec::new();
+        for &a in into {
+            for &b in out_of {
+                let (c1, c2) = (&connections[a], &connections[b]);
+                let (Some(from), Some(to)) = (ends.get(c1.from.as_str()), ends.get(c2.to.as_str()))
+                else {
+                    continue;
+                };
+                // Lane to the same lane, and not back the way it came.
+                if c1.to_lane != c2.from_lane
+                    || c1.from == c2.to
+                    || (from.0 == to.1 && from.1 == to.0)
+                {
+                    continue;
+                }
+                let light = if c1.tl.is_some() { c1 } else { c2 };
+                across.push(Connection {
+                    from: c1.from.clone(),
+                    from_lane: c1.from_lane,
+                    to: c2.to.clone(),
+                    to_lane: c2.to_lane,
+                    link_index: light.link_index,
+                    tl: light.tl.clone(),
+                    turn_back: false,
+                    major: c1.major && c2.major,
+                    at: c1.at,
+                });
+            }
+        }
+        connections.retain(|c| c.from != edge.id && c.to != edge.id);
+        for c in across {
+            let same = |d: &Connection| {
+                (d.from.as_str(), d.from_lane, d.to.as_str(), d.to_lane)
+                    == (c.from.as_str(), c.from_lane, c.to.as_str(), c.to_lane)
+            };
+            if !connections.iter().any(same) {
+                connections.push(c);
+            }
+        }
+        for e in &mut net.edges {
+            if e.from == gone {
+                e.from.clone_from(&keep);
+            }
+            if e.to == gone {
+                e.to.clone_from(&keep);
+            }
+        }
+        merged.push(edge.id);
+    }
+    merged
+}
+
+/// The length of a polyline, m.
+fn polyline_length(points: &[DVec3]) -> f64 {
+    points.windows(2).map(|w| w[0].distance(w[1])).sum()
+}
+
 /// The gap from the end of lane `a` to the start of lane `b` when `b` goes straight on from `a`
 /// (ahead of it, within [`SIMPLE_NODE_GAP_M`], within [`SIMPLE_NODE_SIDEWAYS_M`] sideways of its
 /// line and heading within 30° of it); `None` otherwise.
@@ -411,6 +517,68 @@ mod tests {
         assert_eq!(end, DVec3::new(105.0, 0.0, 0.0));
         assert_eq!(start, end);
         assert_eq!(net.edges[1].lanes[1].shape[0], DVec3::new(105.0, 3.2, 0.0));
+    }
+
+    /// Junction `J1` (where `a` meets side road `c`) and `J2` (where `d` joins), half a metre
+    /// apart along `a` → `s` → `b`, the connection onto `s` written as `onto_s`.
+    fn close_pair(onto_s: &str) -> Net {
+        let lanes = [("all", 0.0)];
+        read_body(
+            &[
+                edge("a", "A", "J1", 0.0, 100.0, &lanes),
+                edge("s", "J1", "J2", 104.0, 104.5, &lanes),
+                edge("b", "J2", "B", 110.0, 200.0, &lanes),
+                edge("c", "J1", "C", 104.0, 200.0, &[("all", 20.0)]),
+                edge("d", "D", "J2", 0.0, 100.0, &[("all", -20.0)]),
+                onto_s.to_owned(),
+                connection("a", "c", (0, 0), "l"),
+                connection("s", "b", (0, 0), "s"),
+                connection("d", "b", (0, 0), "r"),
+            ]
+            .join("\n"),
+        )
+    }
+
+    #[test]
+    fn junctions_a_car_cannot_stop_between_are_one() {
+        let mut net = close_pair(&connection("a", "s", (0, 0), "s"));
+        let mut conns = car_connections(&net, Path::new("t.net.xml")).expect("known");
+        let merged = merge_close_junctions(&mut net, &mut conns);
+        assert_eq!(merged, ["s"]);
+        assert!(net.edges.iter().all(|e| e.id != "s"));
+        let pairs: Vec<(&str, &str)> = conns
+            .iter()
+            .map(|c| (c.from.as_str(), c.to.as_str()))
+            .collect();
+        assert_eq!(pairs, [("a", "c"), ("d", "b"), ("a", "b")]);
+        // One node: the second's, as no light controls either.
+        let ends = |id: &str| {
+            let e = net.edges.iter().find(|e| e.id == id).expect("kept");
+            (e.from.clone(), e.to.clone())
+        };
+        assert_eq!(ends("a").1, "J2");
+        assert_eq!(ends("c").0, "J2");
+        assert_eq!(ends("d").1, "J2");
+    }
+
+    #[test]
+    fn merged_junctions_keep_the_light_and_its_link_index() {
+        let mut net = close_pair(
+            r#"<connection from="a" to="s" fromLane="0" toLane="0" dir="s" tl="J1" linkIndex="3"/>"#,
+        );
+        let mut conns = car_connections(&net, Path::new("t.net.xml")).expect("known");
+        merge_close_junctions(&mut net, &mut conns);
+        let across = conns
+            .iter()
+            .find(|c| c.from == "a" && c.to == "b")
+            .expect("across");
+        assert_eq!(
+            (across.tl.as_deref(), across.link_index),
+            (Some("J1"), Some(3))
+        );
+        // The node with the light is the one kept.
+        let b = net.edges.iter().find(|e| e.id == "b").expect("kept");
+        assert_eq!(b.from, "J1");
     }
 
     #[test]
