@@ -13,6 +13,10 @@
 //! without meeting are at different levels, and their cars must pass without touching (the
 //! motorway interchange has ramps drawn along and across the motorway).
 //!
+//! Maps come in through netconvert too: an OpenStreetMap town (`tests/fixtures/osm/`) and an
+//! OpenDRIVE road (`tests/fixtures/opendrive/`) are made into SUMO networks here with the
+//! options docs/import.md recommends, then imported, checked and run the same way.
+//!
 //! Known defect, held where it stands rather than hidden: on several of these networks cars
 //! still touch (junctions where a sharp turn's car swings out of its lane, motorway merges);
 //! [`NETWORKS`] lets each have no more contacts than it has today, so that a regression fails
