@@ -10,33 +10,10 @@
 #[allow(dead_code, reason = "shared with the tests that run shipped levels")]
 mod common;
 
-use common::run;
+use common::{run, sumo_tool};
 use flockway::level::{Level, import_sumo_net};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-/// Where SUMO's tool `name` is: in `FLOCKWAY_SUMO_BIN`, else on `PATH`; `None` (and a note on
-/// stderr) when it cannot be run.
-fn sumo_tool(name: &str) -> Option<PathBuf> {
-    let path = match std::env::var_os("FLOCKWAY_SUMO_BIN") {
-        Some(dir) => Path::new(&dir).join(name),
-        None => PathBuf::from(name),
-    };
-    let works = Command::new(&path)
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !works {
-        // Past the test harness's capture, so the skip shows in a passing run.
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: SUMO's `{name}` cannot be run (install it with `pip install \
-             eclipse-sumo==1.28.0` and put its bin directory on PATH, or set FLOCKWAY_SUMO_BIN)"
-        );
-    }
-    works.then_some(path)
-}
 
 /// A scratch directory for one network's files.
 fn scratch(name: &str) -> PathBuf {

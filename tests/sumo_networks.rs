@@ -25,7 +25,7 @@
 #[allow(dead_code, reason = "shared with the tests that run shipped levels")]
 mod common;
 
-use common::run;
+use common::{run, sumo_tool};
 use flockway::level::load_level;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -318,26 +318,19 @@ const OSM_OPTIONS: [&str; 8] = [
 /// Runs SUMO's netconvert on the fixture `input` (under tests/fixtures) read as `kind`
 /// (`osm` or `opendrive`) with `options`, imports the network with `flockway import`, checks
 /// the level with `flockway check`: the level, where it is; `None` (and a note on stderr)
-/// without netconvert.
+/// without netconvert ([`sumo_tool`]).
 fn through_netconvert(
     kind: &str,
     input: &str,
     options: &[&str],
 ) -> Option<(flockway::level::Level, PathBuf)> {
-    let Some(bin) = std::env::var_os("FLOCKWAY_SUMO_BIN") else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: netconvert is not there (install SUMO with `pip install \
-             eclipse-sumo==1.28.0` and set FLOCKWAY_SUMO_BIN to its environment's bin directory)"
-        );
-        return None;
-    };
+    let netconvert = sumo_tool("netconvert")?;
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("sumo_networks");
     std::fs::create_dir_all(&dir).expect("a scratch directory");
     let name = input.rsplit('/').next().and_then(|f| f.split('.').next());
     let name = name.expect("a file name");
     let net = dir.join(format!("{name}.net.xml"));
-    let out = Command::new(Path::new(&bin).join("netconvert"))
+    let out = Command::new(netconvert)
         .arg(format!("--{kind}-files"))
         .arg(
             Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1315,8 +1315,8 @@ mod tests {
         assert_eq!(j.signal.as_ref().map(|s| s.offset_s), Some(5.0));
         assert_eq!(level.leads_to("a"), vec!["b", "c"]);
         // All roads at once, the same way.
+        let all = level.successors();
         for road in &level.roads {
-            let all = level.successors();
             let next = all.get(road.name.as_str()).cloned().unwrap_or_default();
             assert_eq!(next, level.leads_to(&road.name), "{}", road.name);
         }

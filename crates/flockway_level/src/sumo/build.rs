@@ -95,10 +95,10 @@ pub(super) fn level(
             ),
         ));
     }
+    // Every edge is a road of the same name.
     let lane_maps = net
         .edges
         .iter()
-        .filter(|e| level.road(&e.id).is_some())
         .map(|e| (e.id.clone(), e.lane_map.clone()))
         .collect();
     Ok((level, lane_maps))
