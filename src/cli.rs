@@ -174,13 +174,24 @@ pub enum Command {
         #[arg(long, value_name = "WxH", default_value = "1600x900", value_parser = parse_size)]
         size: (u32, u32),
     },
-    /// Open the editor on a level (a new empty level without one).
+    /// Open the editor on a level (a new empty level without one), or with `--apply` edit it
+    /// headless with a script of edits.
     ///
-    /// Needs a display; without one, use `flockway run` or `flockway render`.
+    /// The window needs a display; `--apply` does not. Exit status with `--apply`: 0 when every
+    /// edit was applied and the level saved; 2 when the script or the level is invalid or an
+    /// edit is refused (the message gives the edit's number and line:col; nothing is written).
     Edit {
         /// The level file.
         #[arg(value_name = "LEVEL")]
         level: Option<PathBuf>,
+        /// Apply the edits in this file (a RON list of editor commands, e.g.
+        /// `[SetRoad(road: 0, name: "main", lanes: 3, lane_width_m: 3.5, speed_limit_kmh: 80)]`),
+        /// all or none, each checked as the editor checks it, and save the level.
+        #[arg(long, value_name = "EDITS.ron", requires = "level")]
+        apply: Option<PathBuf>,
+        /// With `--apply`: write the edited level here instead of over LEVEL.
+        #[arg(long, short, value_name = "OUT.ron", requires = "apply")]
+        output: Option<PathBuf>,
     },
     /// Open a level in the window and start playing it.
     Play {

@@ -13,6 +13,7 @@ pub use flockway_analysis as analysis;
 pub use flockway_app as app;
 pub use flockway_core as core;
 pub use flockway_drivers as drivers;
+pub use flockway_edit as edit;
 pub use flockway_level as level;
 pub use flockway_road as road;
 pub use flockway_traffic as traffic;

@@ -102,7 +102,12 @@ fn main() -> ExitCode {
             output,
             summary,
         } => commands::analysis::report(&csv, &output, summary.as_deref()),
-        Command::Edit { level } => commands::window::window(level.as_deref(), false),
+        Command::Edit {
+            level: Some(level),
+            apply: Some(edits),
+            output,
+        } => commands::edit::apply(&level, &edits, output.as_deref()),
+        Command::Edit { level, .. } => commands::window::window(level.as_deref(), false),
         Command::Play { level } => commands::window::window(Some(&level), true),
         Command::Render {
             level,

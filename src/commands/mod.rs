@@ -5,6 +5,7 @@ pub mod analysis;
 pub mod check;
 pub mod compare;
 pub mod dyno;
+pub mod edit;
 pub mod import;
 pub mod new;
 pub mod run;

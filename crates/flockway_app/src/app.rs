@@ -2,15 +2,14 @@
 //! with every user action as a method, so tests drive it without a window.
 
 use crate::camera::Camera;
-use crate::editor::{Command, EditError, Editor, MarkerKind};
 use crate::play::{FRAME_BUDGET, PlaySession};
 use crate::scene::{StaticScene, Vertex, box_faces};
-use flockway_level::{
-    DestroyerPlaceSpec, DestroyerSpec, DriverProfileSpec, Level, Range, SpawnerSpec,
-    TriggerEffectSpec, TriggerSpec, mixed_shares, reference_profiles, reference_vehicle_types,
-    validate,
+use flockway_edit::{
+    Command, EditError, Editor, MarkerKind, PrefabKind, level_network, place_marker, place_prefab,
+    playable,
 };
-use flockway_road::{JunctionSpec, NetworkError, RoadGeometry, RoadNetwork, RoadSpec, lane_offset};
+use flockway_level::{DestroyerPlaceSpec, DriverProfileSpec, Level, validate};
+use flockway_road::{RoadGeometry, RoadNetwork, lane_offset};
 use flockway_runner::{RunError, level_name, load_driver_profiles};
 use glam::{DVec3, Vec2, Vec3};
 use std::collections::BTreeMap;
@@ -112,25 +111,6 @@ pub struct RoadPick {
     pub lane: u32,
     /// The road's length, metres.
     pub length_m: f64,
-}
-
-/// The level as it can run: without roads of fewer than two points (still being drawn) and the
-/// connections onto them. Returns it and how many roads were left out.
-pub fn playable(level: &Level) -> (Level, usize) {
-    let drafts: Vec<String> = level
-        .roads
-        .iter()
-        .filter(|r| r.points.len() < 2)
-        .map(|r| r.name.clone())
-        .collect();
-    let mut out = level.clone();
-    out.roads.retain(|r| r.points.len() >= 2);
-    for r in &mut out.roads {
-        if r.next.as_ref().is_some_and(|n| drafts.contains(n)) {
-            r.next = None;
-        }
-    }
-    (out, drafts.len())
 }
 
 /// Where a spawner's pad is drawn: on its lane's centre line.
@@ -260,14 +240,7 @@ impl AppState {
     /// The roads as drawn: every road that forms a road on its own (a road of one point does
     /// not yet), connections kept where both ends exist.
     fn rebuild_network(&mut self) {
-        let level = self.editor.level();
-        let ok: Vec<RoadSpec> = level
-            .roads
-            .iter()
-            .filter(|r| RoadGeometry::new(r).is_ok())
-            .cloned()
-            .collect();
-        self.network = network_as_drawn(ok, level.junctions.clone());
+        self.network = level_network(self.editor.level());
         self.scene_version += 1;
     }
 
@@ -748,40 +721,20 @@ impl AppState {
             }
             Tool::Roundabout | Tool::Crossroads => {
                 let Some(at) = ground else { return };
-                let kind = if self.tool == Tool::Roundabout {
-                    "roundabout"
-                } else {
-                    "crossroads"
-                };
-                let level = self.editor.level();
-                let taken = |n: &str| {
-                    let prefix = format!("{n} ");
-                    level.roads.iter().any(|r| r.name.starts_with(&prefix))
-                        || level
-                            .junctions
-                            .iter()
-                            .any(|j| j.name == n || j.name.starts_with(&prefix))
-                };
-                let Some(name) = (1..).map(|n| format!("{kind} {n}")).find(|n| !taken(n)) else {
-                    return;
-                };
-                let (prefab, what) = if self.tool == Tool::Roundabout {
+                let (kind, what) = if self.tool == Tool::Roundabout {
                     (
-                        flockway_level::roundabout(&name, at),
+                        PrefabKind::Roundabout,
                         "a ring with four arms, each entry giving way to the ring; a car \
                          without a route leaves at the first exit",
                     )
                 } else {
                     (
-                        flockway_level::crossroads(&name, at),
+                        PrefabKind::Crossroads,
                         "four arms under a two-phase signal with permitted left turns; a car \
                          without a route goes straight on",
                     )
                 };
-                let command = Command::AddPrefab {
-                    roads: prefab.roads,
-                    junctions: prefab.junctions,
-                };
+                let (command, name) = place_prefab(self.editor.level(), kind, at);
                 if self.edit(command, false) {
                     self.selection = Selection::None;
                     self.status = format!(
@@ -819,110 +772,26 @@ impl AppState {
     }
 
     fn place_marker(&mut self, pick: RoadPick) {
+        let kind = match self.tool {
+            Tool::Spawner => MarkerKind::Spawner,
+            Tool::Destroyer => MarkerKind::Destroyer,
+            _ => MarkerKind::Trigger,
+        };
         let level = self.editor.level();
-        let Some(spec) = level.roads.get(pick.road) else {
+        let Some(placed) = place_marker(level, kind, pick.road, pick.lane, pick.s_m, pick.length_m)
+        else {
             return;
         };
-        let (name, limit) = (spec.name.clone(), spec.speed_limit_kmh);
-        let unique = |prefix: &str, taken: &dyn Fn(&str) -> bool| {
-            (1..)
-                .map(|n| format!("{prefix} {n}"))
-                .find(|n| !taken(n))
-                .unwrap_or_default()
+        let note = if placed.added_profiles {
+            " The level had no driver profiles, so it got the standard `autonomous` and `human` \
+             ones (Level panel)."
+        } else {
+            ""
         };
-        let s_m = pick.s_m;
-        let mut note = String::new();
-        let (command, kind, index) = match self.tool {
-            Tool::Spawner => {
-                // A level without driver profiles gets the standard two, so the spawner has
-                // something to spawn.
-                let mut setup = Vec::new();
-                let mut with_profiles = level.clone();
-                if level.driver_profiles.is_empty() {
-                    for v in reference_vehicle_types() {
-                        if !level.vehicle_types.iter().any(|t| t.name == v.name) {
-                            with_profiles.vehicle_types.push(v.clone());
-                            setup.push(Command::AddVehicleType(v));
-                        }
-                    }
-                    for p in reference_profiles() {
-                        with_profiles.driver_profiles.push(p.clone());
-                        setup.push(Command::AddDriverProfile(p));
-                    }
-                    note = " The level had no driver profiles, so it got the standard \
-                            `autonomous` and `human` ones (Level panel)."
-                        .to_owned();
-                }
-                let n = unique("spawner", &|n| level.spawners.iter().any(|s| s.name == n));
-                setup.push(Command::AddSpawner(SpawnerSpec {
-                    name: n,
-                    road: name,
-                    lane: pick.lane,
-                    s_m,
-                    interval_s: Range { min: 1.5, max: 3.0 },
-                    profiles: mixed_shares(&with_profiles),
-                    speed_kmh: None,
-                    active: true,
-                    max_vehicles: None,
-                    routes: Vec::new(),
-                    destination: None,
-                    schedule: Vec::new(),
-                    arrivals: Default::default(),
-                    departures: Vec::new(),
-                }));
-                let command = if setup.len() == 1 {
-                    setup.remove(0)
-                } else {
-                    Command::Batch {
-                        label: "add spawner",
-                        commands: setup,
-                    }
-                };
-                (command, MarkerKind::Spawner, level.spawners.len())
-            }
-            Tool::Destroyer => {
-                let n = unique("destroyer", &|n| {
-                    level.destroyers.iter().any(|d| d.name == n)
-                });
-                (
-                    Command::AddDestroyer(DestroyerSpec {
-                        name: n,
-                        place: DestroyerPlaceSpec::OnRoad { road: name, s_m },
-                        arrivals_only: false,
-                    }),
-                    MarkerKind::Destroyer,
-                    level.destroyers.len(),
-                )
-            }
-            _ => {
-                let n = unique("trigger", &|n| level.triggers.iter().any(|t| t.name == n));
-                // 20 m long, inside the road (a loop's trigger may wrap past the join).
-                let (from_m, to_m) = if spec.closed {
-                    (s_m, (s_m + 20.0) % pick.length_m)
-                } else {
-                    let from = s_m.min((pick.length_m - 20.0).max(0.0));
-                    (from, (from + 20.0).min(pick.length_m))
-                };
-                (
-                    Command::AddTrigger(TriggerSpec {
-                        name: n,
-                        road: name,
-                        from_m,
-                        to_m,
-                        lanes: None,
-                        effect: TriggerEffectSpec::SpeedLimit {
-                            kmh: (limit + 20.0).min(300.0),
-                        },
-                    }),
-                    MarkerKind::Trigger,
-                    level.triggers.len(),
-                )
-            }
-        };
-        let label = command.label();
-        if self.edit(command, false) {
-            self.selection = Selection::Marker(kind, index);
-            self.status = format!("{}{note}", capitalise(label));
+        let label = capitalise(placed.command.label());
+        if self.edit(placed.command, false) {
+            self.selection = Selection::Marker(placed.kind, placed.index);
+            self.status = format!("{label}{note}");
         }
     }
 
@@ -1240,7 +1109,7 @@ impl AppState {
     fn do_action(&mut self, action: Pending) {
         self.stop();
         // The work is saved or was discarded on purpose: nothing to offer back next time.
-        if let Some(auto) = crate::editor::autosave_path(self.editor.path()) {
+        if let Some(auto) = flockway_edit::autosave_path(self.editor.path()) {
             let _ = std::fs::remove_file(auto);
         }
         match action {
@@ -1458,48 +1327,6 @@ impl AppState {
     }
 }
 
-/// The network of roads as drawn: a link that cannot be built (its road's end dragged away from
-/// where it leads, a road still being drawn) is left out, with the other links of its road, and
-/// a junction that cannot be built (a road of it moved or deleted) is left out, so everything
-/// else still shows and picks.
-fn network_as_drawn(mut roads: Vec<RoadSpec>, mut junctions: Vec<JunctionSpec>) -> RoadNetwork {
-    for _ in 0..=roads.len() + junctions.len() {
-        let failing = match RoadNetwork::build_with(&roads, &junctions) {
-            Ok(network) => return network,
-            Err(NetworkError::Junction(e)) => {
-                junctions.retain(|j| j.name != e.junction());
-                continue;
-            }
-            Err(NetworkError::DuplicateJunction(name)) => {
-                if let Some(k) = junctions.iter().rposition(|j| j.name == name) {
-                    junctions.remove(k);
-                }
-                continue;
-            }
-            Err(
-                NetworkError::UnknownNext { road, .. }
-                | NetworkError::LinkLane { road, .. }
-                | NetworkError::DuplicateLink { road, .. }
-                | NetworkError::LaneGap { road, .. }
-                | NetworkError::Gap { road, .. },
-            ) => Some(road),
-            Err(_) => None,
-        };
-        match failing.and_then(|name| roads.iter_mut().find(|r| r.name == name)) {
-            Some(r) if r.next.is_some() || !r.links.is_empty() => {
-                r.next = None;
-                r.links.clear();
-            }
-            _ => break,
-        }
-    }
-    roads.iter_mut().for_each(|r| {
-        r.next = None;
-        r.links.clear();
-    });
-    RoadNetwork::build(&roads).unwrap_or_default()
-}
-
 /// Control points as small posts: yellow, the selected one white.
 fn add_handles(scene: &mut StaticScene, level: &Level, selection: Selection) {
     for (r, road) in level.roads.iter().enumerate() {
@@ -1537,6 +1364,7 @@ fn add_handles(scene: &mut StaticScene, level: &Level, selection: Selection) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use flockway_road::RoadSpec;
 
     fn app_on(level: &str) -> AppState {
         let editor = Editor::open(Path::new(level)).expect("shipped level");
@@ -1565,7 +1393,7 @@ mod tests {
         // A junction whose road is gone is left out; the roads still show.
         let mut roads = app.editor.level().roads.clone();
         roads.remove(1);
-        let network = network_as_drawn(roads, app.editor.level().junctions.clone());
+        let network = flockway_edit::network_as_drawn(roads, app.editor.level().junctions.clone());
         assert_eq!(network.len(), 1);
         assert!(network.junctions().is_empty());
     }

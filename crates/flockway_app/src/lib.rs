@@ -1,12 +1,10 @@
-//! Flockway's window: the wgpu renderer (on screen and off screen), the road editor's model, play
-//! mode and the HUD. This is the only crate that depends on winit, wgpu and egui; the simulation
+//! Flockway's window: the wgpu renderer (on screen and off screen), the road editor's view over
+//! the headless editing model (`flockway_edit`), play mode and the HUD. This is the only crate that depends on winit, wgpu and egui; the simulation
 //! crates below it build and test without a display.
 
 mod app;
 mod camera;
-mod editor;
 mod focus;
-mod joins;
 mod play;
 mod render;
 mod scene;
@@ -14,12 +12,12 @@ mod snapshot;
 mod ui;
 mod window;
 
-pub use app::{
-    AppState, PICK_PX, Pending, RoadPick, Selection, SideTab, Tool, playable, spawner_spot,
-};
+pub use app::{AppState, PICK_PX, Pending, RoadPick, Selection, SideTab, Tool, spawner_spot};
 pub use camera::{Camera, ORBIT_FOV_RAD};
-pub use editor::{Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path, recover};
-pub use joins::{ACCELERATION_LANE_M, join_end, join_exit, join_side};
+pub use flockway_edit::{
+    ACCELERATION_LANE_M, Command, EditError, Editor, MarkerKind, UNDO_DEPTH, autosave_path,
+    join_end, join_exit, join_side, playable, recover,
+};
 pub use play::{FRAME_BUDGET, HudStats, PlaySession, PlaySpeed};
 pub use render::{
     DEPTH_FORMAT, Gpu, Image, MSAA_SAMPLES, OFFSCREEN_FORMAT, RenderError, SKY, SceneRenderer,

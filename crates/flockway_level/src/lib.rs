@@ -9,6 +9,7 @@ mod expect;
 mod io;
 mod locate;
 mod prefab;
+mod refs;
 mod schema;
 mod score;
 mod sumo;
@@ -22,6 +23,9 @@ pub use io::{
 };
 pub use locate::{PathStep, Pos, locate};
 pub use prefab::{Prefab, RING_RADIUS_M, crossroads, roundabout};
+pub use refs::{
+    ItemKind, ItemRef, Site, blocks_removal, references, remove_item, rename, visit_references,
+};
 pub use schema::{
     Arrivals, CURRENT_VERSION, DemandStep, DepartureSpec, DestroyerPlaceSpec, DestroyerSpec,
     DriverModel, DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec,

@@ -29,7 +29,7 @@ pub enum RoadError {
         max: usize,
     },
     /// Lane count out of range.
-    #[error("road `{road}` has {got} lanes; expected 1 to {max}")]
+    #[error("road `{road}` has {got} lanes; expected {} to {max}", crate::validate::LANES.start())]
     Lanes {
         /// Road name.
         road: String,
@@ -39,7 +39,10 @@ pub enum RoadError {
         max: u32,
     },
     /// Lane width out of range.
-    #[error("road `{road}` has lane width {got} m; expected a number from 1 to 10")]
+    #[error(
+        "road `{road}` has lane width {got} m; expected a number from {} to {}",
+        crate::validate::LANE_WIDTH_M.start(), crate::validate::LANE_WIDTH_M.end()
+    )]
     LaneWidth {
         /// Road name.
         road: String,
@@ -47,7 +50,10 @@ pub enum RoadError {
         got: f64,
     },
     /// Speed limit out of range.
-    #[error("road `{road}` has speed limit {got} km/h; expected a number above 0 and at most 400")]
+    #[error(
+        "road `{road}` has speed limit {got} km/h; expected a number from {} to {}",
+        crate::validate::SPEED_LIMIT_KMH.start(), crate::validate::SPEED_LIMIT_KMH.end()
+    )]
     SpeedLimit {
         /// Road name.
         road: String,
@@ -72,7 +78,8 @@ pub enum RoadError {
     },
     /// A width is not finite or out of range.
     #[error(
-        "road `{road}` point {point}: width {got} m; expected a number above 0 and at most 100"
+        "road `{road}` point {point}: width {got} m; expected a number from {} to {}",
+        crate::validate::WIDTH_M.start(), crate::validate::WIDTH_M.end()
     )]
     Width {
         /// Road name.

@@ -40,8 +40,8 @@ pub use network::{
 };
 pub use spec::{ControlPoint, DEFAULT_LANE_WIDTH_M, LinkSpec, RoadSpec};
 pub use validate::{
-    MAX_BANK_DEG, MAX_COORD_M, MAX_LANES, MAX_POINT_SPACING_M, MAX_POINTS, MAX_WIDTH_M,
-    MIN_POINT_SPACING_M,
+    BANK_DEG, COORD_M, LANE_WIDTH_M, LANES, MAX_BANK_DEG, MAX_COORD_M, MAX_LANES,
+    MAX_POINT_SPACING_M, MAX_POINTS, MAX_WIDTH_M, MIN_POINT_SPACING_M, SPEED_LIMIT_KMH, WIDTH_M,
 };
 
 /// The road types most users need.

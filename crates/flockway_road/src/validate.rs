@@ -1,7 +1,11 @@
 //! Checks that a road spec describes a drivable road, before any geometry is built from it.
+//!
+//! The accepted range of every road field is defined here once: validation, the editor's
+//! commands and the inspector's widgets all read these constants.
 
 use crate::RoadError;
 use crate::spec::RoadSpec;
+use std::ops::RangeInclusive;
 
 /// Most control points one road may have.
 pub const MAX_POINTS: usize = 10_000;
@@ -17,6 +21,18 @@ pub const MIN_POINT_SPACING_M: f64 = 0.1;
 pub const MAX_POINT_SPACING_M: f64 = 2_000.0;
 /// Widest road accepted, in metres.
 pub const MAX_WIDTH_M: f64 = 100.0;
+/// Lanes a road may have.
+pub const LANES: RangeInclusive<u32> = 1..=MAX_LANES;
+/// Lane widths accepted, metres.
+pub const LANE_WIDTH_M: RangeInclusive<f64> = 1.0..=10.0;
+/// Speed limits accepted, km/h.
+pub const SPEED_LIMIT_KMH: RangeInclusive<f64> = 1.0..=400.0;
+/// Road widths a control point may set, metres.
+pub const WIDTH_M: RangeInclusive<f64> = 1.0..=MAX_WIDTH_M;
+/// Banks accepted, degrees (positive raises the right edge).
+pub const BANK_DEG: RangeInclusive<f64> = -MAX_BANK_DEG..=MAX_BANK_DEG;
+/// Coordinates accepted, metres.
+pub const COORD_M: RangeInclusive<f64> = -MAX_COORD_M..=MAX_COORD_M;
 
 pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
     let name = || spec.name.clone();
@@ -38,23 +54,20 @@ pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
             max: MAX_POINTS,
         });
     }
-    if spec.lanes == 0 || spec.lanes > MAX_LANES {
+    if !LANES.contains(&spec.lanes) {
         return Err(RoadError::Lanes {
             road: name(),
             got: spec.lanes,
             max: MAX_LANES,
         });
     }
-    if !(spec.lane_width_m.is_finite() && spec.lane_width_m >= 1.0 && spec.lane_width_m <= 10.0) {
+    if !LANE_WIDTH_M.contains(&spec.lane_width_m) {
         return Err(RoadError::LaneWidth {
             road: name(),
             got: spec.lane_width_m,
         });
     }
-    if !(spec.speed_limit_kmh.is_finite()
-        && spec.speed_limit_kmh > 0.0
-        && spec.speed_limit_kmh <= 400.0)
-    {
+    if !SPEED_LIMIT_KMH.contains(&spec.speed_limit_kmh) {
         return Err(RoadError::SpeedLimit {
             road: name(),
             got: spec.speed_limit_kmh,
@@ -64,14 +77,14 @@ pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
         return Err(RoadError::ClosedWithNext { road: name() });
     }
     for (i, p) in spec.points.iter().enumerate() {
-        if !p.pos.is_finite() || p.pos.abs().max_element() > MAX_COORD_M {
+        if !p.pos.to_array().iter().all(|c| COORD_M.contains(c)) {
             return Err(RoadError::Position {
                 road: name(),
                 point: i,
             });
         }
         if let Some(w) = p.width_m
-            && !(w.is_finite() && w > 0.0 && w <= MAX_WIDTH_M)
+            && !WIDTH_M.contains(&w)
         {
             return Err(RoadError::Width {
                 road: name(),
@@ -79,7 +92,7 @@ pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
                 got: w,
             });
         }
-        if !(p.bank_deg.is_finite() && p.bank_deg.abs() <= MAX_BANK_DEG) {
+        if !BANK_DEG.contains(&p.bank_deg) {
             return Err(RoadError::Bank {
                 road: name(),
                 point: i,
@@ -122,7 +135,7 @@ pub(crate) fn validate(spec: &RoadSpec) -> Result<(), RoadError> {
         }
     }
     let width = spec.width_at_point(0);
-    if !(width.is_finite() && width > 0.0 && width <= MAX_WIDTH_M) {
+    if !WIDTH_M.contains(&width) {
         return Err(RoadError::Width {
             road: name(),
             point: 0,

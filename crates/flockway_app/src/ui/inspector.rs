@@ -3,12 +3,14 @@
 
 use super::widgets::{choice, count, error, lane, number, row, text, weight};
 use crate::app::{AppState, Selection, Tool};
-use crate::editor::{Command, MarkerKind};
+use flockway_edit::{Command, MarkerKind};
 use flockway_level::{
     DestroyerPlaceSpec, DestroyerSpec, Level, ProfileShare, RouteSpec, SpawnerSpec,
     TriggerEffectSpec, TriggerSpec,
 };
-use flockway_road::{LinkSpec, RoadSpec};
+use flockway_road::{
+    BANK_DEG, COORD_M, LANE_WIDTH_M, LANES, LinkSpec, RoadSpec, SPEED_LIMIT_KMH, WIDTH_M,
+};
 use glam::DVec3;
 
 /// The inspector of whatever is selected.
@@ -125,12 +127,12 @@ fn road(ui: &mut egui::Ui, app: &mut AppState, level: &Level, r: usize) {
                 changed = true;
             }
         });
-        changed |= row(ui, "lanes", |ui, by| count(ui, by, &mut lanes, 1..=8));
+        changed |= row(ui, "lanes", |ui, by| count(ui, by, &mut lanes, LANES));
         changed |= row(ui, "lane width", |ui, by| {
-            number(ui, by, &mut width, 2.5..=5.0, 0.05, " m")
+            number(ui, by, &mut width, LANE_WIDTH_M, 0.05, " m")
         });
         changed |= row(ui, "speed limit", |ui, by| {
-            number(ui, by, &mut limit, 5.0..=300.0, 0.5, " km/h")
+            number(ui, by, &mut limit, SPEED_LIMIT_KMH, 0.5, " km/h")
         });
     });
     if changed {
@@ -163,19 +165,19 @@ fn road(ui: &mut egui::Ui, app: &mut AppState, level: &Level, r: usize) {
         let mut changed = false;
         egui::Grid::new("point").num_columns(2).show(ui, |ui| {
             changed |= row(ui, "x", |ui, by| {
-                number(ui, by, &mut p.pos.x, -1e6..=1e6, 0.1, " m")
+                number(ui, by, &mut p.pos.x, COORD_M, 0.1, " m")
             });
             changed |= row(ui, "y", |ui, by| {
-                number(ui, by, &mut p.pos.y, -1e6..=1e6, 0.1, " m")
+                number(ui, by, &mut p.pos.y, COORD_M, 0.1, " m")
             });
             changed |= row(ui, "elevation", |ui, by| {
-                number(ui, by, &mut p.pos.z, -200.0..=500.0, 0.05, " m")
+                number(ui, by, &mut p.pos.z, COORD_M, 0.05, " m")
             });
             changed |= row(ui, "width", |ui, by| {
-                number(ui, by, &mut width_m, 3.0..=40.0, 0.05, " m")
+                number(ui, by, &mut width_m, WIDTH_M, 0.05, " m")
             });
             changed |= row(ui, "bank", |ui, by| {
-                number(ui, by, &mut p.bank_deg, -15.0..=15.0, 0.05, "°")
+                number(ui, by, &mut p.bank_deg, BANK_DEG, 0.05, "°")
             });
         });
         changed |= ui
@@ -648,9 +650,9 @@ fn destroyer(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, d: 
                 for (label, corner) in [("lower corner", min), ("upper corner", max)] {
                     changed |= row(ui, label, |ui, by| {
                         ui.horizontal(|ui| {
-                            let a = number(ui, by, &mut corner.x, -1e6..=1e6, 0.1, " m");
-                            let b = number(ui, by, &mut corner.y, -1e6..=1e6, 0.1, " m");
-                            let c = number(ui, by, &mut corner.z, -1e4..=1e4, 0.1, " m");
+                            let a = number(ui, by, &mut corner.x, COORD_M, 0.1, " m");
+                            let b = number(ui, by, &mut corner.y, COORD_M, 0.1, " m");
+                            let c = number(ui, by, &mut corner.z, COORD_M, 0.1, " m");
                             a || b || c
                         })
                         .inner
@@ -740,7 +742,7 @@ fn trigger(ui: &mut egui::Ui, app: &mut AppState, level: &Level, i: usize, t: &T
         match &mut tr.effect {
             TriggerEffectSpec::SpeedLimit { kmh } => {
                 changed |= row(ui, "new limit", |ui, by| {
-                    number(ui, by, kmh, 1.0..=400.0, 0.5, " km/h")
+                    number(ui, by, kmh, SPEED_LIMIT_KMH, 0.5, " km/h")
                 });
             }
             TriggerEffectSpec::Friction { scale } => {

@@ -4,7 +4,7 @@
 
 use super::widgets::{choice, error, number, row, text};
 use crate::app::AppState;
-use crate::editor::Command;
+use flockway_edit::Command;
 use flockway_road::{Control, Junction, JunctionSpec, Phase, SignalState, Turn};
 
 /// The controls offered, as the inspector names them.

@@ -4,8 +4,8 @@
 
 use super::widgets::{choice, count, error, lane, number, row, text, text_sized};
 use crate::app::AppState;
-use crate::editor::Command;
 use flockway_drivers::BuiltinModel;
+use flockway_edit::Command;
 use flockway_level::{
     DriverModel, DriverProfileSpec, Expectation, InitialVehiclesSpec, Level, MAX_DURATION_S,
     VehicleTypeSpec, validate,

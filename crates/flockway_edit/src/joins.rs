@@ -21,11 +21,75 @@ const MIN_UPSTREAM_M: f64 = 10.0;
 /// Control points closer than this to a cut are left out (the cut point replaces them), metres.
 const NEAR_CUT_M: f64 = 2.0;
 
-/// Why a join cannot be made, in words for the status line.
-pub type JoinError = String;
+/// Why a join cannot be made; its text is the status line's.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum JoinError {
+    /// A road's points do not make a road.
+    #[error("road `{road}` cannot be built: {reason}")]
+    Unbuilt {
+        /// The road.
+        road: String,
+        /// Why, from the road's geometry.
+        reason: String,
+    },
+    /// No road has this name.
+    #[error("there is no road named `{0}`")]
+    NoRoadNamed(String),
+    /// No road has this index.
+    #[error("there is no road {0}")]
+    NoRoad(usize),
+    /// A road's end dropped onto its own start.
+    #[error("a road cannot lead onto itself: close it into a loop instead")]
+    OntoItself,
+    /// A road's start dropped onto its own side.
+    #[error("a road cannot leave itself")]
+    LeavesItself,
+    /// A loop has neither end nor start.
+    #[error("a loop has no end or start to join: open it first")]
+    Loop,
+    /// The two roads are linked already.
+    #[error("`{from}` already leads onto `{to}`{}", if *.on_end { ": its lanes are in the inspector" } else { "" })]
+    Linked {
+        /// The road that leads on.
+        from: String,
+        /// The road it leads onto.
+        to: String,
+        /// Whether an end was joined (the inspector shows its lanes).
+        on_end: bool,
+    },
+    /// An on-ramp placed where no acceleration lane fits.
+    #[error(
+        "`{onto}` is {length_m:.0} m long: a road joins its side between {MIN_UPSTREAM_M:.0} m \
+         from its start and {:.0} m before its end (room for an acceleration lane)",
+        MIN_ACCELERATION_LANE_M + TAPER_M + 20.0
+    )]
+    NoRoomToMerge {
+        /// The road joined.
+        onto: String,
+        /// Its length, metres.
+        length_m: f64,
+    },
+    /// An exit placed too near the road's ends.
+    #[error(
+        "`{onto}` is {length_m:.0} m long: a road leaves its side at least {MIN_UPSTREAM_M:.0} m \
+         from either end"
+    )]
+    NoRoomToLeave {
+        /// The road left.
+        onto: String,
+        /// Its length, metres.
+        length_m: f64,
+    },
+    /// A road with no points (it has no end or start).
+    #[error("a road with no points has no end or start")]
+    NoPoints,
+}
 
 fn geometry(spec: &RoadSpec) -> Result<RoadGeometry, JoinError> {
-    RoadGeometry::new(spec).map_err(|e| format!("road `{}` cannot be built: {e}", spec.name))
+    RoadGeometry::new(spec).map_err(|e| JoinError::Unbuilt {
+        road: spec.name.clone(),
+        reason: e.to_string(),
+    })
 }
 
 fn index_of(level: &Level, name: &str) -> Result<usize, JoinError> {
@@ -33,27 +97,25 @@ fn index_of(level: &Level, name: &str) -> Result<usize, JoinError> {
         .roads
         .iter()
         .position(|r| r.name == name)
-        .ok_or_else(|| format!("there is no road named `{name}`"))
+        .ok_or_else(|| JoinError::NoRoadNamed(name.to_owned()))
 }
 
 /// Checks that `road` may lead onto `onto`: two different open roads, not linked yet.
 fn check_pair(level: &Level, road: usize, onto: &str) -> Result<(), JoinError> {
-    let from = level
-        .roads
-        .get(road)
-        .ok_or_else(|| format!("there is no road {road}"))?;
+    let from = level.roads.get(road).ok_or(JoinError::NoRoad(road))?;
     let to = &level.roads[index_of(level, onto)?];
     if from.name == to.name {
-        return Err("a road cannot lead onto itself: close it into a loop instead".to_owned());
+        return Err(JoinError::OntoItself);
     }
     if from.closed || to.closed {
-        return Err("a loop has no end or start to join: open it first".to_owned());
+        return Err(JoinError::Loop);
     }
     if from.outgoing().iter().any(|l| l.to == to.name) {
-        return Err(format!(
-            "`{}` already leads onto `{}`: its lanes are in the inspector",
-            from.name, to.name
-        ));
+        return Err(JoinError::Linked {
+            from: from.name.clone(),
+            to: to.name.clone(),
+            on_end: true,
+        });
     }
     Ok(())
 }
@@ -107,10 +169,7 @@ pub fn join_end(level: &mut Level, road: usize, onto: &str) -> Result<(), JoinEr
     let lateral = -0.5 * width + 0.5 * own_w.min(width);
     let to_lanes = to.lanes;
     let spec = &mut level.roads[road];
-    let last = spec
-        .points
-        .last_mut()
-        .ok_or_else(|| "a road with no points has no end".to_owned())?;
+    let last = spec.points.last_mut().ok_or(JoinError::NoPoints)?;
     last.pos = round_mm(start.offset(lateral));
     last.tangent = Some(round_unit(start.tangent));
     let link = if lateral.abs() < 1e-9 {
@@ -195,11 +254,10 @@ pub fn join_side(
     let len = g.length_m();
     let accel = ACCELERATION_LANE_M.min(len - s_m - TAPER_M - 20.0);
     if !s_m.is_finite() || s_m < MIN_UPSTREAM_M || accel < MIN_ACCELERATION_LANE_M {
-        return Err(format!(
-            "`{onto}` is {len:.0} m long: a road joins its side between {MIN_UPSTREAM_M:.0} m \
-             from its start and {:.0} m before its end (room for an acceleration lane)",
-            MIN_ACCELERATION_LANE_M + TAPER_M + 20.0
-        ));
+        return Err(JoinError::NoRoomToMerge {
+            onto: onto.to_owned(),
+            length_m: len,
+        });
     }
     let (cut1, cut2) = (round_mm_f(s_m), round_mm_f(s_m + accel));
     let ramp_lanes = level.roads[road].lanes;
@@ -253,10 +311,7 @@ pub fn join_side(
     let start = g.frame_at(cut1);
     let ramp = &mut level.roads[road];
     let ramp_centre = -0.5 * start.width_m - 0.5 * added_m;
-    let last = ramp
-        .points
-        .last_mut()
-        .ok_or_else(|| "a road with no points has no end".to_owned())?;
+    let last = ramp.points.last_mut().ok_or(JoinError::NoPoints)?;
     last.pos = round_mm(start.offset(ramp_centre));
     last.tangent = Some(round_unit(start.tangent));
     last.guardrail_left = false;
@@ -356,26 +411,30 @@ pub fn join_exit(
     let exit = level
         .roads
         .get(road)
-        .ok_or_else(|| format!("there is no road {road}"))?
+        .ok_or(JoinError::NoRoad(road))?
         .clone();
     let m = index_of(level, onto)?;
     let main = level.roads[m].clone();
     if exit.name == main.name {
-        return Err("a road cannot leave itself".to_owned());
+        return Err(JoinError::LeavesItself);
     }
     if exit.closed || main.closed {
-        return Err("a loop has no end or start to join: open it first".to_owned());
+        return Err(JoinError::Loop);
     }
     if main.outgoing().iter().any(|l| l.to == exit.name) {
-        return Err(format!("`{onto}` already leads onto `{}`", exit.name));
+        return Err(JoinError::Linked {
+            from: onto.to_owned(),
+            to: exit.name.clone(),
+            on_end: false,
+        });
     }
     let g = geometry(&main)?;
     let len = g.length_m();
     if !s_m.is_finite() || s_m < MIN_UPSTREAM_M || s_m > len - MIN_UPSTREAM_M {
-        return Err(format!(
-            "`{onto}` is {len:.0} m long: a road leaves its side at least {MIN_UPSTREAM_M:.0} m \
-             from either end"
-        ));
+        return Err(JoinError::NoRoomToLeave {
+            onto: onto.to_owned(),
+            length_m: len,
+        });
     }
     let cut = round_mm_f(s_m);
     let rest_name = unique_name(level, &format!("{onto} on"), &[]);
@@ -399,7 +458,7 @@ pub fn join_exit(
     let first = level.roads[road]
         .points
         .first_mut()
-        .ok_or_else(|| "a road with no points has no start".to_owned())?;
+        .ok_or(JoinError::NoPoints)?;
     first.pos = round_mm(f.offset(-0.5 * f.width_m + 0.5 * exit_w));
     first.tangent = Some(round_unit(f.tangent));
     first.guardrail_left = false;
@@ -465,8 +524,11 @@ mod tests {
         let (ga, gb) = (net.get(ia).expect("a"), net.get(ib).expect("b"));
         let gap = ga.lane_point(1, ga.length_m()) - gb.lane_point(1, 0.0);
         assert!(gap.length() < 1e-3, "{gap}");
-        assert!(join_end(&mut level, 0, "b").is_err(), "linked twice");
-        assert!(join_end(&mut level, 0, "a").is_err(), "onto itself");
+        assert!(
+            matches!(join_end(&mut level, 0, "b"), Err(JoinError::Linked { .. })),
+            "linked twice"
+        );
+        assert_eq!(join_end(&mut level, 0, "a"), Err(JoinError::OntoItself));
         // A second link makes a split.
         level.roads.push(straight(
             "c",
@@ -624,7 +686,8 @@ mod tests {
         ]);
         let before = level.clone();
         let e = join_side(&mut level, 1, "main", 250.0).expect_err("no room");
-        assert!(e.contains("before its end"), "{e}");
+        assert!(matches!(e, JoinError::NoRoomToMerge { .. }), "{e:?}");
+        assert!(e.to_string().contains("before its end"), "{e}");
         assert_eq!(level, before);
         assert!(join_side(&mut level, 1, "main", 5.0).is_err());
         assert!(join_side(&mut level, 1, "ramp", 50.0).is_err());

@@ -1,0 +1,680 @@
+//! Running one [`Command`] on a level, by concern: road geometry, roads and their links,
+//! markers, the level's settings and lists, junctions. Renames and deletions go through the
+//! level's reference layer ([`flockway_level::rename`], [`flockway_level::remove_item`]), so
+//! every place that names an item follows it.
+
+use crate::command::{Command, MarkerKind};
+use crate::error::{EditError, in_range};
+use crate::joins;
+use flockway_level::{
+    DestroyerPlaceSpec, ItemKind, ItemRef, Level, Site, references, remove_item, rename,
+};
+use flockway_road::{ControlPoint, JunctionSpec, LANE_WIDTH_M, LANES, RoadSpec, SPEED_LIMIT_KMH};
+use glam::DVec3;
+
+/// Runs one command on a level; on error the level may be partly changed (callers apply to a
+/// copy).
+pub(crate) fn apply(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::AddRoad { .. }
+        | Command::AppendPoint { .. }
+        | Command::InsertPoint { .. }
+        | Command::MovePoint { .. }
+        | Command::DeletePoint { .. }
+        | Command::SetPoint { .. }
+        | Command::SetClosed { .. } => geometry(level, command),
+        Command::DeleteRoad { .. }
+        | Command::Connect { .. }
+        | Command::SetLinks { .. }
+        | Command::JoinEnd { .. }
+        | Command::JoinSide { .. }
+        | Command::JoinExit { .. }
+        | Command::SetRoad { .. } => roads(level, command),
+        Command::AddSpawner(_)
+        | Command::SetSpawner(..)
+        | Command::AddDestroyer(_)
+        | Command::SetDestroyer(..)
+        | Command::AddTrigger(_)
+        | Command::SetTrigger(..)
+        | Command::MoveMarker { .. }
+        | Command::DeleteMarker { .. } => markers(level, command),
+        Command::AddPrefab { .. } | Command::SetJunction(..) | Command::DeleteJunction(_) => {
+            junctions(level, command)
+        }
+        Command::Batch { commands, .. } => {
+            for c in commands {
+                apply(level, c)?;
+            }
+            Ok(())
+        }
+        _ => settings(level, command),
+    }
+}
+
+/// Item `index` of a list, or why there is none.
+fn item<'a, T>(
+    list: &'a mut [T],
+    what: &'static str,
+    index: usize,
+) -> Result<&'a mut T, EditError> {
+    let count = list.len();
+    list.get_mut(index)
+        .ok_or(EditError::NoSuch { what, index, count })
+}
+
+fn road_mut(level: &mut Level, road: usize) -> Result<&mut RoadSpec, EditError> {
+    item(&mut level.roads, "road", road)
+}
+
+fn point_index(spec: &RoadSpec, index: usize) -> Result<usize, EditError> {
+    if index < spec.points.len() {
+        Ok(index)
+    } else {
+        Err(EditError::NoPoint {
+            road: spec.name.clone(),
+            index,
+            count: spec.points.len(),
+        })
+    }
+}
+
+fn finite(v: DVec3) -> Result<DVec3, EditError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(EditError::NotFinite(v))
+    }
+}
+
+/// The road named `name`, or the error that says there is none.
+fn known_road<'a>(level: &'a Level, name: &str) -> Result<&'a RoadSpec, EditError> {
+    level
+        .road(name)
+        .ok_or_else(|| EditError::Unknown(ItemRef::new(ItemKind::Road, name)))
+}
+
+/// Deletes `item` and what cannot stand without it, or refuses, naming what uses it.
+fn delete(level: &mut Level, item: ItemRef) -> Result<(), EditError> {
+    remove_item(level, &item).map_err(|sites| EditError::InUse {
+        by: sites.iter().map(|s| s.describe(level)).collect(),
+        item,
+    })
+}
+
+/// Control points and loops.
+fn geometry(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::AddRoad { at } => {
+            let at = finite(*at)?;
+            let mut n = level.roads.len() + 1;
+            while level.road(&format!("road {n}")).is_some() {
+                n += 1;
+            }
+            let mut spec = RoadSpec::through(&format!("road {n}"), 2, 50.0, &[]);
+            spec.points.push(ControlPoint::at(at));
+            level.roads.push(spec);
+        }
+        Command::AppendPoint { road, at } => {
+            let at = finite(*at)?;
+            road_mut(level, *road)?.points.push(ControlPoint::at(at));
+        }
+        Command::InsertPoint { road, index, at } => {
+            let at = finite(*at)?;
+            let spec = road_mut(level, *road)?;
+            if *index > spec.points.len() {
+                return Err(EditError::NoPoint {
+                    road: spec.name.clone(),
+                    index: *index,
+                    count: spec.points.len(),
+                });
+            }
+            spec.points.insert(*index, ControlPoint::at(at));
+        }
+        Command::MovePoint { road, index, to } => {
+            let to = finite(*to)?;
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points[i].pos = to;
+        }
+        Command::DeletePoint { road, index } => {
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points.remove(i);
+            if spec.points.is_empty() {
+                return roads(level, &Command::DeleteRoad { road: *road });
+            }
+        }
+        Command::SetPoint { road, index, point } => {
+            finite(point.pos)?;
+            let spec = road_mut(level, *road)?;
+            let i = point_index(spec, *index)?;
+            spec.points[i] = point.clone();
+        }
+        Command::SetClosed { road, closed } => {
+            let spec = road_mut(level, *road)?;
+            spec.closed = *closed;
+            if *closed {
+                spec.next = None;
+            }
+        }
+        _ => unreachable!("dispatched by `apply`"),
+    }
+    Ok(())
+}
+
+/// Roads as a whole: their settings, links and joins, deletion.
+fn roads(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::DeleteRoad { road } => {
+            let name = road_mut(level, *road)?.name.clone();
+            delete(level, ItemRef::new(ItemKind::Road, &name))?;
+        }
+        Command::Connect { road, next } => {
+            if let Some(n) = next {
+                known_road(level, n)?;
+            }
+            let spec = road_mut(level, *road)?;
+            if next.as_deref() == Some(spec.name.as_str()) {
+                return Err(EditError::OntoItself);
+            }
+            spec.next = next.clone();
+            if next.is_some() {
+                spec.closed = false;
+            }
+        }
+        Command::SetLinks { road, links } => {
+            let from = road_mut(level, *road)?.clone();
+            for l in links {
+                let to = known_road(level, &l.to)?;
+                if l.to == from.name {
+                    return Err(EditError::OntoItself);
+                }
+                if let Some((a, b)) = l
+                    .lanes
+                    .iter()
+                    .find(|(a, b)| *a >= from.lanes || *b >= to.lanes)
+                {
+                    return Err(EditError::LinkLane {
+                        from: from.name.clone(),
+                        from_lane: *a,
+                        from_lanes: from.lanes,
+                        to: to.name.clone(),
+                        to_lane: *b,
+                        to_lanes: to.lanes,
+                    });
+                }
+            }
+            let spec = road_mut(level, *road)?;
+            spec.next = None;
+            spec.links = links.clone();
+            if !links.is_empty() {
+                spec.closed = false;
+            }
+        }
+        Command::JoinEnd { road, onto } => joins::join_end(level, *road, onto)?,
+        Command::JoinSide { road, onto, s_m } => {
+            joins::join_side(level, *road, onto, *s_m)?;
+        }
+        Command::JoinExit { road, onto, s_m } => {
+            joins::join_exit(level, *road, onto, *s_m)?;
+        }
+        Command::SetRoad {
+            road,
+            name,
+            lanes,
+            lane_width_m,
+            speed_limit_kmh,
+        } => set_road(level, *road, name, *lanes, *lane_width_m, *speed_limit_kmh)?,
+        _ => unreachable!("dispatched by `apply`"),
+    }
+    Ok(())
+}
+
+/// A road's own settings, within the schema's limits; a new name is followed everywhere.
+fn set_road(
+    level: &mut Level,
+    road: usize,
+    name: &str,
+    lanes: u32,
+    lane_width_m: f64,
+    speed_limit_kmh: f64,
+) -> Result<(), EditError> {
+    let name = name.trim().to_owned();
+    let old = road_mut(level, road)?.name.clone();
+    if name.is_empty() {
+        return Err(EditError::EmptyName(ItemKind::Road));
+    }
+    if name != old && level.road(&name).is_some() {
+        return Err(EditError::NameTaken(ItemRef::new(ItemKind::Road, &name)));
+    }
+    if !LANES.contains(&lanes) {
+        return Err(EditError::OutOfRange {
+            field: "lanes",
+            value: f64::from(lanes),
+            min: f64::from(*LANES.start()),
+            max: f64::from(*LANES.end()),
+            unit: "",
+        });
+    }
+    in_range("lane width", lane_width_m, &LANE_WIDTH_M, " m")?;
+    in_range("speed limit", speed_limit_kmh, &SPEED_LIMIT_KMH, " km/h")?;
+    let spec = road_mut(level, road)?;
+    spec.name = name.clone();
+    spec.lanes = lanes;
+    spec.lane_width_m = lane_width_m;
+    spec.speed_limit_kmh = speed_limit_kmh;
+    if name != old {
+        rename(level, &ItemRef::new(ItemKind::Road, &old), &name);
+    }
+    // Fewer lanes: what stood in a lane that is gone moves to the new leftmost one.
+    let top = lanes - 1;
+    for s in level.spawners.iter_mut().filter(|s| s.road == name) {
+        s.lane = s.lane.min(top);
+    }
+    for v in level.vehicles.iter_mut().filter(|v| v.road == name) {
+        v.lane = v.lane.min(top);
+    }
+    for t in level.triggers.iter_mut().filter(|t| t.road == name) {
+        if let Some(l) = &mut t.lanes {
+            l.retain(|k| *k <= top);
+            if l.is_empty() {
+                t.lanes = None;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Spawners, destroyers and triggers.
+fn markers(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::AddSpawner(s) => level.spawners.push(s.clone()),
+        Command::AddDestroyer(d) => level.destroyers.push(d.clone()),
+        Command::AddTrigger(t) => level.triggers.push(t.clone()),
+        Command::SetSpawner(i, s) => *item(&mut level.spawners, "spawner", *i)? = s.clone(),
+        Command::SetDestroyer(i, d) => {
+            let old = item(&mut level.destroyers, "destroyer", *i)?.name.clone();
+            level.destroyers[*i] = d.clone();
+            if d.name != old {
+                rename(level, &ItemRef::new(ItemKind::Destroyer, &old), &d.name);
+            }
+        }
+        Command::SetTrigger(i, t) => *item(&mut level.triggers, "trigger", *i)? = t.clone(),
+        Command::MoveMarker { kind, index, s_m } => {
+            if !s_m.is_finite() || *s_m < 0.0 {
+                return Err(EditError::BadArc(*s_m));
+            }
+            match kind {
+                MarkerKind::Spawner => item(&mut level.spawners, "spawner", *index)?.s_m = *s_m,
+                MarkerKind::Destroyer => {
+                    match &mut item(&mut level.destroyers, "destroyer", *index)?.place {
+                        DestroyerPlaceSpec::OnRoad { s_m: at, .. } => *at = *s_m,
+                        DestroyerPlaceSpec::Volume { .. } => return Err(EditError::NotOnRoad),
+                    }
+                }
+                MarkerKind::Trigger => {
+                    let t = item(&mut level.triggers, "trigger", *index)?;
+                    let len = t.to_m - t.from_m;
+                    t.from_m = *s_m;
+                    t.to_m = *s_m + len;
+                }
+            }
+        }
+        Command::DeleteMarker { kind, index } => match kind {
+            MarkerKind::Spawner => {
+                item(&mut level.spawners, "spawner", *index)?;
+                level.spawners.remove(*index);
+            }
+            MarkerKind::Destroyer => {
+                let name = item(&mut level.destroyers, "destroyer", *index)?
+                    .name
+                    .clone();
+                delete(level, ItemRef::new(ItemKind::Destroyer, &name))?;
+            }
+            MarkerKind::Trigger => {
+                item(&mut level.triggers, "trigger", *index)?;
+                level.triggers.remove(*index);
+            }
+        },
+        _ => unreachable!("dispatched by `apply`"),
+    }
+    Ok(())
+}
+
+/// The level's settings and its lists of vehicle types, profiles, expectations and vehicles.
+fn settings(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::SetLevelInfo {
+            name,
+            description,
+            seed,
+            duration_s,
+            telemetry,
+        } => {
+            level.name = name.trim().to_owned();
+            level.description = description.clone();
+            level.seed = *seed;
+            level.duration_s = *duration_s;
+            level.telemetry = telemetry.clone();
+        }
+        Command::AddVehicleType(v) => level.vehicle_types.push(v.clone()),
+        Command::SetVehicleType(i, v) => {
+            let old = item(&mut level.vehicle_types, "vehicle type", *i)?
+                .name
+                .clone();
+            level.vehicle_types[*i] = v.clone();
+            if v.name != old {
+                rename(level, &ItemRef::new(ItemKind::VehicleType, &old), &v.name);
+            }
+        }
+        Command::DeleteVehicleType(i) => {
+            let name = item(&mut level.vehicle_types, "vehicle type", *i)?
+                .name
+                .clone();
+            delete(level, ItemRef::new(ItemKind::VehicleType, &name))?;
+        }
+        Command::AddDriverProfile(p) => level.driver_profiles.push(p.clone()),
+        Command::SetDriverProfile(i, p) => {
+            let old = item(&mut level.driver_profiles, "driver profile", *i)?
+                .name
+                .clone();
+            level.driver_profiles[*i] = p.clone();
+            if p.name != old {
+                rename(level, &ItemRef::new(ItemKind::Profile, &old), &p.name);
+            }
+        }
+        Command::DeleteDriverProfile(i) => {
+            let name = item(&mut level.driver_profiles, "driver profile", *i)?
+                .name
+                .clone();
+            delete(level, ItemRef::new(ItemKind::Profile, &name))?;
+        }
+        Command::SetExpectations(list) => level.expect = list.clone(),
+        Command::AddVehicles(v) => level.vehicles.push(v.clone()),
+        Command::SetVehicles(i, v) => {
+            *item(&mut level.vehicles, "vehicle group", *i)? = v.clone();
+        }
+        Command::DeleteVehicles(i) => {
+            item(&mut level.vehicles, "vehicle group", *i)?;
+            level.vehicles.remove(*i);
+        }
+        _ => unreachable!("dispatched by `apply`"),
+    }
+    Ok(())
+}
+
+/// Junctions: prefabs placed, edited, deleted.
+fn junctions(level: &mut Level, command: &Command) -> Result<(), EditError> {
+    match command {
+        Command::AddPrefab { roads, junctions } => {
+            level.roads.extend(roads.iter().cloned());
+            level.junctions.extend(junctions.iter().cloned());
+        }
+        Command::SetJunction(i, j) => set_junction(level, *i, j)?,
+        Command::DeleteJunction(i) => {
+            let name = item(&mut level.junctions, "junction", *i)?.name.clone();
+            delete(level, ItemRef::new(ItemKind::Junction, &name))?;
+        }
+        _ => unreachable!("dispatched by `apply`"),
+    }
+    Ok(())
+}
+
+/// Replaces junction `i`; expectations on it follow a new name.
+fn set_junction(level: &mut Level, i: usize, j: &JunctionSpec) -> Result<(), EditError> {
+    let name = j.name.trim();
+    if name.is_empty() {
+        return Err(EditError::EmptyName(ItemKind::Junction));
+    }
+    let taken = level
+        .junctions
+        .iter()
+        .enumerate()
+        .any(|(k, o)| k != i && o.name == j.name);
+    if taken {
+        return Err(EditError::NameTaken(ItemRef::new(
+            ItemKind::Junction,
+            &j.name,
+        )));
+    }
+    let old = item(&mut level.junctions, "junction", i)?.name.clone();
+    level.junctions[i] = j.clone();
+    if j.name != old {
+        rename(level, &ItemRef::new(ItemKind::Junction, &old), &j.name);
+    }
+    Ok(())
+}
+
+/// Every reference to `item` in the level, in words (what a deletion would take along).
+pub fn used_by(level: &Level, item: &ItemRef) -> Vec<String> {
+    references(level, item)
+        .iter()
+        .map(|s: &Site| s.describe(level))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Editor;
+    use flockway_level::{
+        Check, Expectation, ProfileShare, RouteSpec, SpawnerSpec, Template, crossroads, validate,
+    };
+    use flockway_road::Control;
+
+    /// A signalised crossroads with a spawner routed through it and expectations on one of its
+    /// roads and on the junction: every kind of reference to a road.
+    fn crossroads_level() -> Level {
+        let mut level = Template::Empty.level("refs");
+        let prefab = crossroads("x", DVec3::ZERO);
+        level.roads = prefab.roads;
+        level.junctions = prefab.junctions;
+        let profile = level.driver_profiles[0].name.clone();
+        level.spawners.push(SpawnerSpec {
+            name: "s".to_owned(),
+            road: "x west in".to_owned(),
+            lane: 0,
+            s_m: 5.0,
+            interval_s: flockway_level::Range { min: 2.0, max: 3.0 },
+            profiles: vec![ProfileShare {
+                profile,
+                weight: 1.0,
+            }],
+            speed_kmh: None,
+            active: true,
+            max_vehicles: None,
+            routes: vec![RouteSpec {
+                name: "east".to_owned(),
+                roads: vec!["x west in".to_owned(), "x east out".to_owned()],
+                weight: 1.0,
+            }],
+            destination: None,
+            schedule: Vec::new(),
+            arrivals: Default::default(),
+            departures: Vec::new(),
+        });
+        for (metric, on, check) in [
+            ("road_length_m", "x east out", Check::Gt(10.0)),
+            ("junction_delay_s", "x", Check::Lt(60.0)),
+        ] {
+            level.expect.push(Expectation {
+                metric: metric.to_owned(),
+                qualifier: Some(on.to_owned()),
+                check,
+            });
+        }
+        assert!(validate(&level).is_empty(), "{:?}", validate(&level));
+        level
+    }
+
+    fn road_index(level: &Level, name: &str) -> usize {
+        level.roads.iter().position(|r| r.name == name).expect(name)
+    }
+
+    #[test]
+    fn deleting_a_road_a_junction_a_route_and_an_expectation_use_takes_each_along_and_undoes() {
+        let level = crossroads_level();
+        let mut e = Editor::with_level(level.clone(), None);
+        let junction = &level.junctions[0];
+        let road = ItemRef::new(ItemKind::Road, "x east out");
+        let uses = used_by(&level, &road);
+        assert!(
+            uses.iter()
+                .any(|u| u.starts_with("junction `x` connection")),
+            "{uses:?}"
+        );
+        assert!(
+            uses.iter().any(|u| u == "spawner `s` route `east`"),
+            "{uses:?}"
+        );
+        assert!(
+            uses.iter()
+                .any(|u| u.starts_with("expectation `road_length_m")),
+            "{uses:?}"
+        );
+        let through = junction
+            .connections
+            .iter()
+            .filter(|c| c.to == "x east out" || c.from == "x east out")
+            .count();
+        assert!(through > 0);
+        let letters = junction.signal.as_ref().expect("signal").phases[0]
+            .state
+            .len();
+        e.apply(Command::DeleteRoad {
+            road: road_index(&level, "x east out"),
+        })
+        .expect("deletes");
+        let after = e.level();
+        let j = &after.junctions[0];
+        assert_eq!(j.connections.len(), junction.connections.len() - through);
+        assert!(j.connections.iter().all(|c| c.to != "x east out"));
+        // Each phase lost one letter per connection removed.
+        for phase in &j.signal.as_ref().expect("signal").phases {
+            assert_eq!(phase.state.len(), letters - through);
+        }
+        assert!(
+            after.spawners[0].routes.is_empty(),
+            "the route through it went"
+        );
+        assert_eq!(
+            after.expect.len(),
+            1,
+            "the road's expectation went, the junction's stayed"
+        );
+        assert!(validate(after).is_empty(), "{:?}", validate(after));
+        assert!(e.undo());
+        assert_eq!(e.level(), &level);
+    }
+
+    #[test]
+    fn renaming_a_road_and_a_junction_follows_every_reference_and_undoes() {
+        let level = crossroads_level();
+        let mut e = Editor::with_level(level.clone(), None);
+        let r = road_index(&level, "x west in");
+        let spec = level.roads[r].clone();
+        e.apply(Command::SetRoad {
+            road: r,
+            name: "avenue".to_owned(),
+            lanes: spec.lanes,
+            lane_width_m: spec.lane_width_m,
+            speed_limit_kmh: spec.speed_limit_kmh,
+        })
+        .expect("renames");
+        let after = e.level();
+        assert_eq!(after.spawners[0].road, "avenue");
+        assert_eq!(after.spawners[0].routes[0].roads[0], "avenue");
+        assert!(
+            after.junctions[0]
+                .connections
+                .iter()
+                .any(|c| c.from == "avenue")
+        );
+        assert!(references(after, &ItemRef::new(ItemKind::Road, "x west in")).is_empty());
+        assert!(validate(after).is_empty(), "{:?}", validate(after));
+        let mut j = after.junctions[0].clone();
+        j.name = "plaza".to_owned();
+        e.apply(Command::SetJunction(0, j))
+            .expect("renames junction");
+        assert_eq!(e.level().expect[1].qualifier.as_deref(), Some("plaza"));
+        assert!(e.undo() && e.undo());
+        assert_eq!(e.level(), &level);
+    }
+
+    #[test]
+    fn deleting_a_junction_takes_its_expectations_and_a_used_profile_is_refused_with_its_users() {
+        let level = crossroads_level();
+        let mut e = Editor::with_level(level.clone(), None);
+        e.apply(Command::DeleteJunction(0)).expect("deletes");
+        assert!(e.level().junctions.is_empty());
+        assert!(
+            e.level()
+                .expect
+                .iter()
+                .all(|x| x.metric != "junction_delay_s"),
+            "the junction's expectation went with it"
+        );
+        assert!(e.undo());
+        let err = e
+            .apply(Command::DeleteDriverProfile(0))
+            .expect_err("a spawner uses it");
+        assert!(
+            matches!(&err, EditError::InUse { by, .. } if by == &["spawner `s`"]),
+            "{err}"
+        );
+        assert!(err.to_string().contains("is used by spawner `s`"), "{err}");
+        let err = e
+            .apply(Command::DeleteVehicleType(0))
+            .expect_err("a profile drives it");
+        assert!(matches!(err, EditError::InUse { .. }), "{err}");
+        assert_eq!(e.level(), &level, "refusals change nothing");
+    }
+
+    #[test]
+    fn a_priority_junctions_major_road_goes_with_the_road() {
+        let mut level = crossroads_level();
+        level.junctions[0].control = Control::Priority {
+            major: vec!["x west in".to_owned(), "x east in".to_owned()],
+            stop: false,
+        };
+        level.junctions[0].signal = None;
+        let mut e = Editor::with_level(level.clone(), None);
+        e.apply(Command::DeleteRoad {
+            road: road_index(&level, "x west in"),
+        })
+        .expect("deletes");
+        let Control::Priority { major, .. } = &e.level().junctions[0].control else {
+            panic!("priority kept");
+        };
+        assert_eq!(major, &["x east in"]);
+        assert!(e.level().spawners.is_empty(), "the spawner on it went");
+    }
+
+    #[test]
+    fn road_settings_are_held_to_the_schemas_limits() {
+        let level = crossroads_level();
+        let mut e = Editor::with_level(level.clone(), None);
+        let spec = level.roads[0].clone();
+        let set = |lanes, width, limit| Command::SetRoad {
+            road: 0,
+            name: spec.name.clone(),
+            lanes,
+            lane_width_m: width,
+            speed_limit_kmh: limit,
+        };
+        // The widest values validation accepts are accepted here too.
+        let (lanes, width, limit) = (*LANES.end(), *LANE_WIDTH_M.end(), *SPEED_LIMIT_KMH.end());
+        e.apply(set(lanes, 6.0, limit))
+            .expect("the most lanes, the highest limit");
+        e.apply(set(1, width, limit)).expect("the widest lane");
+        for bad in [
+            set(lanes + 1, width, limit),
+            set(1, *LANE_WIDTH_M.start() - 0.01, limit),
+            set(1, width, *SPEED_LIMIT_KMH.end() + 1.0),
+            set(1, f64::NAN, limit),
+        ] {
+            let err = e.apply(bad).expect_err("out of range");
+            assert!(matches!(err, EditError::OutOfRange { .. }), "{err}");
+        }
+    }
+}
