@@ -904,3 +904,75 @@ fn test_writes_every_run_s_summary_as_a_json_line_the_same_as_run_s() {
         serde_json::from_str(&std::fs::read_to_string(&one).expect("summary")).expect("json");
     assert_eq!(summaries[1]["metrics"], single["metrics"]);
 }
+
+#[test]
+fn edit_apply_changes_a_level_headless_all_or_none_and_names_the_refused_edit() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let level = dir.path().join("crossroads.ron");
+    std::fs::copy("levels/crossroads_signal.ron", &level).expect("copy");
+    let before = std::fs::read(&level).expect("read");
+    let edits = dir.path().join("edits.ron");
+    // The third edit asks for more lanes than a road may have.
+    std::fs::write(
+        &edits,
+        "// a variant\n[\n    Set(item: Road(\"west in\"), field: \"lanes\", value: 2),\n    \
+         Set(item: Junction(\"crossroads\"), field: \"signal.phases.0.duration_s\", value: 20),\n    \
+         Set(item: Road(\"east in\"), field: \"lanes\", value: 17),\n]\n",
+    )
+    .expect("write");
+    let level_arg = level.to_str().expect("utf-8");
+    let edits_arg = edits.to_str().expect("utf-8");
+    let out = flockway(&["edit", level_arg, "--apply", edits_arg]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(&format!("{edits_arg}:5:5: edit 3 of 3")),
+        "the refused edit by number and line:col: {stderr}"
+    );
+    assert!(stderr.contains("lanes 17: expected 1 to 16"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&level).expect("read"),
+        before,
+        "nothing written"
+    );
+
+    // Without the bad edit: written to another file, which checks and runs.
+    let text = std::fs::read_to_string(&edits).expect("read");
+    std::fs::write(&edits, text.replace("value: 17", "value: 1")).expect("write");
+    let variant = dir.path().join("variant.ron");
+    let variant_arg = variant.to_str().expect("utf-8");
+    let out = flockway(&["edit", level_arg, "--apply", edits_arg, "-o", variant_arg]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("applied 3 edit(s)"));
+    let edited = flockway::level::load_level(&variant).expect("the variant loads");
+    assert_eq!(edited.road("west in").expect("road").lanes, 2);
+    let program = edited.junctions[0].signal.as_ref().expect("signal");
+    assert_eq!(program.phases[0].duration_s, 20.0);
+    assert_eq!(
+        std::fs::read(&level).expect("read"),
+        before,
+        "the original is kept"
+    );
+    // It runs (a run shortened to 20 s may miss expectations meant for the whole level: exit 1).
+    let out = flockway(&["run", variant_arg, "--seconds", "20"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(matches!(out.status.code(), Some(0 | 1)), "{stderr}");
+    assert!(!stderr.contains("error:"), "{stderr}");
+
+    // A script that is not a list of edits is an error at its position.
+    std::fs::write(
+        &edits,
+        "[\n    Set(item: Road(\"west in\"), feld: \"lanes\"),\n]\n",
+    )
+    .expect("write");
+    let out = flockway(&["edit", level_arg, "--apply", edits_arg]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("{edits_arg}:2:")), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

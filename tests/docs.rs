@@ -102,3 +102,23 @@ fn every_relative_link_in_the_docs_leads_to_a_file() {
         }
     }
 }
+
+#[test]
+fn the_edit_script_in_the_levels_page_applies_to_the_level_it_names() {
+    let text = read("docs/levels.md");
+    let section = &text[text.find("## Editing from scripts").expect("section")..];
+    let start = section.find("```ron\n").expect("a RON block") + "```ron\n".len();
+    let block = &section[start..start + section[start..].find("```").expect("closed")];
+    let dir = tempfile::tempdir().expect("tempdir");
+    let script = dir.path().join("edits.ron");
+    std::fs::write(&script, block).expect("write");
+    let mut editor = flockway::edit::Editor::open(Path::new("levels/crossroads_signal.ron"))
+        .expect("the level the example edits");
+    let applied = flockway::edit::apply_script(&mut editor, &script)
+        .unwrap_or_else(|e| panic!("the documented script applies: {e}"));
+    assert_eq!(applied, 4);
+    let level = editor.level();
+    assert_eq!(level.road("west in").expect("road").lanes, 2);
+    assert_eq!(level.seed, 7);
+    assert!(flockway::level::validate(level).is_empty());
+}

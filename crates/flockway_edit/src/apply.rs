@@ -3,7 +3,7 @@
 //! level's reference layer ([`flockway_level::rename`], [`flockway_level::remove_item`]), so
 //! every place that names an item follows it.
 
-use crate::command::{Command, MarkerKind};
+use crate::command::{Command, MarkerKind, Target};
 use crate::error::{EditError, in_range};
 use crate::joins;
 use flockway_level::{
@@ -47,6 +47,7 @@ pub(crate) fn apply(level: &mut Level, command: &Command) -> Result<(), EditErro
             }
             Ok(())
         }
+        Command::Set { item, field, value } => set_field(level, item, field, value),
         _ => settings(level, command),
     }
 }
@@ -445,6 +446,170 @@ fn set_junction(level: &mut Level, i: usize, j: &JunctionSpec) -> Result<(), Edi
     Ok(())
 }
 
+/// `item` with the field at the dotted `path` (as the level file writes it) set to `value`,
+/// through the item's serde form: a missing last key is added (an optional field left out of
+/// the file), a wrong one is refused by the item's own deserialiser.
+fn with_field<T: serde::Serialize + serde::de::DeserializeOwned>(
+    item: &T,
+    target: &Target,
+    path: &str,
+    value: &ron::Value,
+) -> Result<T, EditError> {
+    let bad = |reason: String| EditError::BadField {
+        target: target.clone(),
+        field: path.to_owned(),
+        reason,
+    };
+    let mut json = serde_json::to_value(item).map_err(|e| bad(e.to_string()))?;
+    let new = serde_json::to_value(value).map_err(|e| bad(e.to_string()))?;
+    let keys: Vec<&str> = path.split('.').collect();
+    let mut at = &mut json;
+    for (k, key) in keys.iter().enumerate() {
+        let last = k + 1 == keys.len();
+        at = match at {
+            serde_json::Value::Object(map) => {
+                if last {
+                    map.entry(key.to_string())
+                        .or_insert(serde_json::Value::Null)
+                } else {
+                    map.get_mut(*key)
+                        .ok_or_else(|| bad(format!("it has no `{key}`")))?
+                }
+            }
+            serde_json::Value::Array(list) => {
+                let n = list.len();
+                key.parse::<usize>()
+                    .ok()
+                    .and_then(|i| list.get_mut(i))
+                    .ok_or_else(|| bad(format!("`{key}` is not an index of a list of {n}")))?
+            }
+            _ => return Err(bad(format!("there is nothing inside it at `{key}`"))),
+        };
+    }
+    *at = new;
+    serde_json::from_value(json).map_err(|e| bad(e.to_string()))
+}
+
+/// Position of the item named `name` in `list`, or the error that there is none.
+fn named<T>(
+    list: &[T],
+    name_of: impl Fn(&T) -> &str,
+    target: &Target,
+    name: &str,
+) -> Result<usize, EditError> {
+    list.iter()
+        .position(|x| name_of(x) == name)
+        .ok_or_else(|| EditError::NoTarget(target.clone()))
+}
+
+/// [`Command::Set`]: one field of a named item, through the item's own edit.
+fn set_field(
+    level: &mut Level,
+    target: &Target,
+    path: &str,
+    value: &ron::Value,
+) -> Result<(), EditError> {
+    match target {
+        Target::Level => set_level_field(level, target, path, value),
+        Target::Road(name) => {
+            let i = named(&level.roads, |r| r.name.as_str(), target, name)?;
+            let new = with_field(&level.roads[i], target, path, value)?;
+            // Name, lanes, width and limit as the inspector sets them (checked, followed).
+            set_road(
+                level,
+                i,
+                &new.name,
+                new.lanes,
+                new.lane_width_m,
+                new.speed_limit_kmh,
+            )?;
+            let renamed = level.roads[i].name.clone();
+            level.roads[i] = RoadSpec {
+                name: renamed,
+                ..new
+            };
+            Ok(())
+        }
+        Target::Junction(name) => {
+            let i = named(&level.junctions, |j| j.name.as_str(), target, name)?;
+            let new = with_field(&level.junctions[i], target, path, value)?;
+            set_junction(level, i, &new)
+        }
+        Target::Spawner(name) => {
+            let i = named(&level.spawners, |s| s.name.as_str(), target, name)?;
+            let new = with_field(&level.spawners[i], target, path, value)?;
+            markers(level, &Command::SetSpawner(i, new))
+        }
+        Target::Destroyer(name) => {
+            let i = named(&level.destroyers, |d| d.name.as_str(), target, name)?;
+            let new = with_field(&level.destroyers[i], target, path, value)?;
+            markers(level, &Command::SetDestroyer(i, new))
+        }
+        Target::Trigger(name) => {
+            let i = named(&level.triggers, |t| t.name.as_str(), target, name)?;
+            let new = with_field(&level.triggers[i], target, path, value)?;
+            markers(level, &Command::SetTrigger(i, new))
+        }
+        Target::Profile(name) => {
+            let i = named(&level.driver_profiles, |p| p.name.as_str(), target, name)?;
+            let new = with_field(&level.driver_profiles[i], target, path, value)?;
+            settings(level, &Command::SetDriverProfile(i, new))
+        }
+        Target::VehicleType(name) => {
+            let i = named(&level.vehicle_types, |v| v.name.as_str(), target, name)?;
+            let new = with_field(&level.vehicle_types[i], target, path, value)?;
+            settings(level, &Command::SetVehicleType(i, new))
+        }
+    }
+}
+
+/// A field of the level's own settings.
+fn set_level_field(
+    level: &mut Level,
+    target: &Target,
+    path: &str,
+    value: &ron::Value,
+) -> Result<(), EditError> {
+    let (head, rest) = path
+        .split_once('.')
+        .map_or((path, None), |(h, r)| (h, Some(r)));
+    // A top-level field set whole is the value itself; a nested one goes through its struct.
+    fn field<T: serde::Serialize + serde::de::DeserializeOwned>(
+        current: &T,
+        target: &Target,
+        path: &str,
+        rest: Option<&str>,
+        value: &ron::Value,
+    ) -> Result<T, EditError> {
+        match rest {
+            Some(r) => with_field(current, target, r, value),
+            None => value.clone().into_rust().map_err(|e| EditError::BadField {
+                target: target.clone(),
+                field: path.to_owned(),
+                reason: e.to_string(),
+            }),
+        }
+    }
+    match head {
+        "name" => level.name = field(&level.name, target, path, rest, value)?,
+        "description" => level.description = field(&level.description, target, path, rest, value)?,
+        "seed" => level.seed = field(&level.seed, target, path, rest, value)?,
+        "duration_s" => level.duration_s = field(&level.duration_s, target, path, rest, value)?,
+        "telemetry" => level.telemetry = field(&level.telemetry, target, path, rest, value)?,
+        "ssm" => level.ssm = field(&level.ssm, target, path, rest, value)?,
+        _ => {
+            return Err(EditError::BadField {
+                target: target.clone(),
+                field: path.to_owned(),
+                reason: "the level's settings are `name`, `description`, `seed`, `duration_s`, \
+                         `telemetry` and `ssm` (roads, markers and the rest by their own name)"
+                    .to_owned(),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Every reference to `item` in the level, in words (what a deletion would take along).
 pub fn used_by(level: &Level, item: &ItemRef) -> Vec<String> {
     references(level, item)
@@ -676,5 +841,68 @@ mod tests {
             let err = e.apply(bad).expect_err("out of range");
             assert!(matches!(err, EditError::OutOfRange { .. }), "{err}");
         }
+    }
+
+    #[test]
+    fn a_script_sets_fields_by_name_through_each_items_own_edit() {
+        let level = crossroads_level();
+        let mut e = Editor::with_level(level.clone(), None);
+        let script = r#"[
+            Set(item: Road("x west in"), field: "lanes", value: 2),
+            Set(item: Junction("x"), field: "signal.phases.0.duration_s", value: 20.5),
+            Set(item: Spawner("s"), field: "interval_s.min", value: 2.5),
+            Set(item: Spawner("s"), field: "max_vehicles", value: 40),
+            Set(item: Level, field: "seed", value: 99),
+            Set(item: Level, field: "telemetry.period_s", value: 0.5),
+            Set(item: Road("x east out"), field: "name", value: "boulevard"),
+        ]"#;
+        for command in crate::parse_script(script, std::path::Path::new("s.ron")).expect("parses") {
+            e.apply(command).expect("applies");
+        }
+        let after = e.level();
+        assert_eq!(after.road("x west in").expect("road").lanes, 2);
+        let program = after.junctions[0].signal.as_ref().expect("signal");
+        assert_eq!(program.phases[0].duration_s, 20.5);
+        assert_eq!(after.spawners[0].interval_s.min, 2.5);
+        assert_eq!(after.spawners[0].max_vehicles, Some(40));
+        assert_eq!(after.seed, 99);
+        assert_eq!(after.telemetry.period_s, 0.5);
+        // A name set this way is followed like the inspector's.
+        assert_eq!(after.spawners[0].routes[0].roads[1], "boulevard");
+        assert_eq!(after.expect[0].qualifier.as_deref(), Some("boulevard"));
+        assert!(validate(after).is_empty(), "{:?}", validate(after));
+        for (bad, says) in [
+            (
+                r#"Set(item: Road("nowhere"), field: "lanes", value: 2)"#,
+                "there is no road `nowhere`",
+            ),
+            (
+                r#"Set(item: Road("x west in"), field: "lane", value: 2)"#,
+                "unknown field `lane`",
+            ),
+            (
+                r#"Set(item: Road("x west in"), field: "lanes", value: 40)"#,
+                "lanes 40: expected 1 to 16",
+            ),
+            (
+                r#"Set(item: Road("x west in"), field: "points.9.pos", value: (0, 0, 0))"#,
+                "not an index",
+            ),
+            (
+                r#"Set(item: Spawner("s"), field: "s_m", value: 5000)"#,
+                "outside road",
+            ),
+            (
+                r#"Set(item: Level, field: "roads", value: [])"#,
+                "the level's settings are",
+            ),
+        ] {
+            let command = crate::parse_script(&format!("[{bad}]"), std::path::Path::new("s.ron"))
+                .expect("parses")
+                .remove(0);
+            let err = e.apply(command).expect_err(bad).to_string();
+            assert!(err.contains(says), "{bad}: {err}");
+        }
+        assert_eq!(e.undo_label(), Some("set a field"));
     }
 }

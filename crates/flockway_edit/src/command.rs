@@ -208,6 +208,19 @@ pub enum Command {
     SetJunction(usize, JunctionSpec),
     /// Deletes a junction (its roads stay, no longer connected through it).
     DeleteJunction(usize),
+    /// Sets one field of a named item, as a script says it: `Set(item: Road("west in"),
+    /// field: "lanes", value: 2)`. `field` is a dotted path into the item as the level file
+    /// writes it (`signal.phases.1.duration_s` of a junction, `effect.SpeedLimit.kmh` of a
+    /// trigger, `interval_s.min` of a spawner); the change goes through the item's own edit, so
+    /// limits are checked and a new name is followed everywhere.
+    Set {
+        /// The item.
+        item: Target,
+        /// The field's path.
+        field: String,
+        /// Its new value.
+        value: ron::Value,
+    },
     /// Several edits as one undo step (all or none).
     Batch {
         /// What the undo menu calls it.
@@ -256,6 +269,7 @@ impl Command {
             Command::AddPrefab { .. } => "place junction",
             Command::SetJunction(..) => "edit junction",
             Command::DeleteJunction(_) => "delete junction",
+            Command::Set { .. } => "set a field",
             Command::Batch { label, .. } => label,
         }
     }
@@ -304,6 +318,42 @@ impl Command {
             Command::SetVehicles(i, _) => Some((12, *i, 0)),
             Command::SetJunction(i, _) => Some((13, *i, 0)),
             _ => None,
+        }
+    }
+}
+
+/// An item a [`Command::Set`] addresses by name (the level's own settings by `Level`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Target {
+    /// The level's settings: `name`, `description`, `seed`, `duration_s`, `telemetry`, `ssm`.
+    Level,
+    /// A road, by name.
+    Road(String),
+    /// A junction, by name.
+    Junction(String),
+    /// A spawner, by name.
+    Spawner(String),
+    /// A destroyer, by name.
+    Destroyer(String),
+    /// A trigger, by name.
+    Trigger(String),
+    /// A driver profile, by name.
+    Profile(String),
+    /// A vehicle type, by name.
+    VehicleType(String),
+}
+
+impl std::fmt::Display for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Target::Level => f.write_str("the level"),
+            Target::Road(n) => write!(f, "road `{n}`"),
+            Target::Junction(n) => write!(f, "junction `{n}`"),
+            Target::Spawner(n) => write!(f, "spawner `{n}`"),
+            Target::Destroyer(n) => write!(f, "destroyer `{n}`"),
+            Target::Trigger(n) => write!(f, "trigger `{n}`"),
+            Target::Profile(n) => write!(f, "driver profile `{n}`"),
+            Target::VehicleType(n) => write!(f, "vehicle type `{n}`"),
         }
     }
 }

@@ -93,6 +93,19 @@ pub enum EditError {
     /// A volume destroyer moved along a road.
     #[error("a volume destroyer is not on a road: edit its corners")]
     NotOnRoad,
+    /// A [`crate::Command::Set`] naming no item.
+    #[error("there is no {0}")]
+    NoTarget(crate::Target),
+    /// A [`crate::Command::Set`] whose field or value does not fit the item.
+    #[error("{target}: cannot set `{field}`: {reason}")]
+    BadField {
+        /// The item.
+        target: crate::Target,
+        /// The field's path.
+        field: String,
+        /// Why.
+        reason: String,
+    },
     /// A join that cannot be made.
     #[error(transparent)]
     Join(#[from] JoinError),

@@ -3,6 +3,8 @@
 //! (`python/flockway/`) builds the documented API on it: `Sim`, drivers written in Python, the
 //! gymnasium and PettingZoo environments and the sweeps.
 
+mod level;
+
 use flockway_drivers::ExternalCommand;
 use flockway_runner::{Override, RunError, Session, SessionError};
 use flockway_vehicle::Controls;
@@ -331,6 +333,7 @@ fn shipped_files() -> Vec<(&'static str, &'static str)> {
 #[pymodule]
 fn _flockway(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySession>()?;
+    m.add_class::<level::PyLevel>()?;
     m.add_function(wrap_pyfunction!(shipped_files, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
