@@ -2,10 +2,10 @@
 //! as real time passes (1×, 2×, 5× or as fast as the frame budget allows), with the poses of
 //! the last two steps kept for smooth drawing between them.
 
-use crate::scene::{ColourBy, VehicleFrame, palette};
 use flockway_core::{DT_S, RunStats};
 use flockway_drivers::Route;
 use flockway_level::Level;
+use flockway_render::{ColourBy, VehicleFrame, palette};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner};
 use flockway_traffic::{Spawner, SpawnerRate, TrafficStats};

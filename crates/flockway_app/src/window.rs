@@ -2,8 +2,8 @@
 //! keyboard and mouse controls of the editor and play mode.
 
 use crate::app::AppState;
-use crate::render::{Gpu, RenderError, SceneRenderer, Targets};
-use crate::scene::VehicleInstance;
+use flockway_render::VehicleInstance;
+use flockway_render::{Gpu, RenderError, SceneRenderer, Targets};
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;

@@ -10,7 +10,6 @@ use crate::safety::SafetyParams;
 use crate::wave_damper::{WaveDamper, WaveDamperParams};
 use bevy_ecs::prelude::*;
 use flockway_core::EntityRng;
-use flockway_level::DriverModel;
 use flockway_vehicle::VehicleModel;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -98,34 +97,6 @@ impl BuiltinModel {
             BuiltinModel::Human => "drivers/human.ron",
             BuiltinModel::Idm => "drivers/idm.ron",
             BuiltinModel::WaveDamper => "drivers/wave_damper.ron",
-        }
-    }
-}
-
-impl TryFrom<&DriverModel> for BuiltinModel {
-    type Error = String;
-
-    /// The built-in model a level names; a `Custom` model is a plugin's, named in the error.
-    fn try_from(m: &DriverModel) -> Result<BuiltinModel, String> {
-        Ok(match m {
-            DriverModel::Flock => BuiltinModel::Flock,
-            DriverModel::FlockLanes => BuiltinModel::FlockLanes,
-            DriverModel::Human => BuiltinModel::Human,
-            DriverModel::Idm => BuiltinModel::Idm,
-            DriverModel::WaveDamper => BuiltinModel::WaveDamper,
-            DriverModel::Custom(name) => return Err(name.clone()),
-        })
-    }
-}
-
-impl From<BuiltinModel> for DriverModel {
-    fn from(m: BuiltinModel) -> DriverModel {
-        match m {
-            BuiltinModel::Flock => DriverModel::Flock,
-            BuiltinModel::FlockLanes => DriverModel::FlockLanes,
-            BuiltinModel::Human => DriverModel::Human,
-            BuiltinModel::Idm => DriverModel::Idm,
-            BuiltinModel::WaveDamper => DriverModel::WaveDamper,
         }
     }
 }

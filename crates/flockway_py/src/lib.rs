@@ -54,7 +54,7 @@ fn same_length(what: &'static str, values: usize, ids: usize) -> PyResult<()> {
 struct PySession {
     inner: Session,
     /// The off-screen renderer, made at the first `render`.
-    view: Option<flockway_app::OffscreenView>,
+    view: Option<flockway_render::OffscreenView>,
 }
 
 #[pymethods]
@@ -265,8 +265,8 @@ impl PySession {
             )));
         }
         let view = match view {
-            "top" => flockway_app::View::Top,
-            "orbit" => flockway_app::View::Orbit,
+            "top" => flockway_render::View::Top,
+            "orbit" => flockway_render::View::Orbit,
             other => {
                 return Err(PyValueError::new_err(format!(
                     "view `{other}`: expected \"top\" or \"orbit\""
@@ -286,7 +286,7 @@ impl PySession {
                 .sim()
                 .world()
                 .resource::<flockway_road::RoadNetwork>();
-            let made = flockway_app::OffscreenView::new(network, runner.level())
+            let made = flockway_render::OffscreenView::new(network, runner.level())
                 .map_err(|e| PyRuntimeError::new_err(format!("cannot render: {e}")))?;
             self.view = Some(made);
         }

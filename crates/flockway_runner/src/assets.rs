@@ -3,7 +3,7 @@
 
 use crate::runner::RunError;
 use flockway_drivers::{BuiltinModel, DriverSpec};
-use flockway_level::Level;
+use flockway_level::{DriverModel, Level};
 use flockway_vehicle::{VehicleParams, VehicleType};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -84,7 +84,7 @@ pub fn load_profiles(
             message,
         };
         // A custom model's profile is left to the plugin of that name (or driven externally).
-        let model = match BuiltinModel::try_from(&profile.model) {
+        let model = match builtin_model(&profile.model) {
             Ok(model) => Ok(model),
             Err(_) if !external => continue,
             Err(name) => Err(name),
@@ -116,3 +116,26 @@ pub struct DriverProfiles(pub BTreeMap<String, DriverSpec>);
 /// The level's vehicle types, loaded from `assets/`, by name.
 #[derive(bevy_ecs::resource::Resource, Debug, Clone, Default)]
 pub struct VehicleTypes(pub BTreeMap<String, Arc<VehicleType>>);
+
+/// The built-in model a level names; a `Custom` model is a plugin's, named in the error.
+pub fn builtin_model(m: &DriverModel) -> Result<BuiltinModel, String> {
+    Ok(match m {
+        DriverModel::Flock => BuiltinModel::Flock,
+        DriverModel::FlockLanes => BuiltinModel::FlockLanes,
+        DriverModel::Human => BuiltinModel::Human,
+        DriverModel::Idm => BuiltinModel::Idm,
+        DriverModel::WaveDamper => BuiltinModel::WaveDamper,
+        DriverModel::Custom(name) => return Err(name.clone()),
+    })
+}
+
+/// How a level file names a built-in model.
+pub fn level_model(m: BuiltinModel) -> DriverModel {
+    match m {
+        BuiltinModel::Flock => DriverModel::Flock,
+        BuiltinModel::FlockLanes => DriverModel::FlockLanes,
+        BuiltinModel::Human => DriverModel::Human,
+        BuiltinModel::Idm => DriverModel::Idm,
+        BuiltinModel::WaveDamper => DriverModel::WaveDamper,
+    }
+}

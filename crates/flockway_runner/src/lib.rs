@@ -21,8 +21,8 @@ mod tests;
 mod world;
 
 pub use assets::{
-    ASSETS_ENV, DriverProfiles, VehicleTypes, find_assets_dir, load_driver_profiles, load_profiles,
-    load_vehicle_types,
+    ASSETS_ENV, DriverProfiles, VehicleTypes, builtin_model, find_assets_dir, level_model,
+    load_driver_profiles, load_profiles, load_vehicle_types,
 };
 pub use conflicts::{CONFLICT_COLUMNS, ConflictsWriter};
 pub use flockway_analysis::{ExpectationResult, Summary};

@@ -130,7 +130,7 @@ pub fn assign_models(
             )));
         }
         for p in level.driver_profiles.iter_mut().filter(|p| matches(p)) {
-            p.model = (*model).into();
+            p.model = crate::assets::level_model(*model);
             p.params = Some(model.default_params_path().to_owned());
             p.set.clear();
         }

@@ -221,7 +221,7 @@ pub fn populate(
         ));
     }
     for (i, t) in level.triggers.iter().enumerate() {
-        let effect = TriggerEffect::from(&t.effect);
+        let effect = trigger_effect(&t.effect);
         world.spawn((
             Trigger {
                 name: t.name.clone(),
@@ -294,4 +294,16 @@ pub fn capacity_windows(level: &Level) -> CapacityWindows {
             .map(|w| (tick(w[0] + CAPACITY_SETTLE_S), tick(w[1])))
             .collect(),
     )
+}
+
+/// A level file's trigger effect as the traffic crate applies it.
+fn trigger_effect(spec: &flockway_level::TriggerEffectSpec) -> TriggerEffect {
+    match *spec {
+        flockway_level::TriggerEffectSpec::SpeedLimit { kmh } => {
+            TriggerEffect::SpeedLimit(kmh as f32)
+        }
+        flockway_level::TriggerEffectSpec::Friction { scale } => {
+            TriggerEffect::Friction(scale as f32)
+        }
+    }
 }

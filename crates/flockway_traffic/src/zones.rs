@@ -95,19 +95,6 @@ pub enum TriggerEffect {
     Friction(f32),
 }
 
-impl From<&flockway_level::TriggerEffectSpec> for TriggerEffect {
-    fn from(spec: &flockway_level::TriggerEffectSpec) -> TriggerEffect {
-        match *spec {
-            flockway_level::TriggerEffectSpec::SpeedLimit { kmh } => {
-                TriggerEffect::SpeedLimit(kmh as f32)
-            }
-            flockway_level::TriggerEffectSpec::Friction { scale } => {
-                TriggerEffect::Friction(scale as f32)
-            }
-        }
-    }
-}
-
 /// A stretch of road that changes the vehicles in it.
 #[derive(Component, Debug, Clone, PartialEq)]
 pub struct Trigger {

@@ -9,14 +9,14 @@ mod tests;
 mod tools;
 mod view;
 
-use crate::camera::Camera;
 use crate::play::{FRAME_BUDGET, PlaySession};
-use crate::scene::{StaticScene, Vertex, box_faces};
 use flockway_edit::{
     Command, EditError, Editor, MarkerKind, PrefabKind, level_network, place_marker, place_prefab,
     playable,
 };
 use flockway_level::{DestroyerPlaceSpec, DriverProfileSpec, Level, validate};
+use flockway_render::Camera;
+use flockway_render::{StaticScene, Vertex, box_faces};
 use flockway_road::{RoadGeometry, RoadNetwork, lane_offset};
 use flockway_runner::{RunError, level_name, load_driver_profiles};
 use glam::{DVec3, Vec2, Vec3};

@@ -175,7 +175,7 @@ fn model_name(m: &DriverModel) -> String {
 }
 
 fn builtin(m: &DriverModel) -> Option<BuiltinModel> {
-    BuiltinModel::try_from(m).ok()
+    flockway_runner::builtin_model(m).ok()
 }
 
 fn profiles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
@@ -206,7 +206,7 @@ fn profiles(ui: &mut egui::Ui, app: &mut AppState, level: &Level) {
                     let mut model = model_name(&p.model);
                     if row(ui, "model", |ui, by| choice(ui, by, ("profile model", i), &mut model, &models)) {
                         edited.model = match BuiltinModel::from_name(&model) {
-                            Some(m) => DriverModel::from(m),
+                            Some(m) => flockway_runner::level_model(m),
                             None => DriverModel::Custom(p.name.clone()),
                         };
                         // Parameters belong to a model: a new model starts from its own file.

@@ -10,8 +10,8 @@ mod widgets;
 
 use crate::app::{AppState, Pending, Selection, SideTab, Tool};
 use crate::play::PlaySpeed;
-use crate::scene::ColourBy;
 use flockway_drivers::DriverLabel;
+use flockway_render::ColourBy;
 use flockway_vehicle::{Controls, Motion, VehicleState};
 use std::path::PathBuf;
 
