@@ -20,9 +20,6 @@ pub fn write_report(
     wave: Option<&Wave>,
     out: &Path,
 ) -> Result<(), AnalysisError> {
-    // The tables list the summary's keys as the file has them.
-    let summary = summary.and_then(|s| serde_json::to_value(s).ok());
-    let summary = summary.as_ref();
     let dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -76,10 +73,16 @@ fn json_cell(v: &Value) -> String {
     }
 }
 
+/// A measured value as a cell: "—" where there is none (or it is not finite).
+fn value_cell(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or_else(|| "—".to_owned(), number)
+}
+
 fn render_html(
     trace: &Trace,
     info: &PlotInfo,
-    summary: Option<&Value>,
+    summary: Option<&Summary>,
     wave: Option<&Wave>,
     plots: &[(&str, String)],
 ) -> String {
@@ -104,16 +107,16 @@ fn render_html(
 
     match summary {
         Some(summary) => {
-            let passed = summary.get("passed").and_then(Value::as_bool);
-            let verdict = match passed {
-                Some(true) => "<span class=\"pass\">all expectations held</span>",
-                Some(false) => "<span class=\"fail\">an expectation failed</span>",
-                None => "no verdict",
+            let verdict = if summary.passed {
+                "<span class=\"pass\">all expectations held</span>"
+            } else {
+                "<span class=\"fail\">an expectation failed</span>"
             };
             let _ = writeln!(h, "<p>Verdict: {verdict}.</p>");
             h.push_str("<h2>Summary</h2>\n<table>\n<tr><th>key</th><th>value</th></tr>\n");
-            if let Some(obj) = summary.as_object() {
-                for (k, v) in obj {
+            // The table lists the summary's keys as the file has them.
+            if let Ok(Value::Object(obj)) = serde_json::to_value(summary) {
+                for (k, v) in &obj {
                     if matches!(k.as_str(), "expectations" | "metrics") {
                         continue;
                     }
@@ -138,40 +141,36 @@ fn render_html(
                 }
             }
             h.push_str("</table>\n<h2>Expectations</h2>\n");
-            match summary.get("expectations").and_then(Value::as_array) {
-                Some(list) if !list.is_empty() => {
+            match summary.expectations.as_slice() {
+                [] => h.push_str("<p>The level states no expectations.</p>\n"),
+                list => {
                     h.push_str(
                         "<table>\n<tr><th>result</th><th>expectation</th><th>measured</th></tr>\n",
                     );
                     for e in list {
-                        let ok = e.get("passed").and_then(Value::as_bool).unwrap_or(false);
+                        let ok = e.passed;
                         let _ = writeln!(
                             h,
                             "<tr><td class=\"{}\">{}</td><td><code>{}</code></td><td class=\"num\">{}</td></tr>",
                             if ok { "pass" } else { "fail" },
                             if ok { "PASS" } else { "FAIL" },
-                            escape(e.get("name").and_then(Value::as_str).unwrap_or("?")),
-                            e.get("value").map_or_else(|| "—".to_owned(), json_cell),
+                            escape(&e.name),
+                            value_cell(e.value),
                         );
                     }
                     h.push_str("</table>\n");
                 }
-                _ => h.push_str("<p>The level states no expectations.</p>\n"),
             }
-            if let Some(Value::Object(metrics)) = summary.get("metrics") {
-                h.push_str(
-                    "<h2>Every metric</h2>\n<table>\n<tr><th>metric</th><th>value</th></tr>\n",
+            h.push_str("<h2>Every metric</h2>\n<table>\n<tr><th>metric</th><th>value</th></tr>\n");
+            for (k, v) in &summary.metrics {
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td class=\"num\">{}</td></tr>",
+                    escape(k),
+                    value_cell(Some(*v))
                 );
-                for (k, v) in metrics {
-                    let _ = writeln!(
-                        h,
-                        "<tr><td>{}</td><td class=\"num\">{}</td></tr>",
-                        escape(k),
-                        json_cell(v)
-                    );
-                }
-                h.push_str("</table>\n");
             }
+            h.push_str("</table>\n");
         }
         None => h.push_str(
             "<p>No run summary was given (<code>flockway report RUN.csv --summary \

@@ -623,7 +623,8 @@ mod tests {
     use super::*;
     use crate::Editor;
     use flockway_level::{
-        Check, Expectation, ProfileShare, RouteSpec, SpawnerSpec, Template, crossroads, validate,
+        Check, Expectation, Metric, ProfileShare, RouteSpec, SpawnerSpec, Template, crossroads,
+        validate,
     };
     use flockway_road::Control;
 
@@ -659,11 +660,11 @@ mod tests {
             departures: Vec::new(),
         });
         for (metric, on, check) in [
-            ("road_length_m", "x east out", Check::Gt(10.0)),
-            ("junction_delay_s", "x", Check::Lt(60.0)),
+            (Metric::RoadLengthM, "x east out", Check::Gt(10.0)),
+            (Metric::JunctionDelayS, "x", Check::Lt(60.0)),
         ] {
             level.expect.push(Expectation {
-                metric: metric.to_owned(),
+                metric,
                 qualifier: Some(on.to_owned()),
                 check,
             });
@@ -776,7 +777,7 @@ mod tests {
             e.level()
                 .expect
                 .iter()
-                .all(|x| x.metric != "junction_delay_s"),
+                .all(|x| x.metric != Metric::JunctionDelayS),
             "the junction's expectation went with it"
         );
         assert!(e.undo());

@@ -450,8 +450,8 @@ pub enum Check {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "String")]
 pub struct Expectation {
-    /// Metric name (one of [`METRICS`]).
-    pub metric: String,
+    /// The metric.
+    pub metric: Metric,
     /// Road or destroyer name, for metrics that need one.
     pub qualifier: Option<String>,
     /// The comparison.
@@ -462,8 +462,8 @@ impl Expectation {
     /// The key of the measured value: `metric` or `metric.qualifier`.
     pub fn key(&self) -> String {
         match &self.qualifier {
-            Some(q) => format!("{}.{q}", self.metric),
-            None => self.metric.clone(),
+            Some(q) => self.metric.key_for(q),
+            None => self.metric.key(),
         }
     }
 
@@ -497,14 +497,14 @@ impl Expectation {
             Some((m, q)) => (m, Some(q.to_owned())),
             None => (key, None),
         };
-        let info = metric_info(metric).ok_or_else(|| {
+        let found = Metric::from_name(metric).ok_or_else(|| {
             let names: Vec<&str> = METRICS.iter().map(|m| m.name).collect();
             format!(
                 "unknown metric `{metric}`; known metrics: {}",
                 names.join(", ")
             )
         })?;
-        match (info.qualifier, &qualifier) {
+        match (found.info().qualifier, &qualifier) {
             (Qualifier::None, Some(q)) => return Err(format!("metric `{metric}` takes no `.{q}`")),
             (Qualifier::Road, None) => {
                 return Err(format!("metric `{metric}` needs a road: `{metric}.ROAD`"));
@@ -572,7 +572,7 @@ impl Expectation {
             make(number(&rest[op.len()..])?)
         };
         Ok(Expectation {
-            metric: metric.to_owned(),
+            metric: found,
             qualifier,
             check,
         })

@@ -5,7 +5,7 @@
 //! is the one walk over all of them; [`references`], [`rename`] and [`remove_item`] are built on
 //! it, so renaming and deleting an item treat every reference alike.
 
-use crate::expect::{Qualifier, metric_info};
+use crate::expect::{Metric, Qualifier};
 use crate::schema::{DestroyerPlaceSpec, Level};
 use flockway_road::Control;
 use std::collections::BTreeSet;
@@ -152,8 +152,8 @@ impl Site {
 }
 
 /// The kind of item an expectation's qualifier names, if it names one.
-fn qualifier_kind(metric: &str) -> Option<ItemKind> {
-    match metric_info(metric)?.qualifier {
+fn qualifier_kind(metric: Metric) -> Option<ItemKind> {
+    match metric.info().qualifier {
         Qualifier::Road => Some(ItemKind::Road),
         Qualifier::Destroyer => Some(ItemKind::Destroyer),
         Qualifier::Profile => Some(ItemKind::Profile),
@@ -219,7 +219,7 @@ pub fn visit_references(level: &mut Level, mut f: impl FnMut(Site, ItemKind, &mu
     }
     for (e, expectation) in level.expect.iter_mut().enumerate() {
         if let (Some(kind), Some(q)) = (
-            qualifier_kind(&expectation.metric),
+            qualifier_kind(expectation.metric),
             &mut expectation.qualifier,
         ) {
             f(Site::Expectation(e), kind, q);

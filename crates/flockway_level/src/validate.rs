@@ -945,7 +945,7 @@ impl Checker<'_> {
         let l = self.level;
         for (i, e) in l.expect.iter().enumerate() {
             let Some(q) = &e.qualifier else { continue };
-            if let Some(message) = self.unknown_qualifier(&e.metric, q) {
+            if let Some(message) = self.unknown_qualifier(e.metric.name(), q) {
                 self.issue(vec![Field("expect"), Index(i)], message);
             }
         }

@@ -394,6 +394,9 @@ pub struct Junction {
     pub spec: JunctionSpec,
     /// One per connection, in the spec's order.
     pub paths: Vec<JunctionPath>,
+    /// The signal program's phases read once: each phase's state per connection (red where
+    /// its state string has no letter). Empty without a signal.
+    phase_states: Vec<Vec<SignalState>>,
 }
 
 /// A junction that cannot be built: what is wrong with which connection.
@@ -600,9 +603,27 @@ impl Junction {
             });
         }
         check_control(spec)?;
+        let phase_states = spec.signal.as_ref().map_or_else(Vec::new, |program| {
+            program
+                .phases
+                .iter()
+                .map(|phase| {
+                    let mut letters = phase.state.chars();
+                    (0..paths.len())
+                        .map(|_| {
+                            letters
+                                .next()
+                                .and_then(SignalState::from_letter)
+                                .unwrap_or(SignalState::Red)
+                        })
+                        .collect()
+                })
+                .collect()
+        });
         let mut junction = Junction {
             spec: spec.clone(),
             paths,
+            phase_states,
         };
         junction.find_conflicts();
         Ok(junction)
@@ -820,10 +841,21 @@ impl Junction {
     /// The signal states at time `t_s`, one per connection; `None` without a signal.
     pub fn signal_at(&self, t_s: f64) -> Option<Vec<SignalState>> {
         let program = self.spec.signal.as_ref()?;
+        Some(match program.phase_at(t_s) {
+            Some((i, _)) => self.phase_states[i].clone(),
+            None => vec![SignalState::Red; self.paths.len()],
+        })
+    }
+
+    /// What connection `k` is shown at time `t_s` (red for a connection the program has no
+    /// letter for); `None` without a signal.
+    pub fn signal_state(&self, t_s: f64, k: usize) -> Option<SignalState> {
+        let program = self.spec.signal.as_ref()?;
         Some(
-            (0..self.paths.len())
-                .map(|k| program.state_at(t_s, k))
-                .collect(),
+            program
+                .phase_at(t_s)
+                .and_then(|(i, _)| self.phase_states[i].get(k).copied())
+                .unwrap_or(SignalState::Red),
         )
     }
 }

@@ -184,9 +184,8 @@ pub fn measure_junctions(
                 let t = tick as f64 * DT_S;
                 // Its front crossed the line about half a body ago.
                 let v = f64::from(motion.forward_mps.max(0.5));
-                if program.state_at((t - track.s_m.max(0.0) / v - half / v).max(0.0), k)
-                    == SignalState::Red
-                {
+                let entered_s = (t - track.s_m.max(0.0) / v - half / v).max(0.0);
+                if junctions[j].signal_state(entered_s, k) == Some(SignalState::Red) {
                     totals.red_entries += 1;
                 }
                 let cycle = ((t + program.offset_s) / program.cycle_s()).floor() as i64;
