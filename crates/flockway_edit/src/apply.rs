@@ -906,4 +906,280 @@ mod tests {
         }
         assert_eq!(e.undo_label(), Some("set a field"));
     }
+
+    /// The name of a command's kind. The match has no wildcard: a new kind of command does not
+    /// compile until it is named here, and then the test below fails until it applies one.
+    fn kind(c: &Command) -> &'static str {
+        match c {
+            Command::AddRoad { .. } => "AddRoad",
+            Command::AppendPoint { .. } => "AppendPoint",
+            Command::InsertPoint { .. } => "InsertPoint",
+            Command::MovePoint { .. } => "MovePoint",
+            Command::DeletePoint { .. } => "DeletePoint",
+            Command::DeleteRoad { .. } => "DeleteRoad",
+            Command::SetClosed { .. } => "SetClosed",
+            Command::Connect { .. } => "Connect",
+            Command::SetLinks { .. } => "SetLinks",
+            Command::JoinEnd { .. } => "JoinEnd",
+            Command::JoinSide { .. } => "JoinSide",
+            Command::JoinExit { .. } => "JoinExit",
+            Command::SetPoint { .. } => "SetPoint",
+            Command::SetRoad { .. } => "SetRoad",
+            Command::AddSpawner(_) => "AddSpawner",
+            Command::SetSpawner(..) => "SetSpawner",
+            Command::AddDestroyer(_) => "AddDestroyer",
+            Command::SetDestroyer(..) => "SetDestroyer",
+            Command::AddTrigger(_) => "AddTrigger",
+            Command::SetTrigger(..) => "SetTrigger",
+            Command::MoveMarker { .. } => "MoveMarker",
+            Command::DeleteMarker { .. } => "DeleteMarker",
+            Command::SetLevelInfo { .. } => "SetLevelInfo",
+            Command::AddVehicleType(_) => "AddVehicleType",
+            Command::SetVehicleType(..) => "SetVehicleType",
+            Command::DeleteVehicleType(_) => "DeleteVehicleType",
+            Command::AddDriverProfile(_) => "AddDriverProfile",
+            Command::SetDriverProfile(..) => "SetDriverProfile",
+            Command::DeleteDriverProfile(_) => "DeleteDriverProfile",
+            Command::SetExpectations(_) => "SetExpectations",
+            Command::AddVehicles(_) => "AddVehicles",
+            Command::SetVehicles(..) => "SetVehicles",
+            Command::DeleteVehicles(_) => "DeleteVehicles",
+            Command::AddPrefab { .. } => "AddPrefab",
+            Command::SetJunction(..) => "SetJunction",
+            Command::DeleteJunction(_) => "DeleteJunction",
+            Command::Set { .. } => "Set",
+            Command::Batch { .. } => "Batch",
+        }
+    }
+
+    /// One edit of the sequence below, made from the editor's state when its turn comes.
+    type Step<'a> = Box<dyn Fn(&Editor) -> Command + 'a>;
+
+    #[test]
+    fn every_kind_of_command_applies_and_undoes_to_the_exact_level_before_it() {
+        use flockway_level::{
+            DestroyerSpec, InitialVehiclesSpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+        };
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let mut level = crossroads_level();
+        for (name, a, b) in [
+            ("main", p(0.0, 1000.0), p(1000.0, 1000.0)),
+            ("ramp", p(0.0, 900.0), p(150.0, 980.0)),
+            ("exit", p(720.0, 990.0), p(850.0, 900.0)),
+            ("a", p(0.0, 1500.0), p(100.0, 1500.0)),
+            ("b", p(110.0, 1500.0), p(300.0, 1500.0)),
+        ] {
+            level.roads.push(RoadSpec::through(name, 1, 50.0, &[a, b]));
+        }
+        let mut e = Editor::with_level(level.clone(), None);
+        let n = level.roads.len();
+        let index = |e: &Editor, name: &str| road_index(e.level(), name);
+        let mut spawner = level.spawners[0].clone();
+        spawner.name = "s2".to_owned();
+        let mut slower = spawner.clone();
+        slower.interval_s.min = 2.5;
+        let destroyer = DestroyerSpec {
+            name: "d".to_owned(),
+            place: DestroyerPlaceSpec::OnRoad {
+                road: "x east out".to_owned(),
+                s_m: 80.0,
+            },
+            arrivals_only: false,
+        };
+        let trigger = TriggerSpec {
+            name: "t".to_owned(),
+            road: "x east out".to_owned(),
+            from_m: 10.0,
+            to_m: 30.0,
+            lanes: None,
+            effect: TriggerEffectSpec::SpeedLimit { kmh: 30.0 },
+        };
+        let vehicle_type = VehicleTypeSpec {
+            name: "sedan 2".to_owned(),
+            path: level.vehicle_types[0].path.clone(),
+        };
+        let mut profile = level.driver_profiles[0].clone();
+        profile.name = "p2".to_owned();
+        let group = InitialVehiclesSpec {
+            road: "x east out".to_owned(),
+            lane: 0,
+            count: 2,
+            profile: level.driver_profiles[0].name.clone(),
+            from_m: 40.0,
+            to_m: Some(80.0),
+            speed_kmh: None,
+            jitter_m: 0.0,
+        };
+        let prefab = flockway_level::roundabout("r", p(3000.0, 3000.0));
+        let mut plaza = level.junctions[0].clone();
+        plaza.name = "plaza".to_owned();
+        let info = Command::SetLevelInfo {
+            name: "renamed".to_owned(),
+            description: "edited".to_owned(),
+            seed: 5,
+            duration_s: 90.0,
+            telemetry: level.telemetry.clone(),
+        };
+        // Built as it goes, as the editor's user would: each may name what an earlier one made.
+        let steps: Vec<Step<'_>> = vec![
+            Box::new(|_| Command::AddRoad { at: p(0.0, -500.0) }),
+            Box::new(move |_| Command::AppendPoint {
+                road: n,
+                at: p(200.0, -500.0),
+            }),
+            Box::new(move |_| Command::InsertPoint {
+                road: n,
+                index: 1,
+                at: p(100.0, -510.0),
+            }),
+            Box::new(move |_| Command::MovePoint {
+                road: n,
+                index: 1,
+                to: p(100.0, -505.0),
+            }),
+            Box::new(move |_| Command::DeletePoint { road: n, index: 1 }),
+            Box::new(move |_| Command::SetPoint {
+                road: n,
+                index: 0,
+                point: ControlPoint {
+                    bank_deg: 1.0,
+                    ..ControlPoint::at(p(0.0, -500.0))
+                },
+            }),
+            Box::new(move |_| Command::SetClosed {
+                road: n,
+                closed: true,
+            }),
+            Box::new(move |_| Command::Connect {
+                road: n,
+                next: Some("b".to_owned()),
+            }),
+            Box::new(move |_| Command::SetLinks {
+                road: n,
+                links: Vec::new(),
+            }),
+            Box::new(move |_| Command::DeleteRoad { road: n }),
+            Box::new(move |e| Command::JoinEnd {
+                road: index(e, "a"),
+                onto: "b".to_owned(),
+            }),
+            Box::new(move |e| Command::JoinSide {
+                road: index(e, "ramp"),
+                onto: "main".to_owned(),
+                s_m: 200.0,
+            }),
+            Box::new(move |e| Command::JoinExit {
+                road: index(e, "exit"),
+                onto: "main on".to_owned(),
+                s_m: 300.0,
+            }),
+            Box::new(move |e| {
+                let r = index(e, "b");
+                Command::SetRoad {
+                    road: r,
+                    name: "bee".to_owned(),
+                    lanes: 1,
+                    lane_width_m: 3.0,
+                    speed_limit_kmh: 60.0,
+                }
+            }),
+            Box::new(move |_| Command::AddSpawner(spawner.clone())),
+            Box::new(move |_| Command::SetSpawner(1, slower.clone())),
+            Box::new(move |_| Command::AddDestroyer(destroyer.clone())),
+            Box::new(|e| {
+                let mut d = e.level().destroyers[0].clone();
+                d.name = "gate".to_owned();
+                Command::SetDestroyer(0, d)
+            }),
+            Box::new(move |_| Command::AddTrigger(trigger.clone())),
+            Box::new(|e| {
+                let mut t = e.level().triggers[0].clone();
+                t.effect = TriggerEffectSpec::SpeedLimit { kmh: 40.0 };
+                Command::SetTrigger(0, t)
+            }),
+            Box::new(|_| Command::MoveMarker {
+                kind: MarkerKind::Trigger,
+                index: 0,
+                s_m: 12.0,
+            }),
+            Box::new(|_| Command::DeleteMarker {
+                kind: MarkerKind::Trigger,
+                index: 0,
+            }),
+            Box::new(move |_| info.clone()),
+            Box::new(move |_| Command::AddVehicleType(vehicle_type.clone())),
+            Box::new(|e| {
+                let last = e.level().vehicle_types.len() - 1;
+                let mut v = e.level().vehicle_types[last].clone();
+                v.name = "sedan 3".to_owned();
+                Command::SetVehicleType(last, v)
+            }),
+            Box::new(|e| Command::DeleteVehicleType(e.level().vehicle_types.len() - 1)),
+            Box::new(move |_| Command::AddDriverProfile(profile.clone())),
+            Box::new(|e| {
+                let last = e.level().driver_profiles.len() - 1;
+                let mut v = e.level().driver_profiles[last].clone();
+                v.name = "p3".to_owned();
+                Command::SetDriverProfile(last, v)
+            }),
+            Box::new(|e| Command::DeleteDriverProfile(e.level().driver_profiles.len() - 1)),
+            Box::new(|e| Command::SetExpectations(e.level().expect[..1].to_vec())),
+            Box::new(move |_| Command::AddVehicles(group.clone())),
+            Box::new(|e| {
+                let mut g = e.level().vehicles[0].clone();
+                g.count = 3;
+                Command::SetVehicles(0, g)
+            }),
+            Box::new(|_| Command::DeleteVehicles(0)),
+            Box::new(move |_| Command::AddPrefab {
+                roads: prefab.roads.clone(),
+                junctions: prefab.junctions.clone(),
+            }),
+            Box::new(move |_| Command::SetJunction(0, plaza.clone())),
+            Box::new(|e| Command::DeleteJunction(e.level().junctions.len() - 1)),
+            Box::new(|_| Command::Set {
+                item: Target::Level,
+                field: "duration_s".to_owned(),
+                value: ron::Value::Number(ron::Number::F64(120.0.into())),
+            }),
+            Box::new(|_| Command::Batch {
+                label: "two seeds".to_owned(),
+                commands: vec![
+                    Command::Set {
+                        item: Target::Level,
+                        field: "seed".to_owned(),
+                        value: ron::Value::Number(ron::Number::U64(8)),
+                    },
+                    Command::Set {
+                        item: Target::Level,
+                        field: "seed".to_owned(),
+                        value: ron::Value::Number(ron::Number::U64(9)),
+                    },
+                ],
+            }),
+        ];
+        let mut before = Vec::new();
+        let mut kinds = std::collections::BTreeSet::new();
+        for step in &steps {
+            let command = step(&e);
+            kinds.insert(kind(&command));
+            before.push(e.level().clone());
+            let label = command.label().to_owned();
+            e.apply(command)
+                .unwrap_or_else(|err| panic!("{label}: {err}"));
+            assert!(
+                e.level() != before.last().expect("pushed"),
+                "{label} changed nothing"
+            );
+        }
+        assert!(validate(e.level()).is_empty(), "{:?}", validate(e.level()));
+        let all: Vec<&str> = kinds.iter().copied().collect();
+        assert_eq!(all.len(), 38, "one of every kind: {all:?}");
+        while let Some(level) = before.pop() {
+            let label = e.undo_label().unwrap_or_default().to_owned();
+            assert!(e.undo());
+            assert!(e.level() == &level, "undo of {label}");
+        }
+        assert!(!e.undo());
+    }
 }
