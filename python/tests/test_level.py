@@ -84,3 +84,13 @@ def test_a_new_level_is_drawn_by_commands_and_runs(tmp_path: Path) -> None:
     summary = level.to_sim(seed=3).run(30.0)
     assert summary["vehicles_spawned"] >= 8
     assert summary["collisions_vehicle"] == 0
+
+
+def test_load_opens_a_file_and_an_invalid_level_is_not_saved(tmp_path: Path) -> None:
+    level = flockway.Level.load(flockway.level_path("crossroads_signal"))
+    assert level.to_dict()["name"] == "crossroads_signal"
+    drawing = flockway.Level()
+    drawing.apply("AddRoad(at: (0, 0, 0))")  # one point: not a road yet
+    with pytest.raises(ValueError, match="Not saved, because `flockway run` would refuse"):
+        drawing.save(tmp_path / "half.ron")
+    assert not (tmp_path / "half.ron").exists()
