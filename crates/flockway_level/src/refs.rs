@@ -258,9 +258,10 @@ enum Removal {
     Link(usize, usize),
     Connection(usize, usize),
     Major(usize, usize),
+    Spawner(usize),
+    // After `Spawner`: taken (in reverse) before any spawner goes, while indices hold.
     Route(usize, usize),
     Destination(usize),
-    Spawner(usize),
     Destroyer(usize),
     Trigger(usize),
     Vehicles(usize),
@@ -406,4 +407,72 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::schema::{ProfileShare, RouteSpec, SpawnerSpec};
+    use flockway_road::RoadSpec;
+    use glam::DVec3;
+
+    fn spawner(name: &str, road: &str, route: &[&str]) -> SpawnerSpec {
+        SpawnerSpec {
+            name: name.to_owned(),
+            road: road.to_owned(),
+            lane: 0,
+            s_m: 1.0,
+            interval_s: crate::Range { min: 2.0, max: 3.0 },
+            profiles: vec![ProfileShare {
+                profile: "p".to_owned(),
+                weight: 1.0,
+            }],
+            speed_kmh: None,
+            active: true,
+            max_vehicles: None,
+            routes: vec![RouteSpec {
+                name: "r".to_owned(),
+                roads: route.iter().map(|r| (*r).to_owned()).collect(),
+                weight: 1.0,
+            }],
+            destination: None,
+            schedule: Vec::new(),
+            arrivals: Default::default(),
+            departures: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_removed_spawner_does_not_shift_the_route_removed_from_the_next_one() {
+        let mut level = Level::new(1, 60.0);
+        for (name, x) in [("a", 0.0), ("b", 100.0), ("c", 200.0)] {
+            level.roads.push(RoadSpec::through(
+                name,
+                1,
+                50.0,
+                &[DVec3::new(x, 0.0, 0.0), DVec3::new(x + 90.0, 0.0, 0.0)],
+            ));
+        }
+        // Spawner 0 stands on `b`; spawner 1 and 2 route through it; spawner 3 does not.
+        level.spawners = vec![
+            spawner("on b", "b", &["b", "c"]),
+            spawner("via b", "a", &["a", "b"]),
+            spawner("via b too", "a", &["a", "b", "c"]),
+            spawner("elsewhere", "a", &["a"]),
+        ];
+        let b = ItemRef::new(ItemKind::Road, "b");
+        assert_eq!(references(&level, &b).len(), 4);
+        remove_item(&mut level, &b).expect("nothing blocks a road");
+        let names: Vec<&str> = level.spawners.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["via b", "via b too", "elsewhere"]);
+        assert!(level.spawners[0].routes.is_empty());
+        assert!(level.spawners[1].routes.is_empty());
+        assert_eq!(
+            level.spawners[2].routes.len(),
+            1,
+            "the route not through `b` stays"
+        );
+        assert!(level.road("b").is_none());
+        assert!(references(&level, &b).is_empty());
+    }
 }
