@@ -21,6 +21,31 @@ from .sim import DT_S, Sim
 #: The observation's entries, in order.
 OBSERVATION = ("speed_mps", "gap_m", "leader_speed_mps", "mean_speed_mps")
 
+#: Marks a keyword left out (``None`` means something for ``render_width_m``).
+DEFAULT: Any = object()
+
+
+def render_size_of(size: Any) -> tuple[int, int]:
+    """A frame size ``(width, height)`` in pixels, 16 to 8192 each, or ``ValueError``."""
+    try:
+        w, h = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise ValueError(f"render_size={size!r}: expected (width, height) in pixels") from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise ValueError(f"render_size={size!r}: each side 16 to 8192 pixels")
+    return (w, h)
+
+
+def render_width_of(width: Any) -> float | None:
+    """Ground across a frame, m (more than 0), or ``None`` for the whole level."""
+    if width is None:
+        return None
+    w = float(width)
+    if not (w > 0.0 and w < float("inf")):
+        raise ValueError(f"render_width_m={width!r}: expected metres above 0, or None")
+    return w
+
+
 #: The gap reported when there is no leader within range, m (also the observation's bound).
 MAX_GAP_M = 500.0
 
@@ -145,12 +170,20 @@ class LevelEnv(gym.Env):
         overrides: dict[str, float] | None = None,
         agent_road: str | None = None,
         render_mode: str | None = None,
+        render_size: tuple[int, int] | None = None,
+        render_width_m: float | None | object = DEFAULT,
         **task: float,
     ) -> None:
         """``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
         ``accel_penalty``, ``collision_penalty``. ``render_mode="rgb_array"`` makes
-        :meth:`render` return the scene around the agent as RGB bytes."""
+        :meth:`render` return the scene around the agent as RGB bytes, ``render_size``
+        ``(width, height)`` pixels, ``render_width_m`` of ground across (``None``: the whole
+        level); left out, the class's defaults."""
         check_render_mode(render_mode, self.metadata)
+        if render_size is not None:
+            self.render_size = render_size_of(render_size)
+        if render_width_m is not DEFAULT:
+            self.render_width_m = render_width_of(render_width_m)
         self.level = level
         self.profile = profile
         self.agent_road = agent_road

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from .envs import Task, action_space, check_render_mode, observation_space
+from .envs import Task, action_space, check_render_mode, observation_space, render_size_of
 from .sim import DT_S, Sim
 
 
@@ -42,11 +42,14 @@ class LevelParallelEnv(ParallelEnv):
         episode_s: float = 120.0,
         overrides: dict[str, float] | None = None,
         render_mode: str | None = None,
+        render_size: tuple[int, int] | None = None,
         **task: float,
     ) -> None:
         """``task`` holds :class:`flockway.envs.Task`'s keywords: ``period_s``,
         ``max_accel``, ``accel_penalty``, ``collision_penalty``."""
         check_render_mode(render_mode, self.metadata)
+        if render_size is not None:
+            self.render_size = render_size_of(render_size)
         self.level, self.profile = level, profile
         self.warmup_s, self.episode_s = float(warmup_s), float(episode_s)
         self.task = Task(**task)

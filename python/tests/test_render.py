@@ -79,3 +79,24 @@ def test_environments_render_rgb_array_frames() -> None:
     many = parallel_env(level="sugiyama_ring", profile="human", render_mode="rgb_array")
     many.reset(seed=1)
     assert many.render().shape == (480, 640, 3)
+
+
+def test_render_options_pass_through_gym_make_and_bad_ones_raise() -> None:
+    env = gym.make("flockway/RingWave-v0", render_mode="rgb_array", render_size=(320, 200))
+    env.reset(seed=2)
+    assert env.render().shape == (200, 320, 3)
+    # The Merge car's surroundings 60 m across, or the whole level.
+    near = gym.make("flockway/Merge-v0", render_mode="rgb_array", render_width_m=60.0)
+    near.reset(seed=1)
+    whole = gym.make("flockway/Merge-v0", render_mode="rgb_array", render_width_m=None)
+    whole.reset(seed=1)
+    assert near.unwrapped.render_width_m == 60.0 and whole.unwrapped.render_width_m is None
+    assert share_near(near.render(), ASPHALT) > share_near(whole.render(), ASPHALT)
+    with pytest.raises(ValueError, match="render_size"):
+        gym.make("flockway/RingWave-v0", render_size=(4, 4))
+    with pytest.raises(ValueError, match="render_width_m"):
+        gym.make("flockway/Merge-v0", render_width_m=-5.0)
+    many = parallel_env(level="sugiyama_ring", profile="human", render_mode="rgb_array",
+                        render_size=(200, 160))
+    many.reset(seed=1)
+    assert many.render().shape == (160, 200, 3)
