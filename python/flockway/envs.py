@@ -10,6 +10,7 @@ driver profile's first vehicle (or the first on a given road) as the agent.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -172,13 +173,15 @@ class LevelEnv(gym.Env):
         render_mode: str | None = None,
         render_size: tuple[int, int] | None = None,
         render_width_m: float | None | object = DEFAULT,
+        telemetry: str | os.PathLike[str] | None = None,
         **task: float,
     ) -> None:
         """``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
         ``accel_penalty``, ``collision_penalty``. ``render_mode="rgb_array"`` makes
         :meth:`render` return the scene around the agent as RGB bytes, ``render_size``
         ``(width, height)`` pixels, ``render_width_m`` of ground across (``None``: the whole
-        level); left out, the class's defaults."""
+        level); left out, the class's defaults. ``telemetry``: a CSV path each episode's
+        telemetry streams to (overwritten at every reset); none is written without it."""
         check_render_mode(render_mode, self.metadata)
         if render_size is not None:
             self.render_size = render_size_of(render_size)
@@ -187,6 +190,7 @@ class LevelEnv(gym.Env):
         self.level = level
         self.profile = profile
         self.agent_road = agent_road
+        self.telemetry = telemetry
         self.warmup_s = float(warmup_s)
         self.episode_s = float(episode_s)
         self.task = Task(**task)
@@ -210,7 +214,8 @@ class LevelEnv(gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         sim_seed = int(self.np_random.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides)
+        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
+                       csv=self.telemetry if self.telemetry is not None else False)
         self.sim.step(1)
         if self.agent_road is None:
             v = self.sim.vehicles()

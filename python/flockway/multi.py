@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 from typing import Any
 
 import numpy as np
@@ -43,6 +44,7 @@ class LevelParallelEnv(ParallelEnv):
         overrides: dict[str, float] | None = None,
         render_mode: str | None = None,
         render_size: tuple[int, int] | None = None,
+        telemetry: str | os.PathLike[str] | None = None,
         **task: float,
     ) -> None:
         """``task`` holds :class:`flockway.envs.Task`'s keywords: ``period_s``,
@@ -51,13 +53,15 @@ class LevelParallelEnv(ParallelEnv):
         if render_size is not None:
             self.render_size = render_size_of(render_size)
         self.level, self.profile = level, profile
+        # Each episode's telemetry CSV (overwritten at every reset); none without a path.
+        self.telemetry = telemetry
         self.warmup_s, self.episode_s = float(warmup_s), float(episode_s)
         self.task = Task(**task)
         self.overrides = dict(overrides or {})
         self.render_mode = render_mode
         # The agents a level starts with, found by a short probe (the same for every seed: the
         # profile's vehicles at the start of the level).
-        probe = Sim(level, overrides=self.overrides)
+        probe = Sim(level, overrides=self.overrides, csv=False)
         probe.step(1)
         v = probe.vehicles()
         ids = sorted(int(i) for i in v["id"][v["profile"] == profile])
@@ -86,7 +90,8 @@ class LevelParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
         rng = np.random.default_rng(seed)
         sim_seed = int(rng.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides)
+        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
+                       csv=self.telemetry if self.telemetry is not None else False)
         if self.warmup_s > 0:
             self.sim.run(self.warmup_s)
         self.agents = list(self.possible_agents)

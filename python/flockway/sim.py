@@ -45,7 +45,8 @@ class Sim:
     model's name (``"WaveDamper"``), drives that custom model's profiles (or the profile of that
     name) with the built-in driver and its default parameters, as ``flockway run --driver
     NAME=MODEL`` does: the bar a challenge's controller has to beat. The telemetry CSV streams
-    to ``csv`` (a temporary file without one) and :meth:`telemetry` reads it back.
+    to ``csv`` (a temporary file without one; none at all with ``csv=False``) and
+    :meth:`telemetry` reads it back.
 
     The same level, seed and sequence of calls give bit-identical arrays.
     """
@@ -56,18 +57,21 @@ class Sim:
         seed: int | None = None,
         overrides: Mapping[str, float] | None = None,
         drivers: Mapping[str, Any] | None = None,
-        csv: str | os.PathLike[str] | None = None,
+        csv: str | os.PathLike[str] | None | bool = None,
     ) -> None:
         path = level_path(level)
         self._tmp = None
-        if csv is None:
+        if csv is None or csv is True:
             self._tmp = tempfile.TemporaryDirectory(prefix="flockway-")
             csv = Path(self._tmp.name) / "run.csv"
-        self.csv = Path(csv)
+        #: Where the telemetry streams; ``None`` with ``csv=False`` (no telemetry written).
+        self.csv: Path | None = None if csv is False else Path(csv)
         pairs = [(str(k), float(v)) for k, v in (overrides or {}).items()]
         given = dict(drivers or {})
         models = [(str(k), v) for k, v in given.items() if isinstance(v, str)]
-        self._s = _flockway.Session(str(path), seed, pairs, str(self.csv), models)
+        self._s = _flockway.Session(
+            str(path), seed, pairs, None if self.csv is None else str(self.csv), models
+        )
         self.level = path
         self.drivers: dict[str, Any] = {
             k: v for k, v in given.items() if not isinstance(v, str)
@@ -196,6 +200,8 @@ class Sim:
         --csv`` (a row per vehicle every sample period)."""
         import pandas as pd
 
+        if self.csv is None:
+            raise RuntimeError("this Sim writes no telemetry (it was made with csv=False)")
         return pd.read_csv(self.csv, keep_default_na=False, na_values=[])
 
     # -- pictures --------------------------------------------------------------------------

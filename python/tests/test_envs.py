@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from gymnasium.utils.env_checker import check_env
 
 import flockway  # noqa: F401  (registers the environments)
@@ -61,3 +62,31 @@ def test_merge_puts_the_agent_in_a_car_on_the_ramp_until_it_leaves() -> None:
             break
     # Flat out, it merged and drove the rest of the motorway to the exit within 80 s.
     assert terminated and {"ramp", "merge", "downstream"} <= roads
+
+
+def test_environments_write_no_telemetry_unless_given_a_path(tmp_path) -> None:
+    env = gym.make("flockway/RingWave-v0", warmup_s=2.0, episode_s=2.0)
+    env.reset(seed=1)
+    assert env.unwrapped.sim.csv is None
+    with pytest.raises(RuntimeError, match="csv=False"):
+        env.unwrapped.sim.telemetry()
+    path = tmp_path / "episode.csv"
+    kept = gym.make("flockway/RingWave-v0", warmup_s=2.0, episode_s=2.0, telemetry=path)
+    kept.reset(seed=1)
+    for _ in range(5):
+        kept.step(np.array([0.0], dtype=np.float32))
+    frame = kept.unwrapped.sim.telemetry()
+    assert len(frame) > 0 and path.is_file()
+    # The same episode with and without telemetry.
+    obs_a, _ = env.reset(seed=3)
+    obs_b, _ = kept.reset(seed=3)
+    assert (obs_a == obs_b).all()
+    for _ in range(5):
+        a = env.step(np.array([0.5], dtype=np.float32))
+        b = kept.step(np.array([0.5], dtype=np.float32))
+        assert (a[0] == b[0]).all() and a[1] == b[1]
+    from flockway.multi import parallel_env
+
+    many = parallel_env(level="sugiyama_ring", profile="human", warmup_s=1.0, episode_s=1.0)
+    many.reset(seed=1)
+    assert many.sim.csv is None
