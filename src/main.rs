@@ -33,7 +33,12 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    match Cli::parse().command {
+    let cli = Cli::parse();
+    // A bad thread count is bad input, said before anything runs.
+    if let Err(message) = flockway::core::threads_from_env() {
+        return commands::fail(message);
+    }
+    match cli.command {
         Command::Run(args) => commands::run::run(args),
         Command::New { level, template } => commands::new::new_level(&level, template.into()),
         Command::Check { levels } => commands::check::check(&levels),

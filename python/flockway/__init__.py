@@ -8,7 +8,7 @@ the package registers the gymnasium environments (``flockway/RingWave-v0``, ``fl
 when gymnasium is installed.
 """
 
-from ._flockway import __version__
+from ._flockway import __version__, set_threads
 from .data import challenges, data_dir, level_path, shipped_levels
 from .level import Level
 from .sim import DT_S, Sim, run
@@ -23,6 +23,7 @@ __all__ = [
     "data_dir",
     "level_path",
     "run",
+    "set_threads",
     "shipped_levels",
     "sweep",
 ]

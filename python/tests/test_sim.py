@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -145,3 +147,29 @@ def test_bad_input_is_a_clear_error(tmp_path: Path) -> None:
         s.spawn("ring", 5.0, "ghost")
     with pytest.raises(ValueError, match="expected 0 or more"):
         s.step(-1)
+
+
+def test_set_threads_sizes_the_pool_before_the_first_sim_and_results_do_not_change() -> None:
+    code = (
+        "import sys, flockway\n"
+        "n = int(sys.argv[1])\n"
+        "if n: print(flockway.set_threads(n))\n"
+        "s = flockway.Sim('dense_road', seed=4, csv=False)\n"
+        "s.step(1200)\n"
+        "print(repr(float(s.vehicles()['x_m'].sum())))\n"
+        "try:\n"
+        "    flockway.set_threads(7)\n"
+        "except RuntimeError as e:\n"
+        "    print('refused:', e)\n"
+    )
+    runs = {}
+    for n, env in ((1, {}), (2, {}), (0, {"FLOCKWAY_THREADS": "3"})):
+        out = subprocess.run([sys.executable, "-c", code, str(n)], capture_output=True, text=True,
+                             check=True, env={**os.environ, **env}).stdout.splitlines()
+        if n:
+            assert out[0] == str(n)
+        assert out[-1].startswith("refused: the task pool runs already"), out
+        runs[n] = out[-2]
+    assert runs[1] == runs[2] == runs[0], runs
+    with pytest.raises(ValueError, match="expected 1 to 1024"):
+        flockway.set_threads(0)

@@ -16,7 +16,7 @@ mod units;
 pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use rng::{EntityRng, RngStreams};
-pub use sim::{FixedStep, Sim, SimPlugin, StepSet};
+pub use sim::{FixedStep, Sim, SimPlugin, StepSet, THREADS_ENV, init_task_pool, threads_from_env};
 pub use stats::{RunStats, Vehicle, count_vehicles};
 pub use stepper::{FixedStepper, SpeedSetting};
 pub use units::{Speed, kmh_to_mps, mps_to_kmh};

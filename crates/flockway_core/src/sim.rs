@@ -72,6 +72,42 @@ pub struct Sim {
     plugins: Vec<String>,
 }
 
+/// The environment variable that sets how many threads the task pool has (one per core
+/// without it): N processes stepping side by side each want fewer than all the cores.
+pub const THREADS_ENV: &str = "FLOCKWAY_THREADS";
+
+/// The thread count [`THREADS_ENV`] asks for: `Ok(None)` when it is not set, an error that says
+/// why when it is not a whole number from 1 to 1024.
+pub fn threads_from_env() -> Result<Option<usize>, String> {
+    match std::env::var(THREADS_ENV) {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(v)) => Err(format!(
+            "{THREADS_ENV}={v:?}: expected a whole number from 1 to 1024"
+        )),
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(n) if (1..=1024).contains(&n) => Ok(Some(n)),
+            _ => Err(format!(
+                "{THREADS_ENV}={v:?}: expected a whole number from 1 to 1024"
+            )),
+        },
+    }
+}
+
+/// Starts the process's task pool (the threads systems split per-vehicle work over) with
+/// `threads` threads — or as [`THREADS_ENV`] says, or one per core — unless it is running
+/// already. Returns the pool's size. Results do not depend on it.
+pub fn init_task_pool(threads: Option<usize>) -> usize {
+    bevy_tasks::ComputeTaskPool::get_or_init(|| {
+        match threads.or_else(|| threads_from_env().ok().flatten()) {
+            Some(n) => bevy_tasks::TaskPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build(),
+            None => bevy_tasks::TaskPool::default(),
+        }
+    })
+    .thread_num()
+}
+
 impl Sim {
     /// An empty simulation for a run with this seed, at tick 0.
     pub fn new(seed: u64) -> Sim {
@@ -83,7 +119,7 @@ impl Sim {
         // Systems run one after another in their fixed order; parallelism lives inside systems
         // that split independent per-entity work over the task pool (`par_iter`).
         schedule.set_executor(SingleThreadedExecutor::new());
-        bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
+        init_task_pool(None);
         // Two systems that touch the same data without an order between them could run either way
         // round, which would make results depend on the scheduler: refuse to build such a step.
         schedule.set_build_settings(ScheduleBuildSettings {

@@ -329,12 +329,32 @@ fn shipped_files() -> Vec<(&'static str, &'static str)> {
     shipped::SHIPPED.to_vec()
 }
 
+/// Starts the process's task pool with `threads` threads (before the first `Sim`); returns its
+/// size. A pool that runs already keeps its size: asking for another is a `RuntimeError`.
+#[pyfunction]
+fn set_threads(threads: usize) -> PyResult<usize> {
+    if !(1..=1024).contains(&threads) {
+        return Err(PyValueError::new_err(format!(
+            "set_threads({threads}): expected 1 to 1024 threads"
+        )));
+    }
+    let size = flockway_core::init_task_pool(Some(threads));
+    if size != threads {
+        return Err(PyRuntimeError::new_err(format!(
+            "the task pool runs already with {size} thread(s): call set_threads({threads}) \
+             before the first Sim, or set FLOCKWAY_THREADS"
+        )));
+    }
+    Ok(size)
+}
+
 /// The module.
 #[pymodule]
 fn _flockway(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySession>()?;
     m.add_class::<level::PyLevel>()?;
     m.add_function(wrap_pyfunction!(shipped_files, m)?)?;
+    m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
