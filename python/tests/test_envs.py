@@ -90,3 +90,18 @@ def test_environments_write_no_telemetry_unless_given_a_path(tmp_path) -> None:
     many = parallel_env(level="sugiyama_ring", profile="human", warmup_s=1.0, episode_s=1.0)
     many.reset(seed=1)
     assert many.sim.csv is None
+
+
+def test_reset_draws_the_levels_seed_from_the_reset_seed_and_says_it() -> None:
+    env = gym.make("flockway/RingWave-v0", warmup_s=1.0, episode_s=1.0)
+    _, first = env.reset(seed=5)
+    _, second = env.reset()
+    _, again = env.reset(seed=5)
+    assert first["seed"] == again["seed"] != second["seed"]
+    assert first["seed"] != 5
+    # The level's seed replays the episode's warm-up, bit for bit.
+    sim = flockway.Sim("stern_ring", seed=again["seed"], csv=False)
+    played = env.unwrapped.sim
+    sim.step(round(played.time_s * 120))
+    assert sim.time_s == played.time_s
+    assert (sim.vehicles()["x_m"] == played.vehicles()["x_m"]).all()
