@@ -173,3 +173,25 @@ def test_set_threads_sizes_the_pool_before_the_first_sim_and_results_do_not_chan
     assert runs[1] == runs[2] == runs[0], runs
     with pytest.raises(ValueError, match="expected 1 to 1024"):
         flockway.set_threads(0)
+
+
+def test_out_of_range_commands_raise_naming_the_vehicle_and_the_value() -> None:
+    s = flockway.Sim("sugiyama_ring", seed=1, csv=False)
+    s.step(1)
+    ids = s.vehicles()["id"][:2]
+    me = int(ids[0])
+    cases = [
+        (lambda: s.set_target(me, -1.0), f"vehicle {me}: target speed -1 m/s"),
+        (lambda: s.set_target(me, 5.0, lane=3), f"vehicle {me}: lane 3: its road"),
+        (lambda: s.set_target(me, 5.0, lane=-2), f"vehicle {me}: lane -2: expected 0 or more"),
+        (lambda: s.set_controls(me, 1.5, 0.0), f"vehicle {me}: throttle 1.5: expected"),
+        (lambda: s.set_controls(me, 0.0, -2.0), f"vehicle {me}: steering -2: expected"),
+        (lambda: s.set_target(ids, [5.0, float("nan")]), f"vehicle {int(ids[1])}: target speed"),
+    ]
+    for call, says in cases:
+        with pytest.raises(ValueError, match=says):
+            call()
+    # In range, and -1 keeps the lane: accepted.
+    s.set_target(ids, [5.0, 0.0], lane=[0, -1])
+    s.set_controls(me, [-1.0], [1.0])
+    s.step(1)

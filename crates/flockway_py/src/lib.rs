@@ -176,6 +176,13 @@ impl PySession {
         };
         if let Some(l) = lanes {
             same_length("lane", l.len(), ids.len())?;
+            if let Some(k) = l.iter().position(|&x| x < -1) {
+                return Err(PyValueError::new_err(format!(
+                    "vehicle {}: lane {}: expected 0 or more (0 is the rightmost), or -1 to \
+                     keep its lane",
+                    ids[k], l[k]
+                )));
+            }
         }
         let commands: Vec<Option<ExternalCommand>> = (0..ids.len())
             .map(|k| {

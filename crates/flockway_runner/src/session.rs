@@ -417,26 +417,45 @@ impl Session {
                 ids: ids.len(),
             });
         }
-        for c in commands.iter().flatten() {
+        // All or nothing: every id and value is checked before any vehicle is told.
+        let targets = self.entities_of(ids)?;
+        for ((id, e), c) in ids.iter().zip(&targets).zip(commands) {
             match c {
-                ExternalCommand::Target { speed_mps, .. } if !speed_mps.is_finite() => {
-                    return Err(SessionError::Value(format!(
-                        "target speed {speed_mps} m/s: expected a finite number"
-                    )));
+                Some(ExternalCommand::Target { speed_mps, lane }) => {
+                    if !(speed_mps.is_finite() && *speed_mps >= 0.0) {
+                        return Err(SessionError::Value(format!(
+                            "vehicle {id}: target speed {speed_mps} m/s: expected a finite \
+                             number, 0 or more"
+                        )));
+                    }
+                    if let Some(lane) = lane {
+                        let world = self.runner.sim().world();
+                        let network = world.resource::<RoadNetwork>();
+                        let road = world.get::<RoadTrack>(*e).and_then(|t| network.get(t.road));
+                        if let Some(g) = road
+                            && *lane >= g.lanes()
+                        {
+                            return Err(SessionError::Value(format!(
+                                "vehicle {id}: lane {lane}: its road `{}` has {} lane(s), \
+                                 numbered from 0 (the rightmost)",
+                                g.name(),
+                                g.lanes()
+                            )));
+                        }
+                    }
                 }
-                ExternalCommand::Controls(k)
-                    if !(k.throttle.is_finite() && k.steering.is_finite()) =>
-                {
-                    return Err(SessionError::Value(format!(
-                        "controls {} / {}: expected finite numbers",
-                        k.throttle, k.steering
-                    )));
+                Some(ExternalCommand::Controls(k)) => {
+                    for (what, v) in [("throttle", k.throttle), ("steering", k.steering)] {
+                        if !(v.is_finite() && (-1.0..=1.0).contains(&v)) {
+                            return Err(SessionError::Value(format!(
+                                "vehicle {id}: {what} {v}: expected a number from -1 to 1"
+                            )));
+                        }
+                    }
                 }
-                _ => {}
+                None => {}
             }
         }
-        // All or nothing: every id is checked before any vehicle is told.
-        let targets = self.entities_of(ids)?;
         let world = self.runner.sim_mut().world_mut();
         for (e, command) in targets.into_iter().zip(commands) {
             let mut entity = world.entity_mut(e);
