@@ -5,8 +5,7 @@
 //! lane-keeping flocking car, so a level with custom profiles runs sensibly on its own.
 
 use crate::control::{DriveTarget, follow_targets};
-use crate::models::FlockDriver;
-use crate::pipeline::{LaneChoice, drive};
+use crate::pipeline::LaneChoice;
 use crate::{DriverSystems, add_driver};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
@@ -57,13 +56,16 @@ pub struct ExternalPlugin;
 impl SimPlugin for ExternalPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(crate::DriversPlugin);
-        // After the flocking driver that drives them without a command, which it overrides.
-        add_driver(sim, follow_external_targets.after(drive::<FlockDriver>));
-        sim.schedule_mut().add_systems(
+        // After every model's driver (a command overrides whichever model drives the vehicle),
+        // before the shared controller turns targets into controls.
+        sim.schedule_mut().add_systems((
+            follow_external_targets
+                .before(follow_targets)
+                .in_set(DriverSystems::Control),
             apply_external_controls
                 .after(follow_targets)
                 .in_set(DriverSystems::Control),
-        );
+        ));
     }
 }
 
