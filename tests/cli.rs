@@ -4,10 +4,16 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn flockway(args: &[&str]) -> Output {
+    flockway_with(args, &[])
+}
+
+/// `flockway` with these environment variables set.
+fn flockway_with(args: &[&str], env: &[(&str, &str)]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_flockway"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .env("RUST_BACKTRACE", "1")
+        .envs(env.iter().copied())
         .output()
         .expect("the flockway binary runs")
 }
@@ -980,41 +986,21 @@ fn edit_apply_changes_a_level_headless_all_or_none_and_names_the_refused_edit() 
 #[test]
 fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let mut outputs = Vec::new();
+    let mut outputs: Vec<Vec<u8>> = Vec::new();
     for threads in ["1", "2", "3"] {
         let csv = dir.path().join(format!("run_{threads}.csv"));
-        let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
-            .args([
-                "run",
-                "levels/dense_road.ron",
-                "--seconds",
-                "30",
-                "--quiet",
-                "--csv",
-            ])
-            .arg(&csv)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .env("FLOCKWAY_THREADS", threads)
-            .output()
-            .expect("the flockway binary runs");
-        assert!(
-            matches!(out.status.code(), Some(0 | 1)),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        outputs.push(std::fs::read(&csv).expect("the CSV"));
+        let env = [("FLOCKWAY_THREADS", threads)];
+        outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &env));
     }
     assert!(outputs[0].len() > 10_000);
     assert!(
         outputs.iter().all(|o| *o == outputs[0]),
         "the same bytes on 1, 2 and 3 threads"
     );
-    let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
-        .args(["check", "levels/dense_road.ron"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("FLOCKWAY_THREADS", "many")
-        .output()
-        .expect("the flockway binary runs");
+    let out = flockway_with(
+        &["check", "levels/dense_road.ron"],
+        &[("FLOCKWAY_THREADS", "many")],
+    );
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("FLOCKWAY_THREADS=\"many\""));
 }

@@ -6,9 +6,7 @@
 use crate::command::{Command, MarkerKind, Target};
 use crate::error::{EditError, in_range};
 use crate::joins;
-use flockway_level::{
-    DestroyerPlaceSpec, ItemKind, ItemRef, Level, Site, references, remove_item, rename,
-};
+use flockway_level::{DestroyerPlaceSpec, ItemKind, ItemRef, Level, remove_item, rename};
 use flockway_road::{ControlPoint, JunctionSpec, LANE_WIDTH_M, LANES, RoadSpec, SPEED_LIMIT_KMH};
 use glam::DVec3;
 
@@ -610,21 +608,13 @@ fn set_level_field(
     Ok(())
 }
 
-/// Every reference to `item` in the level, in words (what a deletion would take along).
-pub fn used_by(level: &Level, item: &ItemRef) -> Vec<String> {
-    references(level, item)
-        .iter()
-        .map(|s: &Site| s.describe(level))
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::Editor;
     use flockway_level::{
         Check, Expectation, Metric, ProfileShare, RouteSpec, SpawnerSpec, Template, crossroads,
-        validate,
+        references, validate,
     };
     use flockway_road::Control;
 
@@ -636,28 +626,18 @@ mod tests {
         level.roads = prefab.roads;
         level.junctions = prefab.junctions;
         let profile = level.driver_profiles[0].name.clone();
+        let share = ProfileShare {
+            profile,
+            weight: 1.0,
+        };
+        let every = flockway_level::Range { min: 2.0, max: 3.0 };
         level.spawners.push(SpawnerSpec {
-            name: "s".to_owned(),
-            road: "x west in".to_owned(),
-            lane: 0,
-            s_m: 5.0,
-            interval_s: flockway_level::Range { min: 2.0, max: 3.0 },
-            profiles: vec![ProfileShare {
-                profile,
-                weight: 1.0,
-            }],
-            speed_kmh: None,
-            active: true,
-            max_vehicles: None,
             routes: vec![RouteSpec {
                 name: "east".to_owned(),
                 roads: vec!["x west in".to_owned(), "x east out".to_owned()],
                 weight: 1.0,
             }],
-            destination: None,
-            schedule: Vec::new(),
-            arrivals: Default::default(),
-            departures: Vec::new(),
+            ..SpawnerSpec::new("s", "x west in", 0, 5.0, every, vec![share])
         });
         for (metric, on, check) in [
             (Metric::RoadLengthM, "x east out", Check::Gt(10.0)),
@@ -683,7 +663,10 @@ mod tests {
         let mut e = Editor::with_level(level.clone(), None);
         let junction = &level.junctions[0];
         let road = ItemRef::new(ItemKind::Road, "x east out");
-        let uses = used_by(&level, &road);
+        let uses: Vec<String> = references(&level, &road)
+            .iter()
+            .map(|s| s.describe(&level))
+            .collect();
         assert!(
             uses.iter()
                 .any(|u| u.starts_with("junction `x` connection")),

@@ -552,25 +552,14 @@ mod tests {
             ),
         ]);
         level.roads[0].points[1].width_m = None;
+        let every = flockway_level::Range { min: 2.0, max: 3.0 };
         level.spawners.push(SpawnerSpec {
-            name: "late".to_owned(),
-            road: "main".to_owned(),
-            lane: 1,
-            s_m: 500.0,
-            interval_s: flockway_level::Range { min: 2.0, max: 3.0 },
-            profiles: mixed_shares(&level),
-            speed_kmh: None,
-            active: true,
-            max_vehicles: None,
             routes: vec![RouteSpec {
                 name: "through".to_owned(),
                 roads: vec!["main".to_owned()],
                 weight: 1.0,
             }],
-            destination: None,
-            schedule: Vec::new(),
-            arrivals: Default::default(),
-            departures: Vec::new(),
+            ..SpawnerSpec::new("late", "main", 1, 500.0, every, mixed_shares(&level))
         });
         level.destroyers.push(flockway_level::DestroyerSpec {
             name: "end".to_owned(),

@@ -16,7 +16,6 @@ mod joins;
 mod place;
 mod script;
 
-pub use apply::used_by;
 pub use command::{Command, MarkerKind, Target};
 pub use drawn::{level_network, network_as_drawn, playable};
 pub use editor::{Editor, UNDO_DEPTH, autosave_path, recover};

@@ -69,22 +69,14 @@ pub fn place_marker(
                 added_profiles = true;
             }
             let n = unique("spawner", |n| level.spawners.iter().any(|s| s.name == n));
-            setup.push(Command::AddSpawner(SpawnerSpec {
-                name: n,
-                road: name,
+            setup.push(Command::AddSpawner(SpawnerSpec::new(
+                &n,
+                &name,
                 lane,
                 s_m,
-                interval_s: Range { min: 1.5, max: 3.0 },
-                profiles: mixed_shares(&with_profiles),
-                speed_kmh: None,
-                active: true,
-                max_vehicles: None,
-                routes: Vec::new(),
-                destination: None,
-                schedule: Vec::new(),
-                arrivals: Default::default(),
-                departures: Vec::new(),
-            }));
+                Range { min: 1.5, max: 3.0 },
+                mixed_shares(&with_profiles),
+            )));
             let command = if setup.len() == 1 {
                 setup.remove(0)
             } else {

@@ -333,13 +333,6 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
             }
         }
     }
-    let spawners_gone: BTreeSet<usize> = removals
-        .iter()
-        .filter_map(|r| match r {
-            Removal::Spawner(s) => Some(*s),
-            _ => None,
-        })
-        .collect();
     for removal in removals.into_iter().rev() {
         match removal {
             Removal::Next(r) => level.roads[r].next = None,
@@ -366,7 +359,7 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
                     major.remove(k);
                 }
             }
-            Removal::Route(s, r) if !spawners_gone.contains(&s) => {
+            Removal::Route(s, r) => {
                 let spawner = &mut level.spawners[s];
                 let name = spawner.routes.remove(r).name;
                 // A departure on the route takes one drawn by weight, as the others do.
@@ -376,10 +369,7 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
                     }
                 }
             }
-            Removal::Destination(s) if !spawners_gone.contains(&s) => {
-                level.spawners[s].destination = None;
-            }
-            Removal::Route(..) | Removal::Destination(_) => {}
+            Removal::Destination(s) => level.spawners[s].destination = None,
             Removal::Spawner(s) => drop(level.spawners.remove(s)),
             Removal::Destroyer(d) => drop(level.destroyers.remove(d)),
             Removal::Trigger(t) => drop(level.triggers.remove(t)),
@@ -417,28 +407,18 @@ mod tests {
     use glam::DVec3;
 
     fn spawner(name: &str, road: &str, route: &[&str]) -> SpawnerSpec {
+        let share = ProfileShare {
+            profile: "p".to_owned(),
+            weight: 1.0,
+        };
+        let every = crate::Range { min: 2.0, max: 3.0 };
         SpawnerSpec {
-            name: name.to_owned(),
-            road: road.to_owned(),
-            lane: 0,
-            s_m: 1.0,
-            interval_s: crate::Range { min: 2.0, max: 3.0 },
-            profiles: vec![ProfileShare {
-                profile: "p".to_owned(),
-                weight: 1.0,
-            }],
-            speed_kmh: None,
-            active: true,
-            max_vehicles: None,
             routes: vec![RouteSpec {
                 name: "r".to_owned(),
                 roads: route.iter().map(|r| (*r).to_owned()).collect(),
                 weight: 1.0,
             }],
-            destination: None,
-            schedule: Vec::new(),
-            arrivals: Default::default(),
-            departures: Vec::new(),
+            ..SpawnerSpec::new(name, road, 0, 1.0, every, vec![share])
         }
     }
 

@@ -270,6 +270,37 @@ pub struct SpawnerSpec {
     pub departures: Vec<DepartureSpec>,
 }
 
+impl SpawnerSpec {
+    /// A spawner of `profiles` on `lane` of `road`, `s_m` along it, every `interval_s`, with
+    /// every other field as a level file that leaves it out has it: active, no limit, no routes
+    /// or destination, no schedule or timetable, uniform intervals, the road's speed.
+    pub fn new(
+        name: &str,
+        road: &str,
+        lane: u32,
+        s_m: f64,
+        interval_s: Range,
+        profiles: Vec<ProfileShare>,
+    ) -> SpawnerSpec {
+        SpawnerSpec {
+            name: name.to_owned(),
+            road: road.to_owned(),
+            lane,
+            s_m,
+            interval_s,
+            profiles,
+            speed_kmh: None,
+            active: true,
+            max_vehicles: None,
+            routes: Vec::new(),
+            destination: None,
+            schedule: Vec::new(),
+            arrivals: Arrivals::default(),
+            departures: Vec::new(),
+        }
+    }
+}
+
 /// One vehicle of a spawner's timetable.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

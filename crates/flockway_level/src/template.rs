@@ -77,22 +77,15 @@ impl Template {
                     80.0,
                     &[DVec3::ZERO, 0.5 * end, end],
                 ));
-                level.spawners.push(SpawnerSpec {
-                    name: "start".to_owned(),
-                    road: "main".to_owned(),
-                    lane: 0,
-                    s_m: 5.0,
-                    interval_s: Range { min: 2.0, max: 4.0 },
-                    profiles: mixed_shares(&level),
-                    speed_kmh: None,
-                    active: true,
-                    max_vehicles: None,
-                    routes: Vec::new(),
-                    destination: None,
-                    schedule: Vec::new(),
-                    arrivals: Default::default(),
-                    departures: Vec::new(),
-                });
+                let profiles = mixed_shares(&level);
+                level.spawners.push(SpawnerSpec::new(
+                    "start",
+                    "main",
+                    0,
+                    5.0,
+                    Range { min: 2.0, max: 4.0 },
+                    profiles,
+                ));
                 level.destroyers.push(DestroyerSpec {
                     name: "end".to_owned(),
                     place: DestroyerPlaceSpec::OnRoad {

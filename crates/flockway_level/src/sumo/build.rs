@@ -262,25 +262,15 @@ fn add_traffic(level: &mut Level, fringe: &Fringe) {
             })
             .collect();
         for lane in 0..e.lanes.len() as u32 {
+            let name = if e.lanes.len() > 1 {
+                format!("{} lane {lane}", e.id)
+            } else {
+                e.id.clone()
+            };
+            let s_m = SPAWN_AT_M.min(0.5 * polyline_length(&e.lanes[lane as usize].shape));
             level.spawners.push(SpawnerSpec {
-                name: if e.lanes.len() > 1 {
-                    format!("{} lane {lane}", e.id)
-                } else {
-                    e.id.clone()
-                },
-                road: e.id.clone(),
-                lane,
-                s_m: SPAWN_AT_M.min(0.5 * polyline_length(&e.lanes[lane as usize].shape)),
-                interval_s: SPAWN_INTERVAL_S,
-                profiles: shares.clone(),
-                speed_kmh: None,
-                active: true,
-                max_vehicles: None,
                 routes: routes.clone(),
-                destination: None,
-                schedule: Vec::new(),
-                arrivals: Default::default(),
-                departures: Vec::new(),
+                ..SpawnerSpec::new(&name, &e.id, lane, s_m, SPAWN_INTERVAL_S, shares.clone())
             });
         }
     }

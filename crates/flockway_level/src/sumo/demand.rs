@@ -272,25 +272,14 @@ pub(crate) fn apply_demand(
             .pos_m
             .map_or(start, |p| p.clamp(start, (length - 1.0).max(start)));
         let key = (first.clone(), lane, (s_m * 100.0).round() as u64);
-        let sp = spawners.entry(key).or_insert_with(|| SpawnerSpec {
-            name: if s_m == start {
+        let sp = spawners.entry(key).or_insert_with(|| {
+            let name = if s_m == start {
                 format!("{first} lane {lane}")
             } else {
                 format!("{first} lane {lane} at {s_m} m")
-            },
-            road: first.clone(),
-            lane,
-            s_m,
-            interval_s: Range { min: 1.0, max: 1.0 },
-            profiles: Vec::new(),
-            speed_kmh: None,
-            active: true,
-            max_vehicles: None,
-            routes: Vec::new(),
-            destination: None,
-            schedule: Vec::new(),
-            arrivals: Default::default(),
-            departures: Vec::new(),
+            };
+            let every = Range { min: 1.0, max: 1.0 };
+            SpawnerSpec::new(&name, first, lane, s_m, every, Vec::new())
         });
         if !sp.profiles.iter().any(|p| p.profile == trip.vtype) {
             sp.profiles.push(ProfileShare {
