@@ -190,6 +190,74 @@ class Sim:
         """Removes vehicles."""
         self._s.despawn(_ids(ids))
 
+    # -- signals and junctions -------------------------------------------------------------
+    def signals(self) -> list[dict[str, Any]]:
+        """Every signalised junction now, in the level's order: a dict each with ``junction``
+        (name), ``mode`` (``"plan"``: the level's program by the clock; ``"running"``: a
+        program running on from a phase set by :meth:`set_phase` or :meth:`set_program`;
+        ``"held"``: a state set by :meth:`set_signal_state`), ``custom`` (the program was set
+        from Python), ``phase`` (index, ``None`` while a state is held), ``time_in_phase_s``,
+        ``state`` (a letter per connection: ``G`` green, ``g`` green that gives way, ``y``
+        amber, ``r`` red), ``phases`` (the program in force, ``(duration_s, state)`` pairs) and
+        ``connections`` (``(from_road, from_lane, to_road, to_lane)`` per letter)."""
+        return self._s.signals()
+
+    def set_phase(self, junction: str, phase: int) -> None:
+        """Switches ``junction``'s signal to phase ``phase`` of its program now; the program
+        runs on from there, each phase for its duration. Raises ``ValueError`` for a junction
+        without a signal or a phase its program lacks."""
+        self._s.set_phase(str(junction), _index(phase, "phase"))
+
+    def set_signal_state(self, junction: str, state: str, amber_s: float = 0.0) -> None:
+        """Shows ``state`` (a letter per connection, as :meth:`signals` gives them) at
+        ``junction`` now and holds it until the next change. The state is shown as given: with
+        ``amber_s`` above 0, a movement losing its green shows amber for that long first and a
+        movement gaining green stays red until then, so two conflicting greens never overlap.
+        Raises ``ValueError`` for a wrong length, an unknown letter or a negative amber."""
+        self._s.set_signal_state(str(junction), str(state), float(amber_s))
+
+    def set_program(
+        self,
+        junction: str,
+        phases: list[tuple[float, str]] | None = None,
+        phase: int = 0,
+    ) -> None:
+        """Runs a program of ``(duration_s, state)`` phases at ``junction`` from its phase
+        ``phase`` now, cycling; ``phases=None`` goes back to the level's own program, by the
+        clock as the level has it. Raises ``ValueError`` for a program that does not fit the
+        junction (a duration not above 0, a state of the wrong length or letters)."""
+        program = None if phases is None else [(float(d), str(s)) for d, s in phases]
+        self._s.set_program(str(junction), program, _index(phase, "phase"))
+
+    def junctions(self) -> dict[str, np.ndarray]:
+        """Every lane into every junction now, one entry per lane, in the level's junction
+        order: ``junction`` and ``road`` (names), ``lane``, ``length_m`` (the road's),
+        ``vehicles`` (on the lane), ``approaching`` (within 100 m of the line),
+        ``halting`` (slower than 0.1 m/s), ``queue_vehicles`` and ``queue_m`` (the queue
+        standing at the line: vehicles below 2 m/s one behind the other, the first within 20 m
+        of the line and each within 10 m of the one before; its length from the line to the
+        last one's rear bumper), ``mean_speed_mps`` (of the approaching vehicles, NaN with
+        none), ``waiting_s`` (the vehicles' time halted since each entered the road, summed)
+        and ``delay_s`` (time lost on the lane so far against its speed limit, by every vehicle
+        that drove it)."""
+        raw = self._s.approaches()
+        out = {k: v for k, v in raw.items() if k not in ("junctions", "road_names", "junction", "road")}
+        out["junction"] = _names(raw["junctions"], raw["junction"])
+        out["road"] = _names(raw["road_names"], raw["road"])
+        return out
+
+    def signal_log(self):
+        """Every change of every signal so far as a pandas DataFrame: the signals CSV written
+        beside the telemetry (``run.signals.csv``), whoever set the signal."""
+        import pandas as pd
+
+        if self.csv is None:
+            raise RuntimeError("this Sim writes no files (it was made with csv=False)")
+        path = self.csv.with_name(f"{self.csv.stem}.signals.csv")
+        if not path.exists():
+            raise RuntimeError(f"{self.level} has no signals, so no {path.name} is written")
+        return pd.read_csv(path, keep_default_na=False, na_values=[])
+
     # -- results ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
         """The summary of the run so far: the JSON contract of ``flockway run --summary``."""
@@ -281,6 +349,14 @@ class Sim:
 
     def __repr__(self) -> str:
         return f"Sim({str(self.level)!r}, t={self.time_s:.3f} s)"
+
+
+def _index(value: Any, what: str) -> int:
+    """``value`` as an index from 0, or a ``ValueError`` naming it."""
+    i = int(value)
+    if i != value or i < 0:
+        raise ValueError(f"{what} {value!r}: expected a whole number from 0")
+    return i
 
 
 def _names(names: list[str], index: np.ndarray) -> np.ndarray:

@@ -333,6 +333,7 @@ pub fn gate_junctions(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
     clock: Res<SimClock>,
+    signals: Res<crate::Signals>,
     mut stats: ResMut<JunctionStats>,
     mut vehicles: Query<(
         Entity,
@@ -349,11 +350,8 @@ pub fn gate_junctions(
         return;
     }
     let tick = clock.tick().0;
-    let t_s = clock.seconds();
-    let signals: Vec<Option<Vec<SignalState>>> = network
-        .junctions()
-        .iter()
-        .map(|j| j.signal_at(t_s))
+    let signals: Vec<Option<Vec<SignalState>>> = (0..network.junctions().len())
+        .map(|j| signals.states(j).map(<[SignalState]>::to_vec))
         .collect();
     // Who approaches which path (in the query's order, which the world fixes): by its route's
     // next road, or where its lane leads for a car that follows the links; and who is on one.

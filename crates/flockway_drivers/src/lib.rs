@@ -27,6 +27,7 @@ mod pipeline;
 mod profile;
 mod route;
 mod safety;
+mod signals;
 mod wave_damper;
 
 pub use ahead::{
@@ -59,6 +60,7 @@ pub use route::{
 pub use safety::{
     Ahead, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
 };
+pub use signals::{SignalController, SignalError, SignalMode, Signals, update_signals};
 pub use wave_damper::{WaveDamper, WaveDamperParams};
 
 use bevy_ecs::prelude::*;
@@ -99,6 +101,7 @@ impl SimPlugin for DriversPlugin {
         sim.world_mut().init_resource::<RoadAhead>();
         sim.world_mut().init_resource::<RouteStats>();
         sim.world_mut().init_resource::<JunctionStats>();
+        sim.world_mut().init_resource::<Signals>();
         sim.schedule_mut().configure_sets((
             DriverSystems::Perceive.in_set(StepSet::Sense),
             DriverSystems::Decide.in_set(StepSet::Decide),
@@ -110,6 +113,7 @@ impl SimPlugin for DriversPlugin {
             (
                 follow_routes,
                 (rebuild_lane_index, update_speed_limits, update_road_ahead),
+                update_signals,
                 gate_junctions,
             )
                 .chain()

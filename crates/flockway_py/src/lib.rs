@@ -319,6 +319,85 @@ impl PySession {
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
+    /// Every signalised junction now: a list of dicts (`junction`, `mode`, `custom`, `phase`,
+    /// `time_in_phase_s`, `state`, `phases` as `(duration_s, state)` pairs, `connections` as
+    /// `(from, from_lane, to, to_lane)` tuples).
+    fn signals<'py>(&mut self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .signals()
+            .into_iter()
+            .map(|s| {
+                let d = PyDict::new(py);
+                d.set_item("junction", s.junction)?;
+                d.set_item("mode", s.mode)?;
+                d.set_item("custom", s.custom)?;
+                d.set_item("phase", s.phase)?;
+                d.set_item("time_in_phase_s", s.time_in_phase_s)?;
+                d.set_item("state", s.state)?;
+                d.set_item("phases", s.phases)?;
+                d.set_item("connections", s.connections)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Switches a junction's signal to phase `phase` of its program now.
+    fn set_phase(&mut self, junction: &str, phase: usize) -> PyResult<()> {
+        self.inner.set_phase(junction, phase).map_err(session_error)
+    }
+
+    /// Shows `state` at a junction now and holds it, with an amber of `amber_s` first for the
+    /// movements losing green.
+    #[pyo3(signature = (junction, state, amber_s=0.0))]
+    fn set_signal_state(&mut self, junction: &str, state: &str, amber_s: f64) -> PyResult<()> {
+        self.inner
+            .set_signal_state(junction, state, amber_s)
+            .map_err(session_error)
+    }
+
+    /// Runs a program of `(duration_s, state)` phases at a junction from phase `phase` now;
+    /// `None` goes back to the level's program.
+    #[pyo3(signature = (junction, phases, phase=0))]
+    fn set_program(
+        &mut self,
+        junction: &str,
+        phases: Option<Vec<(f64, String)>>,
+        phase: usize,
+    ) -> PyResult<()> {
+        let program = phases.map(|phases| flockway_road::SignalProgram {
+            offset_s: 0.0,
+            phases: phases
+                .into_iter()
+                .map(|(duration_s, state)| flockway_road::Phase { duration_s, state })
+                .collect(),
+        });
+        self.inner
+            .set_program(junction, program, phase)
+            .map_err(session_error)
+    }
+
+    /// Every lane into every junction now: a dict of arrays (junction names under
+    /// `junctions`, road names under `road_names`).
+    fn approaches<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let a = self.inner.approaches();
+        let d = PyDict::new(py);
+        d.set_item("junction", a.junction.into_pyarray(py))?;
+        d.set_item("road", a.road.into_pyarray(py))?;
+        d.set_item("lane", a.lane.into_pyarray(py))?;
+        d.set_item("length_m", a.length_m.into_pyarray(py))?;
+        d.set_item("vehicles", a.vehicles.into_pyarray(py))?;
+        d.set_item("approaching", a.approaching.into_pyarray(py))?;
+        d.set_item("halting", a.halting.into_pyarray(py))?;
+        d.set_item("queue_vehicles", a.queue_vehicles.into_pyarray(py))?;
+        d.set_item("queue_m", a.queue_m.into_pyarray(py))?;
+        d.set_item("mean_speed_mps", a.mean_speed_mps.into_pyarray(py))?;
+        d.set_item("waiting_s", a.waiting_s.into_pyarray(py))?;
+        d.set_item("delay_s", a.delay_s.into_pyarray(py))?;
+        d.set_item("junctions", a.junctions)?;
+        d.set_item("road_names", self.inner.road_names().to_vec())?;
+        Ok(d)
+    }
+
     /// The summary so far, as JSON text (the summary contract of `flockway run`).
     fn summary_json(&self) -> PyResult<String> {
         serde_json::to_string(&self.inner.summary())

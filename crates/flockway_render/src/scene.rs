@@ -630,11 +630,11 @@ impl VehicleFrame {
             self.instances.push(i);
         }
         self.signals.clear();
-        if let (Some(network), Some(clock)) = (
+        if let (Some(network), Some(signals)) = (
             world.get_resource::<RoadNetwork>(),
-            world.get_resource::<flockway_core::SimClock>(),
+            world.get_resource::<flockway_drivers::Signals>(),
         ) {
-            signal_bars(network, clock.seconds(), &mut self.signals);
+            signal_bars(network, signals, &mut self.signals);
         }
     }
 
@@ -668,15 +668,19 @@ impl VehicleFrame {
 }
 
 /// A bar across the end of every lane a signal controls, at its line, coloured by what the
-/// signal shows that lane's movement at `t_s` (the first of its movements: lanes of one
-/// approach usually share a state).
-pub fn signal_bars(network: &RoadNetwork, t_s: f64, out: &mut Vec<VehicleInstance>) {
-    for junction in network.junctions() {
-        let Some(states) = junction.signal_at(t_s) else {
+/// signal shows that lane's movement (the first of its movements: lanes of one approach usually
+/// share a state).
+pub fn signal_bars(
+    network: &RoadNetwork,
+    signals: &flockway_drivers::Signals,
+    out: &mut Vec<VehicleInstance>,
+) {
+    for (j, junction) in network.junctions().iter().enumerate() {
+        let Some(states) = signals.states(j) else {
             continue;
         };
         let mut done: Vec<(u32, u32)> = Vec::new();
-        for (path, state) in junction.paths.iter().zip(states) {
+        for (path, &state) in junction.paths.iter().zip(states) {
             if done.contains(&path.from) {
                 continue;
             }
@@ -765,8 +769,10 @@ mod tests {
             flockway_level::load_level(std::path::Path::new("../../levels/signal_queue.ron"))
                 .expect("shipped level");
         let network = RoadNetwork::build_with(&level.roads, &level.junctions).expect("network");
+        let mut signals = flockway_drivers::Signals::from_network(&network);
         let mut bars = Vec::new();
-        signal_bars(&network, 10.0, &mut bars);
+        signals.update(10.0);
+        signal_bars(&network, &signals, &mut bars);
         assert_eq!(bars.len(), 1);
         assert_eq!(bars[0].colour, palette::SIGNAL_GREEN);
         // Just past the line, 400 m along the approach, across its lane.
@@ -777,10 +783,12 @@ mod tests {
         );
         assert!(bars[0].size[1] > 2.0);
         bars.clear();
-        signal_bars(&network, 28.0, &mut bars);
+        signals.update(28.0);
+        signal_bars(&network, &signals, &mut bars);
         assert_eq!(bars[0].colour, palette::SIGNAL_AMBER);
         bars.clear();
-        signal_bars(&network, 45.0, &mut bars);
+        signals.update(45.0);
+        signal_bars(&network, &signals, &mut bars);
         assert_eq!(bars[0].colour, palette::SIGNAL_RED);
     }
 }

@@ -148,6 +148,25 @@ impl SignalProgram {
         Some((self.phases.len() - 1, 0.0))
     }
 
+    /// Each phase's state per connection, for `connections` connections (red where a state
+    /// has no letter, or an unknown one).
+    pub fn states(&self, connections: usize) -> Vec<Vec<SignalState>> {
+        self.phases
+            .iter()
+            .map(|phase| {
+                let mut letters = phase.state.chars();
+                (0..connections)
+                    .map(|_| {
+                        letters
+                            .next()
+                            .and_then(SignalState::from_letter)
+                            .unwrap_or(SignalState::Red)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// What connection `k` is shown at time `t_s` (red for a letter the program lacks).
     pub fn state_at(&self, t_s: f64, k: usize) -> SignalState {
         self.phase_at(t_s)
@@ -603,23 +622,10 @@ impl Junction {
             });
         }
         check_control(spec)?;
-        let phase_states = spec.signal.as_ref().map_or_else(Vec::new, |program| {
-            program
-                .phases
-                .iter()
-                .map(|phase| {
-                    let mut letters = phase.state.chars();
-                    (0..paths.len())
-                        .map(|_| {
-                            letters
-                                .next()
-                                .and_then(SignalState::from_letter)
-                                .unwrap_or(SignalState::Red)
-                        })
-                        .collect()
-                })
-                .collect()
-        });
+        let phase_states = spec
+            .signal
+            .as_ref()
+            .map_or_else(Vec::new, |program| program.states(paths.len()));
         let mut junction = Junction {
             spec: spec.clone(),
             paths,
@@ -838,6 +844,12 @@ impl Junction {
         }
     }
 
+    /// The program's phases read once: each phase's state per connection. Empty without a
+    /// signal.
+    pub fn phase_states(&self) -> &[Vec<SignalState>] {
+        &self.phase_states
+    }
+
     /// The signal states at time `t_s`, one per connection; `None` without a signal.
     pub fn signal_at(&self, t_s: f64) -> Option<Vec<SignalState>> {
         let program = self.spec.signal.as_ref()?;
@@ -892,60 +904,12 @@ fn check_control(spec: &JunctionSpec) -> Result<(), JunctionError> {
             }
         }
         Control::Signal => {
-            let problem = |phase: usize, problem: String| JunctionError::Signal {
-                junction: spec.name.clone(),
-                phase,
-                problem,
-            };
             let Some(program) = &spec.signal else {
                 return Err(JunctionError::NoSignal {
                     junction: spec.name.clone(),
                 });
             };
-            if program.phases.is_empty() {
-                return Err(problem(
-                    0,
-                    "a signal program needs at least one phase".into(),
-                ));
-            }
-            if !program.offset_s.is_finite() {
-                return Err(problem(
-                    0,
-                    "the offset must be a finite number of seconds".into(),
-                ));
-            }
-            for (i, p) in program.phases.iter().enumerate() {
-                if !(p.duration_s.is_finite() && p.duration_s > 0.0) {
-                    return Err(problem(
-                        i,
-                        format!("duration {} s; it must be more than 0", p.duration_s),
-                    ));
-                }
-                let n = p.state.chars().count();
-                if n != spec.connections.len() {
-                    return Err(problem(
-                        i,
-                        format!(
-                            "state `{}` has {n} letter(s) for {} connection(s); give one per connection",
-                            p.state,
-                            spec.connections.len()
-                        ),
-                    ));
-                }
-                if let Some(c) = p
-                    .state
-                    .chars()
-                    .find(|&c| SignalState::from_letter(c).is_none())
-                {
-                    return Err(problem(
-                        i,
-                        format!(
-                            "state `{}` has `{c}`; the letters are G, g, y and r",
-                            p.state
-                        ),
-                    ));
-                }
-            }
+            check_program(&spec.name, spec.connections.len(), program)?;
         }
         Control::AllWayStop | Control::RightBeforeLeft => {}
     }
@@ -955,6 +919,60 @@ fn check_control(spec: &JunctionSpec) -> Result<(), JunctionError> {
         });
     }
     Ok(())
+}
+
+/// Checks a signal program for a junction of `connections` connections: at least one phase, a
+/// finite offset, durations above 0, one known letter per connection in every state.
+pub fn check_program(
+    junction: &str,
+    connections: usize,
+    program: &SignalProgram,
+) -> Result<(), JunctionError> {
+    let problem = |phase: usize, problem: String| JunctionError::Signal {
+        junction: junction.to_owned(),
+        phase,
+        problem,
+    };
+    if program.phases.is_empty() {
+        return Err(problem(
+            0,
+            "a signal program needs at least one phase".into(),
+        ));
+    }
+    if !program.offset_s.is_finite() {
+        return Err(problem(
+            0,
+            "the offset must be a finite number of seconds".into(),
+        ));
+    }
+    for (i, p) in program.phases.iter().enumerate() {
+        if !(p.duration_s.is_finite() && p.duration_s > 0.0) {
+            return Err(problem(
+                i,
+                format!("duration {} s; it must be more than 0", p.duration_s),
+            ));
+        }
+        check_state(&p.state, connections).map_err(|e| problem(i, e))?;
+    }
+    Ok(())
+}
+
+/// Reads a signal state string for `connections` connections: one letter each, `G`, `g`, `y`
+/// or `r`; what is wrong with it otherwise.
+pub fn check_state(state: &str, connections: usize) -> Result<Vec<SignalState>, String> {
+    let n = state.chars().count();
+    if n != connections {
+        return Err(format!(
+            "state `{state}` has {n} letter(s) for {connections} connection(s); give one per connection"
+        ));
+    }
+    state
+        .chars()
+        .map(|c| {
+            SignalState::from_letter(c)
+                .ok_or_else(|| format!("state `{state}` has `{c}`; the letters are G, g, y and r"))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -28,7 +28,8 @@ pub use geometry::{
 };
 pub use junction::{
     BODY_LENGTH_M, BODY_WIDTH_M, CONFLICT_CLEARANCE_M, Conflict, ConnectionSpec, Control, Junction,
-    JunctionError, JunctionPath, JunctionSpec, Phase, SignalProgram, SignalState, Turn, path_name,
+    JunctionError, JunctionPath, JunctionSpec, Phase, SignalProgram, SignalState, Turn,
+    check_program, check_state, path_name,
 };
 pub use mesh::{
     DASH_M, GAP_M, GUARDRAIL_HEIGHT_M, GUARDRAIL_OFFSET_M, GuardrailRun, MARKING_WIDTH_M, Mesh,

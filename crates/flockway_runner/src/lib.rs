@@ -8,6 +8,7 @@
 //! turned into a world), `runner` (stepping and streamed telemetry), `summary` (the metrics and
 //! the expectations at the end), [`batch`].
 
+mod approach;
 mod assets;
 pub mod batch;
 mod conflicts;
@@ -20,6 +21,7 @@ pub mod telemetry;
 mod tests;
 mod world;
 
+pub use approach::{APPROACHING_M, ApproachColumns, QUEUE_FRONT_M, QUEUE_GAP_M, SignalView};
 pub use assets::{
     ASSETS_ENV, DriverProfiles, VehicleTypes, builtin_model, find_assets_dir, level_model,
     load_driver_profiles, load_profiles, load_vehicle_types,

@@ -404,8 +404,13 @@ impl Runner {
             if let Some(signals) = &mut self.signals {
                 // The states the step's vehicles saw (the clock advances after the step).
                 let time_s = (self.sim.tick().0 - 1) as f64 / f64::from(TICKS_PER_SECOND);
+                let world = self.sim.world();
                 signals
-                    .record(self.sim.world().resource::<RoadNetwork>(), time_s)
+                    .record(
+                        world.resource::<RoadNetwork>(),
+                        world.resource::<flockway_drivers::Signals>(),
+                        time_s,
+                    )
                     .map_err(|source| RunError::Output {
                         path: signals.path().to_owned(),
                         source,

@@ -184,7 +184,12 @@ impl Session {
             ..RunOptions::default()
         };
         let duration_s = level.duration_s;
-        let runner = Runner::new(level, &name, &options)?;
+        let mut runner = Runner::new(level, &name, &options)?;
+        // What a controller reads between steps: each vehicle's waiting, each lane's delay.
+        runner
+            .sim_mut()
+            .world_mut()
+            .init_resource::<flockway_traffic::WaitingTimes>();
         let mut session = Session {
             runner,
             name,

@@ -1,6 +1,8 @@
 //! The signals CSV: beside a run's telemetry CSV, every change of what a junction's signal shows
-//! each of its connections, streamed as the run goes.
+//! each of its connections, streamed as the run goes — by its level's program or by a
+//! controller that took it over.
 
+use flockway_drivers::Signals;
 use flockway_road::{Junction, RoadNetwork, SignalState};
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -53,12 +55,17 @@ impl SignalsWriter {
     }
 
     /// Writes the changes of every signal at `time_s` (the time the step's vehicles saw).
-    pub fn record(&mut self, network: &RoadNetwork, time_s: f64) -> std::io::Result<()> {
+    pub fn record(
+        &mut self,
+        network: &RoadNetwork,
+        signals: &Signals,
+        time_s: f64,
+    ) -> std::io::Result<()> {
         let junctions = network.junctions();
         self.last.resize_with(junctions.len(), Vec::new);
         let mut wrote = false;
         for (j, junction) in junctions.iter().enumerate() {
-            let Some(states) = junction.signal_at(time_s) else {
+            let Some(states) = signals.states(j) else {
                 continue;
             };
             for (k, state) in states.iter().enumerate() {
@@ -69,7 +76,7 @@ impl SignalsWriter {
                     .write_record(row(network, junction, k, *state, time_s))?;
                 wrote = true;
             }
-            self.last[j] = states;
+            self.last[j] = states.to_vec();
         }
         if wrote {
             self.out.flush()?;

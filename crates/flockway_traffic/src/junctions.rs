@@ -4,8 +4,8 @@
 use crate::stats::TelemetrySettings;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
-use flockway_drivers::GapAcceptance;
-use flockway_road::{Control, RoadId, RoadNetwork, SignalState, Turn};
+use flockway_drivers::{GapAcceptance, Signals};
+use flockway_road::{RoadId, RoadNetwork, SignalState, Turn};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
@@ -121,6 +121,7 @@ pub fn measure_junctions(
     clock: Res<SimClock>,
     settings: Res<TelemetrySettings>,
     windows: Res<CapacityWindows>,
+    signals: Res<Signals>,
     mut measures: ResMut<JunctionMeasures>,
     vehicles: Query<(
         Entity,
@@ -176,19 +177,15 @@ pub fn measure_junctions(
                 totals.delay_sum_s += ((tick - t0) as f64 * DT_S - zone_m / limit).max(0.0);
                 totals.delays += 1;
             }
-            let program = match &junctions[j].spec.control {
-                Control::Signal => junctions[j].spec.signal.as_ref(),
-                _ => None,
-            };
-            if let Some(program) = program.filter(|p| p.cycle_s() > 0.0) {
+            if let Some(signal) = signals.get(j) {
                 let t = tick as f64 * DT_S;
                 // Its front crossed the line about half a body ago.
                 let v = f64::from(motion.forward_mps.max(0.5));
                 let entered_s = (t - track.s_m.max(0.0) / v - half / v).max(0.0);
-                if junctions[j].signal_state(entered_s, k) == Some(SignalState::Red) {
+                if signal.state_at(k, entered_s) == SignalState::Red {
                     totals.red_entries += 1;
                 }
-                let cycle = ((t + program.offset_s) / program.cycle_s()).floor() as i64;
+                let cycle = signal.cycle(t);
                 let last = measures.discharge.get(&a.lane).copied();
                 let place = match last {
                     Some(d) if a.queued && d.cycle == cycle => d.place + 1,

@@ -12,6 +12,7 @@ mod spawn;
 mod ssm;
 mod stats;
 mod trips;
+mod waiting;
 mod zones;
 
 pub use junctions::{
@@ -31,6 +32,7 @@ pub use stats::{
     TelemetrySettings, TrafficStats, sample_telemetry,
 };
 pub use trips::{RoadCounts, TripLog, TripRecord};
+pub use waiting::{HALTING_MPS, WaitingTimes, track_waiting};
 pub use zones::{
     Destroyer, DestroyerPlace, Travel, Trigger, TriggerEffect, apply_triggers, count_collisions,
     run_destroyers, sync_road_surface,
@@ -60,7 +62,10 @@ impl SimPlugin for TrafficPlugin {
         sim.world_mut().init_resource::<JunctionMeasures>();
         sim.world_mut().init_resource::<CapacityWindows>();
         sim.world_mut().init_resource::<Conflicts>();
-        sim.add_systems(StepSet::Record, (sample_telemetry, measure_junctions));
+        sim.add_systems(
+            StepSet::Record,
+            (sample_telemetry, measure_junctions, track_waiting),
+        );
         // On what the drivers see: the lane index and the places it was built from.
         sim.add_systems(
             StepSet::Sense,
