@@ -9,11 +9,14 @@
 //! `hairpin.ron` lets human-like drivers lose the cars its expectations allow to its hairpins'
 //! guardrails.
 //!
-//! Known defect, held where it stands rather than hidden: on `sumo_grid_demand.ron` (SUMO's
+//! Known defects, held where they stand rather than hidden: on `sumo_grid_demand.ron` (SUMO's
 //! compact corner junctions) the pure flocking, human-like and wave-damping drivers still touch
 //! another car on a crossing junction path now and then (1–3 contacts in 600 s, at most 1 in
-//! 120 s); [`KNOWN_CONTACTS`] lets those cells have no more than that, so that a regression still
-//! fails while the lane-keeping car and the IDM must stay at none.
+//! 120 s); on `signal_grid.ron` the pure flocking driver's permitted left turn, finishing its
+//! turn inside the line it was given (0.6–0.7 m off its path's centre, more than the clearance
+//! the junction's conflicts are found with), can touch a car that has just entered on the next
+//! green (1 contact in 600 s). [`KNOWN_CONTACTS`] lets those cells have no more than that, so
+//! that a regression still fails while the lane-keeping car and the IDM must stay at none.
 
 use flockway::drivers::BuiltinModel;
 use flockway::level::load_level;
@@ -27,7 +30,8 @@ const MODELS: [BuiltinModel; 5] = BuiltinModel::ALL;
 
 /// Cells of the matrix with contacts still to fix: (level, model, most on seed 1's whole run,
 /// most in each short run).
-const KNOWN_CONTACTS: [(&str, BuiltinModel, f64, f64); 3] = [
+const KNOWN_CONTACTS: [(&str, BuiltinModel, f64, f64); 4] = [
+    ("signal_grid.ron", BuiltinModel::Flock, 1.0, 1.0),
     ("sumo_grid_demand.ron", BuiltinModel::Flock, 3.0, 1.0),
     ("sumo_grid_demand.ron", BuiltinModel::Human, 3.0, 1.0),
     ("sumo_grid_demand.ron", BuiltinModel::WaveDamper, 3.0, 1.0),
@@ -194,6 +198,7 @@ matrix! {
     hairpin => "hairpin.ron",
     on_ramp => "on_ramp.ron",
     roundabout => "roundabout.ron",
+    signal_grid => "signal_grid.ron",
     signal_queue => "signal_queue.ron",
     speed_limit_change => "speed_limit_change.ron",
     speed_limit_change_mixed => "speed_limit_change_mixed.ron",

@@ -150,6 +150,10 @@ class LevelEnv(gym.Env):
       ``collision_penalty`` per contact or guardrail hit during the step.
     * An episode: ``warmup_s`` with the vehicle under its own driver, then ``episode_s`` under
       the agent (truncated then). It ends (terminated) if the agent's vehicle leaves the level.
+    * On a level with no vehicle of the profile at the start (spawners only), the agent is the
+      first vehicle of the profile spawned after the warm-up; with ``agent_spawner``, the first
+      that spawner spawns after it; with ``agent_road``, the newest of the profile on that road
+      after it.
 
     ``reset(seed=…)`` is deterministic: the same seed gives the same episode for the same
     actions.
@@ -170,6 +174,7 @@ class LevelEnv(gym.Env):
         episode_s: float = 240.0,
         overrides: dict[str, float] | None = None,
         agent_road: str | None = None,
+        agent_spawner: str | None = None,
         render_mode: str | None = None,
         render_size: tuple[int, int] | None = None,
         render_width_m: float | None | object = DEFAULT,
@@ -190,6 +195,11 @@ class LevelEnv(gym.Env):
         self.level = level
         self.profile = profile
         self.agent_road = agent_road
+        self.agent_spawner = agent_spawner
+        if agent_spawner is not None and agent_road is not None:
+            raise ValueError("give agent_road or agent_spawner, not both")
+        if agent_spawner is not None:
+            spawner_road(level, agent_spawner)
         self.telemetry = telemetry
         self.warmup_s = float(warmup_s)
         self.episode_s = float(episode_s)
@@ -217,16 +227,22 @@ class LevelEnv(gym.Env):
         self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
                        csv=self.telemetry if self.telemetry is not None else False)
         self.sim.step(1)
-        if self.agent_road is None:
+        if self.agent_road is None and self.agent_spawner is None:
             v = self.sim.vehicles()
             mine = v["id"][v["profile"] == self.profile]
-            if len(mine) == 0:
-                raise ValueError(
-                    f"{self.level}: no vehicle of driver profile `{self.profile}` at the start"
-                )
-            self.agent = int(mine.min())
+            if len(mine):
+                self.agent = int(mine.min())
+                if self.warmup_s > 0:
+                    self.sim.run(self.warmup_s)
+            else:
+                # A level that starts empty: the first of the profile spawned after the warm-up.
+                if self.warmup_s > 0:
+                    self.sim.run(self.warmup_s)
+                self.agent = first_spawned(self.sim, self.profile, None, self.level)
+        elif self.agent_spawner is not None:
             if self.warmup_s > 0:
                 self.sim.run(self.warmup_s)
+            self.agent = first_spawned(self.sim, self.profile, self.agent_spawner, self.level)
         else:
             if self.warmup_s > 0:
                 self.sim.run(self.warmup_s)
@@ -276,6 +292,41 @@ class LevelEnv(gym.Env):
         return render_frame(self.sim, self.agent, self.render_size, self.render_width_m)
 
 
+def spawner_road(level: Any, spawner: str) -> str:
+    """The road spawner ``spawner`` of ``level`` puts its vehicles on, or ``ValueError``
+    naming the level's spawners."""
+    from .level import Level
+
+    spawners = Level(level).to_dict().get("spawners", [])
+    for sp in spawners:
+        if sp["name"] == spawner:
+            return sp["road"]
+    names = ", ".join(sp["name"] for sp in spawners) or "none"
+    raise ValueError(f"{level}: no spawner `{spawner}`; its spawners are: {names}")
+
+
+def first_spawned(sim: Sim, profile: str, spawner: str | None, level: Any,
+                  within_s: float = 120.0) -> int:
+    """The first vehicle of ``profile`` to appear from now on (from ``spawner`` when given: on
+    its road), stepping the simulation until it does (``ValueError`` after ``within_s``)."""
+    road = None if spawner is None else spawner_road(level, spawner)
+    known = set(sim.vehicles()["id"].tolist())
+    for _ in range(round(within_s * 10)):
+        sim.step(12)
+        v = sim.vehicles()
+        new = ~np.isin(v["id"], list(known)) & (v["profile"] == profile)
+        if road is not None:
+            new &= v["road"] == road
+        if new.any():
+            return int(v["id"][new].min())
+        known.update(v["id"][v["profile"] != profile].tolist())
+        if road is not None:
+            known.update(v["id"][v["road"] != road].tolist())
+    where = "" if spawner is None else f" from spawner `{spawner}`"
+    raise ValueError(f"{level}: no vehicle of driver profile `{profile}` was spawned{where} "
+                     f"within {within_s:.0f} s of the warm-up's end")
+
+
 class MergeEnv(LevelEnv):
     """``flockway/Merge-v0``: the merging car of ``on_ramp`` — the newest car on the ramp after
     the warm-up — driven along the ramp, through the acceleration lane onto the motorway and
@@ -310,6 +361,7 @@ def register_all() -> None:
         ("flockway/RingWave-v0", "flockway.envs:RingWaveEnv"),
         ("flockway/Merge-v0", "flockway.envs:MergeEnv"),
         ("flockway/Level-v0", "flockway.envs:LevelEnv"),
+        ("flockway/SignalControl-v0", "flockway.signals:SignalControlEnv"),
     ):
         if env_id not in gym.registry:
             gym.register(id=env_id, entry_point=entry)

@@ -23,8 +23,12 @@ class LevelParallelEnv(ParallelEnv):
     acceleration as a share of ``max_accel``, held for ``period_s``). Its reward per step is the
     mean speed of every vehicle, m/s, less ``accel_penalty`` × its own a², less
     ``collision_penalty`` per contact in the level during the step (shared: a crash is
-    everyone's). The agents are the profile's vehicles after the warm-up; one that leaves the
-    level is done (terminated); the others are truncated after ``episode_s``."""
+    everyone's). The agents are the profile's vehicles after the warm-up, joined by each vehicle
+    of the profile spawned during the episode (it appears in ``agents`` and the observations
+    after the step it was spawned in); one that leaves the level is done (terminated); the
+    others are truncated after ``episode_s``. A newcomer's first reward is 0. ``possible_agents`` is every vehicle the level
+    can have by the episode's end: those at the start and as many as its spawners can spawn
+    (at their shortest intervals, or their listed departures)."""
 
     metadata = {
         "render_modes": ["rgb_array"],
@@ -59,17 +63,23 @@ class LevelParallelEnv(ParallelEnv):
         self.task = Task(**task)
         self.overrides = dict(overrides or {})
         self.render_mode = render_mode
-        # The agents a level starts with, found by a short probe (the same for every seed: the
-        # profile's vehicles at the start of the level).
+        # The vehicles a level starts with, found by a short probe (the same for every seed),
+        # and room for every one its spawners can add by the episode's end.
         probe = Sim(level, overrides=self.overrides, csv=False)
         probe.step(1)
         v = probe.vehicles()
         ids = sorted(int(i) for i in v["id"][v["profile"] == profile])
-        if not ids:
-            raise ValueError(f"{level}: no vehicle of driver profile `{profile}` at the start")
+        first_new = int(v["id"].max()) + 1 if len(v["id"]) else 0
+        most = most_spawned(level, self.warmup_s + self.episode_s + 1.0)
+        if not ids and most == 0:
+            raise ValueError(f"{level}: no vehicle of driver profile `{profile}` at the start "
+                             "and no spawner to bring one")
+        ids += list(range(first_new, first_new + most))
         self.possible_agents = [f"vehicle_{i}" for i in ids]
         self.agents: list[str] = []
         self._ids = dict(zip(self.possible_agents, ids))
+        self._possible = set(self.possible_agents)
+        self._seen: set[str] = set()
         self.sim: Sim | None = None
         self._steps = 0
         self._collisions = 0
@@ -82,8 +92,12 @@ class LevelParallelEnv(ParallelEnv):
     def action_space(self, agent: str) -> spaces.Box:
         return action_space()
 
-    def _observe(self) -> tuple[dict[str, np.ndarray], float, set[str]]:
-        by_id, mean = self.task.observe(self.sim, [self._ids[a] for a in self.agents])
+    def _observe(self, agents: list[str] | None = None
+                 ) -> tuple[dict[str, np.ndarray], float, set[str]]:
+        """Observations of ``agents`` (the live ones without it) that are still present, the
+        mean speed of every vehicle, and which are present."""
+        agents = self.agents if agents is None else agents
+        by_id, mean = self.task.observe(self.sim, [self._ids[a] for a in agents])
         obs = {f"vehicle_{i}": o for i, o in by_id.items()}
         return obs, mean, set(obs)
 
@@ -94,13 +108,22 @@ class LevelParallelEnv(ParallelEnv):
                        csv=self.telemetry if self.telemetry is not None else False)
         if self.warmup_s > 0:
             self.sim.run(self.warmup_s)
-        self.agents = list(self.possible_agents)
         self._steps = 0
         self._collisions = self.sim.collisions
-        obs, _, present = self._observe()
-        self.agents = [a for a in self.agents if a in present]
+        self._seen = set()
+        self.agents = self._arrivals()
+        obs, _, _ = self._observe()
         infos = {a: {"seed": sim_seed} for a in self.agents}
         return obs, infos
+
+    def _arrivals(self) -> list[str]:
+        """The profile's vehicles present now that were never agents before, in id order."""
+        v = self.sim.vehicles()
+        mine = sorted(int(i) for i in v["id"][v["profile"] == self.profile])
+        new = [f"vehicle_{i}" for i in mine]
+        new = [a for a in new if a in self._possible and a not in self._seen]
+        self._seen.update(new)
+        return new
 
     def step(self, actions: dict[str, Any]):
         if self.sim is None:
@@ -121,8 +144,18 @@ class LevelParallelEnv(ParallelEnv):
             truncs[agent] = out_of_time and agent in present
             infos[agent] = {"time_s": self.sim.time_s, "collisions": new}
         self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
+        if not out_of_time:
+            # Vehicles of the profile spawned during the step join.
+            arrived = self._arrivals()
+            if arrived:
+                new_obs, _, _ = self._observe(arrived)
+                obs.update(new_obs)
+                for a in arrived:
+                    # Every live agent has an entry: a newcomer has earned nothing yet.
+                    rewards[a], terms[a], truncs[a] = 0.0, False, False
+                    infos[a] = {"time_s": self.sim.time_s, "collisions": 0}
+                self.agents += arrived
         return obs, rewards, terms, truncs, infos
-
 
     def render(self) -> np.ndarray | None:
         """With ``render_mode="rgb_array"``: the whole level now, top down, ``render_size``
@@ -135,6 +168,32 @@ class LevelParallelEnv(ParallelEnv):
         return self.sim.render(w, h, "top")
 
 
+def most_spawned(level: Any, seconds: float) -> int:
+    """How many vehicles ``level``'s spawners can spawn in ``seconds`` at most: each at its
+    shortest interval (its own or a schedule step's), or its listed departures, capped by its
+    ``max_vehicles``."""
+    from .level import Level
+
+    total = 0
+    for sp in Level(level).to_dict().get("spawners", []):
+        if sp.get("active", True) is False:
+            continue
+        shortest = min([sp["interval_s"]["min"]]
+                       + [step["interval_s"]["min"] for step in sp.get("schedule", [])])
+        n = len(sp.get("departures", [])) + int(np.ceil(seconds / max(shortest, 1e-3))) + 1
+        cap = sp.get("max_vehicles")
+        total += n if cap is None else min(n, int(cap))
+    return total
+
+
 def parallel_env(**kwargs: Any) -> LevelParallelEnv:
     """The PettingZoo ParallelEnv (keywords as :class:`LevelParallelEnv`)."""
     return LevelParallelEnv(**kwargs)
+
+
+def signal_parallel_env(**kwargs: Any):
+    """The PettingZoo ParallelEnv of signal control: an agent per signalised junction (keywords
+    as :class:`flockway.signals.SignalParallelEnv`)."""
+    from .signals import SignalParallelEnv
+
+    return SignalParallelEnv(**kwargs)

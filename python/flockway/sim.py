@@ -208,13 +208,16 @@ class Sim:
         without a signal or a phase its program lacks."""
         self._s.set_phase(str(junction), _index(phase, "phase"))
 
-    def set_signal_state(self, junction: str, state: str, amber_s: float = 0.0) -> None:
+    def set_signal_state(self, junction: str, state: str, amber_s: float = 0.0,
+                         all_red_s: float = 0.0) -> None:
         """Shows ``state`` (a letter per connection, as :meth:`signals` gives them) at
         ``junction`` now and holds it until the next change. The state is shown as given: with
         ``amber_s`` above 0, a movement losing its green shows amber for that long first and a
-        movement gaining green stays red until then, so two conflicting greens never overlap.
-        Raises ``ValueError`` for a wrong length, an unknown letter or a negative amber."""
-        self._s.set_signal_state(str(junction), str(state), float(amber_s))
+        movement gaining green stays as it was until then, so two conflicting greens never
+        overlap; ``all_red_s`` then shows every changing movement red that long (the clearance
+        for a vehicle still in the junction). Raises ``ValueError`` for a wrong length, an
+        unknown letter or a negative time."""
+        self._s.set_signal_state(str(junction), str(state), float(amber_s), float(all_red_s))
 
     def set_program(
         self,

@@ -105,3 +105,28 @@ def test_reset_draws_the_levels_seed_from_the_reset_seed_and_says_it() -> None:
     sim.step(round(played.time_s * 120))
     assert sim.time_s == played.time_s
     assert (sim.vehicles()["x_m"] == played.vehicles()["x_m"]).all()
+
+
+def test_on_a_level_that_starts_empty_the_agent_is_the_first_car_spawned_after_the_warmup() -> None:
+    import gymnasium as gym
+
+    env = gym.make("flockway/Level-v0", level="signal_queue", profile="autonomous",
+                   warmup_s=20.0, episode_s=5.0)
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, info = env.reset(seed=3)
+    u = env.unwrapped
+    v = u.sim.vehicles()
+    # The newest car: spawned after the warm-up, at the spawner, the only one that young.
+    assert info["vehicle"] == int(v["id"].max())
+    at = v["id"] == info["vehicle"]
+    assert v["road"][at][0] == "approach" and v["s_m"][at][0] < 30.0
+    assert info["time_s"] > 20.0
+    env = gym.make("flockway/Level-v0", level="crossroads_signal", profile="autonomous",
+                   agent_spawner="north", warmup_s=10.0, episode_s=5.0)
+    obs, info = env.reset(seed=1)
+    v = env.unwrapped.sim.vehicles()
+    assert v["road"][v["id"] == info["vehicle"]][0] == "north in"
+    import pytest
+
+    with pytest.raises(ValueError, match="no spawner `up`; its spawners are: west, east, south, north"):
+        gym.make("flockway/Level-v0", level="crossroads_signal", agent_spawner="up")

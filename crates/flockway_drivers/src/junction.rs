@@ -8,7 +8,7 @@ use crate::perception::{LaneIndex, Seen};
 use crate::route::Route;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, SimClock};
-use flockway_road::{Conflict, RoadId, RoadNetwork, SignalState};
+use flockway_road::{CONFLICT_CLEARANCE_M, Conflict, RoadId, RoadNetwork, SignalState};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
@@ -157,6 +157,25 @@ impl Scene<'_> {
     /// margin) is neither: it passes first. With when the last of those reached (or reaches)
     /// the conflict, s from now (negative: it is in it already).
     fn foes_on_path(&self, a: &Approach, c: &Conflict) -> (bool, bool, Option<f64>) {
+        self.foes_on_path_from(a, c, false)
+    }
+
+    /// [`Scene::foes_on_path`] for a car not yet in the junction, which also waits for a foe
+    /// clearing the junction after its green ended that cannot stop short of the conflict any
+    /// more (whoever has the right of way now), and for one further off its path's
+    /// centre than the clearance the conflicts were found with: its body sweeps more than they
+    /// cover, so past the conflict's start it is in the way until it is off the path (a car
+    /// already inside goes on rather than stop in that sweep).
+    fn foes_on_path_at_line(&self, a: &Approach, c: &Conflict) -> bool {
+        self.foes_on_path_from(a, c, true).0
+    }
+
+    fn foes_on_path_from(
+        &self,
+        a: &Approach,
+        c: &Conflict,
+        at_line: bool,
+    ) -> (bool, bool, Option<f64>) {
         let j = a.junction;
         let mine_there = arrival_s(a.to_line_m + a.half_m + c.at_m, a.speed_mps);
         let Some(foe_road) = self.network.path_road(j, c.other) else {
@@ -169,6 +188,13 @@ impl Scene<'_> {
         // Conflict positions are a body's centre's; only the cars on that path itself (not
         // those on paths overlapping it from the same lane).
         let through = self.through[j][c.other];
+        // Its movement's green is over: a foe on it is clearing the junction.
+        let clearing = self.signals[j].as_deref().is_some_and(|s| {
+            matches!(
+                s.get(c.other),
+                None | Some(SignalState::Red | SignalState::Amber)
+            )
+        });
         for f in self.index.lane(foe_road, 0) {
             if f.speed_mps > PASSING_MPS
                 && expected_arrival_s(0.0, foe_clear - f.s_m, f.speed_mps, through)
@@ -185,7 +211,12 @@ impl Scene<'_> {
                 }
                 continue;
             }
-            occupied |= f.s_m > c.other_at_m && f.s_m < foe_clear + CONFLICT_MARGIN_M;
+            let astray = at_line && f64::from(f.lateral_m.abs()) > CONFLICT_CLEARANCE_M;
+            occupied |= f.s_m > c.other_at_m && (f.s_m < foe_clear + CONFLICT_MARGIN_M || astray);
+            occupied |= at_line
+                && clearing
+                && f.s_m <= c.other_at_m
+                && committed(f.speed_mps, c.other_at_m - f.s_m);
             short |= f.s_m < foe_clear;
         }
         (occupied, short, lead)
@@ -869,7 +900,10 @@ fn decide_at_line(
     // way.
     let mut occupied = false;
     if !hold {
-        occupied = path.conflicts.iter().any(|c| scene.foes_on_path(a, c).0);
+        occupied = path
+            .conflicts
+            .iter()
+            .any(|c| scene.foes_on_path_at_line(a, c));
         hold = occupied;
     }
     let mut blocked = Blocked::default();

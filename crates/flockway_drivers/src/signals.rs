@@ -25,11 +25,11 @@ pub enum SignalMode {
         /// When it began, s.
         started_s: f64,
     },
-    /// A state set from outside, held until changed; `then` is the state an amber leads to and
-    /// when it shows, s.
+    /// A state set from outside, held until changed; `then` are the states an amber leads to
+    /// (an all-red clearance, then the state asked for), each with when it shows, s.
     Held {
-        /// After an amber: the state asked for and when it shows.
-        then: Option<(f64, Vec<SignalState>)>,
+        /// After an amber: the states still to show and when, in order.
+        then: Vec<(f64, Vec<SignalState>)>,
     },
 }
 
@@ -90,9 +90,14 @@ pub enum SignalError {
     /// A program that does not fit the junction.
     #[error(transparent)]
     Program(#[from] JunctionError),
-    /// An amber time that is not a number of seconds from 0.
-    #[error("amber time {0} s: expected a number of seconds from 0")]
-    Amber(f64),
+    /// An amber or all-red time that is not a number of seconds from 0.
+    #[error("{what} time {seconds} s: expected a number of seconds from 0")]
+    Clearance {
+        /// Which: `amber` or `all-red`.
+        what: &'static str,
+        /// The time given.
+        seconds: f64,
+    },
 }
 
 impl SignalController {
@@ -199,10 +204,13 @@ impl SignalController {
                 }
                 moved.then(|| self.phase_states[*phase].clone())
             }
-            SignalMode::Held { then } => match then {
-                Some((at_s, _)) if t_s + SAME_INSTANT_S >= *at_s => then.take().map(|(_, s)| s),
-                _ => None,
-            },
+            SignalMode::Held { then } => {
+                let due = then
+                    .iter()
+                    .take_while(|(at_s, _)| t_s + SAME_INSTANT_S >= *at_s)
+                    .count();
+                then.drain(..due).next_back().map(|(_, s)| s)
+            }
         };
         if let Some(next) = next {
             self.show(next, t_s);
@@ -245,10 +253,20 @@ impl SignalController {
 
     /// Shows `state` (a letter per connection) from `t_s` and holds it until told otherwise.
     /// With `amber_s` above 0, a movement losing its green shows amber for that long first, and
-    /// one gaining green stays as it is until then, so no two conflicting greens overlap.
-    pub fn set_state(&mut self, state: &str, amber_s: f64, t_s: f64) -> Result<(), SignalError> {
-        if !(amber_s.is_finite() && amber_s >= 0.0) {
-            return Err(SignalError::Amber(amber_s));
+    /// one gaining green stays as it is until then, so no two conflicting greens overlap; with
+    /// `all_red_s` above 0 as well, every movement that changes then shows red that long (the
+    /// clearance for a vehicle still in the junction) before the state asked for.
+    pub fn set_state(
+        &mut self,
+        state: &str,
+        amber_s: f64,
+        all_red_s: f64,
+        t_s: f64,
+    ) -> Result<(), SignalError> {
+        for (what, s) in [("amber", amber_s), ("all-red", all_red_s)] {
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(SignalError::Clearance { what, seconds: s });
+            }
         }
         let target =
             check_state(state, self.states.len()).map_err(|problem| SignalError::State {
@@ -257,7 +275,7 @@ impl SignalController {
             })?;
         let loses_green = |k: usize| self.states[k].is_go() && !target[k].is_go();
         if amber_s > 0.0 && (0..target.len()).any(loses_green) {
-            let between: Vec<SignalState> = (0..target.len())
+            let amber: Vec<SignalState> = (0..target.len())
                 .map(|k| {
                     if loses_green(k) {
                         SignalState::Amber
@@ -268,12 +286,24 @@ impl SignalController {
                     }
                 })
                 .collect();
-            self.mode = SignalMode::Held {
-                then: Some((t_s + amber_s, target)),
-            };
-            self.show(between, t_s);
+            let mut then = Vec::new();
+            if all_red_s > 0.0 {
+                let red: Vec<SignalState> = (0..target.len())
+                    .map(|k| {
+                        if amber[k] == SignalState::Amber || amber[k] != target[k] {
+                            SignalState::Red
+                        } else {
+                            target[k]
+                        }
+                    })
+                    .collect();
+                then.push((t_s + amber_s, red));
+            }
+            then.push((t_s + amber_s + all_red_s, target));
+            self.mode = SignalMode::Held { then };
+            self.show(amber, t_s);
         } else {
-            self.mode = SignalMode::Held { then: None };
+            self.mode = SignalMode::Held { then: Vec::new() };
             self.show(target, t_s);
         }
         Ok(())
@@ -476,7 +506,7 @@ mod tests {
         let mut c = controller();
         c.update(6.0);
         assert_eq!(c.state_string(), "GGrr");
-        c.set_state("rrGG", 3.0, 6.0).expect("accepted");
+        c.set_state("rrGG", 3.0, 0.0, 6.0).expect("accepted");
         // Losing green: amber; gaining green: still red until the amber ends.
         assert_eq!(c.state_string(), "yyrr");
         c.update(8.99);
@@ -488,7 +518,7 @@ mod tests {
         assert_eq!(c.phase(500.0), None);
         assert_eq!(c.unchanged_for_s(500.0), 491.0);
         // Without an amber, at once.
-        c.set_state("GGrr", 0.0, 500.0).expect("accepted");
+        c.set_state("GGrr", 0.0, 0.0, 500.0).expect("accepted");
         assert_eq!(c.state_string(), "GGrr");
         for (bad, says) in [
             ("GGr", "3 letter(s) for 4"),
@@ -496,14 +526,28 @@ mod tests {
             ("", "0 letter(s)"),
         ] {
             let err = c
-                .set_state(bad, 0.0, 501.0)
+                .set_state(bad, 0.0, 0.0, 501.0)
                 .expect_err("refused")
                 .to_string();
             assert!(err.contains(says), "{bad}: {err}");
         }
-        assert!(c.set_state("rrrr", -1.0, 501.0).is_err());
-        assert!(c.set_state("rrrr", f64::NAN, 501.0).is_err());
+        assert!(c.set_state("rrrr", -1.0, 0.0, 501.0).is_err());
+        assert!(c.set_state("rrrr", f64::NAN, 0.0, 501.0).is_err());
+        assert!(c.set_state("rrrr", 3.0, -2.0, 501.0).is_err());
         assert_eq!(c.state_string(), "GGrr", "a refused state changes nothing");
+        // An all-red clearance between the amber and the new green.
+        c.set_state("rGGr", 3.0, 2.0, 600.0).expect("accepted");
+        assert_eq!(c.state_string(), "yGrr");
+        c.update(603.0);
+        assert_eq!(c.state_string(), "rGrr");
+        c.update(604.99);
+        assert_eq!(c.state_string(), "rGrr");
+        c.update(605.0);
+        assert_eq!(c.state_string(), "rGGr");
+        // Stepped over in one go, the last due state shows.
+        c.set_state("GGrr", 3.0, 2.0, 700.0).expect("accepted");
+        c.update(710.0);
+        assert_eq!(c.state_string(), "GGrr");
     }
 
     #[test]

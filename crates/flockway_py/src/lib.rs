@@ -347,11 +347,17 @@ impl PySession {
     }
 
     /// Shows `state` at a junction now and holds it, with an amber of `amber_s` first for the
-    /// movements losing green.
-    #[pyo3(signature = (junction, state, amber_s=0.0))]
-    fn set_signal_state(&mut self, junction: &str, state: &str, amber_s: f64) -> PyResult<()> {
+    /// movements losing green and then `all_red_s` of red for every changing movement.
+    #[pyo3(signature = (junction, state, amber_s=0.0, all_red_s=0.0))]
+    fn set_signal_state(
+        &mut self,
+        junction: &str,
+        state: &str,
+        amber_s: f64,
+        all_red_s: f64,
+    ) -> PyResult<()> {
         self.inner
-            .set_signal_state(junction, state, amber_s)
+            .set_signal_state(junction, state, amber_s, all_red_s)
             .map_err(session_error)
     }
 

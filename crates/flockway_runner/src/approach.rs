@@ -146,17 +146,19 @@ impl Session {
     }
 
     /// Shows `state` (a letter per connection) at junction `junction` now and holds it; with
-    /// `amber_s` above 0 movements losing green show amber that long first.
+    /// `amber_s` above 0 movements losing green show amber that long first, then (with
+    /// `all_red_s`) every changing movement red that long.
     pub fn set_signal_state(
         &mut self,
         junction: &str,
         state: &str,
         amber_s: f64,
+        all_red_s: f64,
     ) -> Result<(), SessionError> {
         let t_s = self.time_s();
         self.signals_resource()
             .by_name_mut(junction)?
-            .set_state(state, amber_s, t_s)
+            .set_state(state, amber_s, all_red_s, t_s)
             .map_err(SessionError::from)
     }
 
