@@ -32,5 +32,6 @@ try:
     from . import envs as _envs
 
     _envs.register_all()
+    from .vector import VectorEnv  # noqa: F401  (needs gymnasium, as the environments do)
 except ImportError:  # gymnasium is not installed: the environments are not offered.
     pass

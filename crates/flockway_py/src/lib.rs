@@ -50,7 +50,7 @@ fn same_length(what: &'static str, values: usize, ids: usize) -> PyResult<()> {
 }
 
 /// A level run step by step (see `flockway.Sim` for the documented API).
-#[pyclass(unsendable, module = "flockway._flockway", name = "Session")]
+#[pyclass(module = "flockway._flockway", name = "Session")]
 struct PySession {
     inner: Session,
     /// The off-screen renderer, made at the first `render`.
@@ -83,9 +83,11 @@ impl PySession {
         Ok(PySession { inner, view: None })
     }
 
-    /// Runs `n` fixed steps of 1/120 s.
-    fn step(&mut self, n: u64) -> PyResult<()> {
-        self.inner.step(n).map_err(run_error)
+    /// Runs `n` fixed steps of 1/120 s, letting other Python threads run meanwhile (a
+    /// `VectorEnv` steps its simulations on all cores at once).
+    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+        let inner = &mut self.inner;
+        py.detach(|| inner.step(n)).map_err(run_error)
     }
 
     /// Simulated time, s.
