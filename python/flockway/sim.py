@@ -125,17 +125,23 @@ class Sim:
     def vehicles(self) -> dict[str, np.ndarray]:
         """Every vehicle now, in id order: ``id``, ``road`` (name), ``road_index``, ``lane``,
         ``s_m``, ``lateral_m``, ``x_m``, ``y_m``, ``z_m``, ``speed_mps``, ``accel_mps2``,
-        ``heading_rad``, ``throttle``, ``steering``, ``profile`` and ``model`` (names)."""
+        ``heading_rad``, ``throttle``, ``steering``, ``profile`` and ``model`` (names), ``route``
+        (its name: the route's or destination's, ``""`` following the road) and ``next_road``
+        (the next road of the level its route takes, ``""`` without one)."""
         raw = self._s.vehicles()
         out = {
             k: v
             for k, v in raw.items()
-            if k not in ("road_names", "profiles", "models", "road", "profile", "model")
+            if k not in ("road_names", "profiles", "models", "routes", "road", "profile",
+                         "model", "route", "next_road")
         }
         out["road_index"] = raw["road"]
         out["road"] = _names(raw["road_names"], raw["road"])
         out["profile"] = _names(raw["profiles"], raw["profile"])
         out["model"] = _names(raw["models"], raw["model"])
+        out["route"] = _names(raw["routes"], raw["route"])
+        roads = np.asarray(list(raw["road_names"]) + [""], dtype=str)
+        out["next_road"] = roads[np.where(raw["next_road"] < 0, len(roads) - 1, raw["next_road"])]
         return out
 
     def leader(self, ids: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -182,9 +188,27 @@ class Sim:
         profile: str,
         lane: int = 0,
         speed_mps: float = 0.0,
+        route: list[str] | None = None,
+        destination: str | None = None,
     ) -> int:
-        """Adds a vehicle of driver profile ``profile``; returns its id."""
-        return self._s.spawn(road, float(s_m), int(lane), float(speed_mps), profile)
+        """Adds a vehicle of driver profile ``profile``; returns its id. It follows the road
+        (each lane's link) unless given ``route`` (the roads to take in order, from ``road``;
+        the junction paths between them are found) or ``destination`` (a road it takes the
+        quickest way to, at free flow). A route whose roads do not lead one onto the next, a
+        road the level lacks or a destination it cannot reach is a ``ValueError``."""
+        return self._s.spawn(road, float(s_m), int(lane), float(speed_mps), profile,
+                             None if route is None else [str(r) for r in route],
+                             None if destination is None else str(destination))
+
+    def set_route(self, vehicle: int, roads: list[str]) -> None:
+        """Sends ``vehicle`` along ``roads`` from the road it is on (which may come first);
+        it takes the new route's lanes from here on. Checked as :meth:`spawn`'s ``route``."""
+        self._s.set_route(int(vehicle), [str(r) for r in roads])
+
+    def set_destination(self, vehicle: int, road: str) -> None:
+        """Sends ``vehicle`` the quickest way (at free flow) from the road it is on to
+        ``road``; a ``ValueError`` if it cannot get there."""
+        self._s.set_destination(int(vehicle), str(road))
 
     def despawn(self, ids: Any) -> None:
         """Removes vehicles."""

@@ -6,7 +6,7 @@
 mod level;
 
 use flockway_drivers::ExternalCommand;
-use flockway_runner::{Override, RunError, Session, SessionError};
+use flockway_runner::{Heading, Override, RunError, Session, SessionError};
 use flockway_vehicle::Controls;
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::{PyFileNotFoundError, PyKeyError, PyRuntimeError, PyValueError};
@@ -33,6 +33,21 @@ fn session_error(e: SessionError) -> PyErr {
     match e {
         SessionError::NoVehicle(_) => PyKeyError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// Where a spawned vehicle goes: along `route`, to `destination`, or (neither) along the road.
+fn heading<'a>(
+    route: Option<&'a [String]>,
+    destination: Option<&'a str>,
+) -> PyResult<Option<Heading<'a>>> {
+    match (route, destination) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err(
+            "give a route or a destination, not both",
+        )),
+        (Some(roads), None) => Ok(Some(Heading::Roads(roads))),
+        (None, Some(road)) => Ok(Some(Heading::Destination(road))),
+        (None, None) => Ok(None),
     }
 }
 
@@ -141,8 +156,11 @@ impl PySession {
         d.set_item("profile", v.profile.into_pyarray(py))?;
         d.set_item("model", v.model.into_pyarray(py))?;
         d.set_item("road_names", self.inner.road_names().to_vec())?;
+        d.set_item("route", v.route.into_pyarray(py))?;
+        d.set_item("next_road", v.next_road.into_pyarray(py))?;
         d.set_item("profiles", v.profiles)?;
         d.set_item("models", v.models)?;
+        d.set_item("routes", v.routes)?;
         Ok(d)
     }
 
@@ -237,7 +255,13 @@ impl PySession {
         self.inner.command(ids, &none).map_err(session_error)
     }
 
-    /// Spawns a vehicle of driver profile `profile`; returns its id.
+    /// Spawns a vehicle of driver profile `profile` (along `route`, or the quickest way to
+    /// `destination`); returns its id.
+    #[pyo3(signature = (road, s_m, lane, speed_mps, profile, route=None, destination=None))]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the Python method's keywords, one each"
+    )]
     fn spawn(
         &mut self,
         road: &str,
@@ -245,9 +269,26 @@ impl PySession {
         lane: u32,
         speed_mps: f64,
         profile: &str,
+        route: Option<Vec<String>>,
+        destination: Option<String>,
     ) -> PyResult<u32> {
+        let heading = heading(route.as_deref(), destination.as_deref())?;
         self.inner
-            .spawn(road, s_m, lane, speed_mps as f32, profile)
+            .spawn(road, s_m, lane, speed_mps as f32, profile, heading.as_ref())
+            .map_err(session_error)
+    }
+
+    /// Sends vehicle `id` along `roads` from the road it is on.
+    fn set_route(&mut self, id: u32, roads: Vec<String>) -> PyResult<()> {
+        self.inner
+            .set_heading(id, &Heading::Roads(&roads))
+            .map_err(session_error)
+    }
+
+    /// Sends vehicle `id` the quickest way to road `road`.
+    fn set_destination(&mut self, id: u32, road: &str) -> PyResult<()> {
+        self.inner
+            .set_heading(id, &Heading::Destination(road))
             .map_err(session_error)
     }
 

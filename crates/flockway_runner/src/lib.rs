@@ -12,6 +12,7 @@ mod approach;
 mod assets;
 pub mod batch;
 mod conflicts;
+mod routes;
 mod runner;
 mod session;
 mod signals;
@@ -28,6 +29,7 @@ pub use assets::{
 };
 pub use conflicts::{CONFLICT_COLUMNS, ConflictsWriter};
 pub use flockway_analysis::{ExpectationResult, Summary};
+pub use routes::{Heading, route_from};
 pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_models, parse_driver};
 pub use session::{
     LEADER_RANGE_M, Leaders, Override, Session, SessionError, VehicleColumns, apply_overrides,

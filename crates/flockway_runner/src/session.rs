@@ -111,6 +111,22 @@ pub struct VehicleColumns {
     pub profiles: Vec<String>,
     /// The model names (`FlockLanes`, `Human`, `Custom(NAME)`, …) the `model` column indexes.
     pub models: Vec<String>,
+    /// Route, as an index into [`VehicleColumns::routes`].
+    pub route: Vec<u32>,
+    /// The route names the `route` column indexes (`""`: following the road).
+    pub routes: Vec<String>,
+    /// The next road of the level its route takes (a junction's inner path skipped), as an
+    /// index into [`Session::road_names`]; −1 without one (following the road, or on its
+    /// route's last road).
+    pub next_road: Vec<i64>,
+}
+
+/// Whether `road` is one of the level's roads (not a junction's inner path).
+fn network_has_road(world: &World, road: RoadId) -> bool {
+    world
+        .resource::<RoadNetwork>()
+        .junction_path(road)
+        .is_none()
 }
 
 /// Each asked-for vehicle's leader in its lane (along its route into the next road).
@@ -287,9 +303,20 @@ impl Session {
                 &Motion,
                 &Controls,
                 Option<&DriverLabel>,
+                Option<&flockway_drivers::Route>,
             )>()
             .iter(world)
-            .map(|(id, t, m, c, l)| (id.0, *t, *m, *c, l.cloned()))
+            .map(|(id, t, m, c, l, r)| {
+                let next = r.and_then(|r| {
+                    r.ahead()
+                        .iter()
+                        .skip(1)
+                        .find(|&&road| network_has_road(world, road))
+                        .copied()
+                });
+                let route = r.map_or_else(String::new, |r| r.name.to_string());
+                (id.0, *t, *m, *c, l.cloned(), route, next)
+            })
             .collect();
         rows.sort_by_key(|r| r.0);
         let mut out = VehicleColumns::default();
@@ -302,7 +329,7 @@ impl Session {
                 }
             }
         };
-        for (id, track, motion, controls, label) in rows {
+        for (id, track, motion, controls, label, route, next) in rows {
             let forward = motion.forward();
             out.id.push(id);
             out.road.push(track.road.0);
@@ -326,6 +353,10 @@ impl Session {
             out.profile.push(p);
             let m = index(&mut out.models, &model);
             out.model.push(m);
+            let r = index(&mut out.routes, &route);
+            out.route.push(r);
+            out.next_road
+                .push(next.map_or(-1, |road| i64::from(road.0)));
         }
         out
     }
@@ -338,6 +369,11 @@ impl Session {
             .iter(world)
             .map(|(e, id)| (id.0, e))
             .collect()
+    }
+
+    /// The entity of vehicle `id`.
+    pub(crate) fn entity_of(&mut self, id: u32) -> Result<Entity, SessionError> {
+        self.entities_of(&[id]).map(|e| e[0])
     }
 
     /// The entities of `ids`, in order; the first unknown id is an error.
@@ -480,7 +516,8 @@ impl Session {
     }
 
     /// Spawns a vehicle of driver profile `profile` on road `road`, `s_m` along it in `lane`,
-    /// at `speed_mps`; returns its id.
+    /// at `speed_mps`, on the route `heading` asks for (following the road without one);
+    /// returns its id.
     pub fn spawn(
         &mut self,
         road: &str,
@@ -488,6 +525,7 @@ impl Session {
         lane: u32,
         speed_mps: f32,
         profile: &str,
+        heading: Option<&crate::routes::Heading>,
     ) -> Result<u32, SessionError> {
         let Some(p) = self
             .runner
@@ -545,11 +583,17 @@ impl Session {
             .get(profile)
             .cloned()
             .ok_or_else(|| SessionError::Value(format!("profile `{profile}` is not built")))?;
+        let route = heading
+            .map(|h| crate::routes::route_from(network, id, h))
+            .transpose()?;
         let spawn = VehicleSpawn::new(vehicle, id, s_m)
             .lateral(lateral)
             .speed(speed_mps);
         let e = spawn_driven(world, spawn, &driver, lane, Arc::from(profile))
             .map_err(|e| SessionError::Value(e.to_string()))?;
+        if let Some(route) = route {
+            world.entity_mut(e).insert(route);
+        }
         self.index_tick = None;
         Ok(world.get::<VehicleId>(e).map_or(0, |v| v.0))
     }
@@ -739,7 +783,9 @@ mod tests {
         );
         assert_eq!(v.profiles[v.profile[mine[0]] as usize], "mine");
         // A car added, then removed.
-        let id = s.spawn("ring", 225.0, 0, 5.0, "mine").expect("spawns");
+        let id = s
+            .spawn("ring", 225.0, 0, 5.0, "mine", None)
+            .expect("spawns");
         assert_eq!(id, 6);
         s.step(1).expect("steps");
         assert_eq!(s.vehicles().id.len(), 7);
@@ -756,7 +802,7 @@ mod tests {
             ),
         ] {
             let err = s
-                .spawn(road, 10.0, lane, 5.0, profile)
+                .spawn(road, 10.0, lane, 5.0, profile, None)
                 .expect_err("refused");
             assert!(err.to_string().contains(needle), "{err}");
         }

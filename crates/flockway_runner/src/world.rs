@@ -33,6 +33,25 @@ pub fn build_sim(level: &Level, seed: u64) -> Result<Sim, RunError> {
     Ok(sim)
 }
 
+/// A route from road `start` along `roads` (which may repeat `start` first) as the vehicle
+/// drives it: with the junction path between two roads that meet in a junction.
+pub fn route_through(network: &RoadNetwork, start: RoadId, roads: &[RoadId]) -> Vec<RoadId> {
+    let mut out = vec![start];
+    for &road in roads {
+        if out.len() == 1 && road == start {
+            continue;
+        }
+        let last = out[out.len() - 1];
+        if network.link(last, road).is_none()
+            && let Some(path) = network.junction_path_between(last, road)
+        {
+            out.push(path);
+        }
+        out.push(road);
+    }
+    out
+}
+
 /// The routes a spawner's vehicles take: its routes resolved to road ids (the spawner's road
 /// first), or the quickest path to its destination.
 fn spawn_routes(
@@ -47,24 +66,10 @@ fn spawn_routes(
     let start = id(&sp.road)?;
     let mut routes = Vec::new();
     for r in &sp.routes {
-        let mut roads = vec![start];
-        for name in &r.roads {
-            let road = id(name)?;
-            if roads.len() == 1 && road == start {
-                continue;
-            }
-            // Through a junction: its path between the two roads.
-            let last = roads[roads.len() - 1];
-            if network.link(last, road).is_none()
-                && let Some(path) = network.junction_path_between(last, road)
-            {
-                roads.push(path);
-            }
-            roads.push(road);
-        }
+        let names: Vec<RoadId> = r.roads.iter().map(|n| id(n)).collect::<Result<_, _>>()?;
         routes.push(SpawnRoute {
             name: Arc::from(r.name.as_str()),
-            roads,
+            roads: route_through(network, start, &names),
             weight: r.weight,
         });
     }
