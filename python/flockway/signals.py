@@ -3,10 +3,11 @@ green phase every ``delta_time_s``, with an amber of ``yellow_time_s`` and an al
 ``all_red_s`` between greens and a minimum green of ``min_green_s``.
 
 ``flockway/SignalControl-v0`` controls one junction (the level's first signalised one, or
-``junction=NAME``); :func:`flockway.multi.signal_parallel_env` controls every signalised junction
-of a level at once, one PettingZoo agent each. :func:`max_pressure` is the hand-written baseline
-(the max-pressure rule of Varaiya, 2013) and ``fixed_time=True`` leaves the level's own program
-running, for comparison.
+``junction=NAME``); :func:`flockway.multi.signal_parallel_env` (PettingZoo) controls every
+signalised junction of a level at once, one agent each. :func:`max_pressure` is the hand-written
+baseline (the max-pressure rule of Varaiya, 2013) and ``fixed_time=True`` leaves the level's own
+program running, for comparison. This module needs gymnasium only; the PettingZoo twin lives in
+:mod:`flockway.multi`.
 """
 
 from __future__ import annotations
@@ -309,141 +310,3 @@ def _first_signal(sim: Sim) -> str:
     if not signals:
         raise ValueError(f"{sim.level}: the level has no signalised junction to control")
     return signals[0]["junction"]
-
-
-def _signal_parallel_base() -> type:
-    from pettingzoo import ParallelEnv
-
-    return ParallelEnv
-
-
-class SignalParallelEnv(_signal_parallel_base()):  # type: ignore[misc]
-    """Every signalised junction of ``level`` is an agent (named after the junction), all
-    choosing their next green phase at once every ``delta_time_s``: the PettingZoo twin of
-    ``flockway/SignalControl-v0``, with the same keywords (``junctions`` limits the agents to
-    those named). Each agent observes and is rewarded as that environment's agent; all are
-    truncated together after ``episode_s``."""
-
-    metadata = {"render_modes": ["rgb_array"], "name": "flockway_signal_parallel_v0",
-                "render_fps": 2}
-    render_size = (640, 480)
-
-    def __init__(
-        self,
-        level: str = "signal_grid",
-        junctions: list[str] | None = None,
-        delta_time_s: float = 5.0,
-        yellow_time_s: float = 3.0,
-        all_red_s: float = 2.0,
-        min_green_s: float = 10.0,
-        warmup_s: float = 60.0,
-        episode_s: float = 600.0,
-        reward: str | Callable[[Junction, Sim], float] = "diff-waiting-time",
-        fixed_time: bool = False,
-        overrides: dict[str, float] | None = None,
-        telemetry: str | os.PathLike[str] | None = None,
-        render_mode: str | None = None,
-        render_size: tuple[int, int] | None = None,
-    ) -> None:
-        check_render_mode(render_mode, self.metadata)
-        if render_size is not None:
-            self.render_size = render_size_of(render_size)
-        # One single-junction environment checks the keywords and gives the spaces.
-        probe = SignalControlEnv(level=level, delta_time_s=delta_time_s,
-                                 yellow_time_s=yellow_time_s, all_red_s=all_red_s,
-                                 min_green_s=min_green_s, warmup_s=warmup_s,
-                                 episode_s=episode_s, reward=reward, overrides=overrides)
-        self.level = level
-        self.delta_ticks = probe.delta_ticks
-        self.yellow_time_s, self.min_green_s = probe.yellow_time_s, probe.min_green_s
-        self.all_red_s = probe.all_red_s
-        self.warmup_s, self.episode_s = probe.warmup_s, probe.episode_s
-        self.reward_spec = reward
-        self.fixed_time = bool(fixed_time)
-        self.overrides = dict(overrides or {})
-        self.telemetry = telemetry
-        self.render_mode = render_mode
-        sim = Sim(level, overrides=self.overrides, csv=False)
-        names = [s["junction"] for s in sim.signals()]
-        if junctions is not None:
-            unknown = [j for j in junctions if j not in names]
-            if unknown:
-                raise ValueError(f"{level}: no signalised junction {unknown[0]!r}; the "
-                                 f"signalised junctions are: {', '.join(names) or 'none'}")
-            names = [n for n in names if n in junctions]
-        if not names:
-            raise ValueError(f"{level}: the level has no signalised junction to control")
-        self.possible_agents = list(names)
-        self._spaces = {}
-        for n in names:
-            j = Junction(sim, n, min_green_s, yellow_time_s, reward, all_red_s)
-            self._spaces[n] = (
-                spaces.Box(0.0, 1.0, shape=(j.observation_size,), dtype=np.float32),
-                spaces.Discrete(len(j.greens)),
-            )
-        self.agents: list[str] = []
-        self.sim: Sim | None = None
-        self.controlled: dict[str, Junction] = {}
-        self._steps = 0
-
-    def observation_space(self, agent: str) -> spaces.Box:
-        return self._spaces[agent][0]
-
-    def action_space(self, agent: str) -> spaces.Discrete:
-        return self._spaces[agent][1]
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
-        rng = np.random.default_rng(seed)
-        sim_seed = int(rng.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
-                       csv=self.telemetry if self.telemetry is not None else False)
-        if self.warmup_s > 0:
-            self.sim.run(self.warmup_s)
-        self.controlled = {
-            n: Junction(self.sim, n, self.min_green_s, self.yellow_time_s, self.reward_spec,
-                        self.all_red_s)
-            for n in self.possible_agents
-        }
-        if not self.fixed_time:
-            for j in self.controlled.values():
-                j.start(self.sim)
-        self.agents = list(self.possible_agents)
-        self._steps = 0
-        lanes = self.sim.junctions()
-        obs = {a: self.controlled[a].observe(self.sim, lanes) for a in self.agents}
-        infos = {a: {"seed": sim_seed, **system_measures(lanes)} for a in self.agents}
-        return obs, infos
-
-    def step(self, actions: dict[str, Any]):
-        if self.sim is None:
-            raise RuntimeError("call reset() before step()")
-        if not self.fixed_time:
-            for a in self.agents:
-                if a in actions:
-                    self.controlled[a].act(self.sim, int(np.asarray(actions[a]).reshape(-1)[0]))
-        self.sim.step(self.delta_ticks)
-        self._steps += 1
-        lanes = self.sim.junctions()
-        counts = lane_counts(self.sim) if self.reward_spec == "pressure" else None
-        done = self._steps * self.delta_ticks / 120 >= self.episode_s - 1e-9
-        system = system_measures(lanes)
-        obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
-        for a in self.agents:
-            j = self.controlled[a]
-            obs[a] = j.observe(self.sim, lanes)
-            rewards[a] = j.reward(self.sim, lanes, counts)
-            terms[a] = False
-            truncs[a] = done
-            infos[a] = {"time_s": self.sim.time_s, **system}
-        if done:
-            self.agents = []
-        return obs, rewards, terms, truncs, infos
-
-    def render(self) -> np.ndarray | None:
-        """With ``render_mode="rgb_array"``: the whole level now, top down."""
-        if self.render_mode is None:
-            return None
-        if self.sim is None:
-            raise RuntimeError("call reset() before render()")
-        w, h = self.render_size
-        return self.sim.render(w, h, "top")
