@@ -51,8 +51,10 @@ use Outcome::{Imports, Refused, Runs};
 const NETWORKS: [(&str, Outcome); 28] = [
     (
         "game/A10KW/osm.net.xml",
+        // 17 before drivers at the line waited for a foe off its path's centre; that rule has
+        // one more here and five fewer on signal_grid.ron's wave-damping runs (seeds 1, 4).
         Runs {
-            most_contacts: 17.0,
+            most_contacts: 18.0,
         },
     ),
     ("game/DRT/osm.net.xml", Runs { most_contacts: 2.0 }),
