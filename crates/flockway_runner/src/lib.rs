@@ -6,7 +6,8 @@
 //!
 //! Modules: `assets` (where a level's vehicle and driver files are, loaded), `world` (a level
 //! turned into a world), `runner` (stepping and streamed telemetry), `summary` (the metrics and
-//! the expectations at the end), [`batch`].
+//! the expectations at the end), [`batch`], `session` (a run stepped from outside), `approach`
+//! (signals and junction lanes read and set between steps), `routes` (routes set from outside).
 
 mod approach;
 mod assets;
