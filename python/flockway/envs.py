@@ -58,6 +58,10 @@ def observation_space() -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
+#: The default observation's space, under a name the environments' keyword does not hide.
+_default_observation_space = observation_space
+
+
 def action_space() -> spaces.Box:
     """An agent's action: a target acceleration as a share of the task's ``max_accel``."""
     return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
@@ -136,6 +140,49 @@ def render_frame(sim: Sim, around: int | None, size: tuple[int, int],
     return sim.render(w, h, "top", region)
 
 
+#: Level-v0's observation types (or a callable, with ``observation_space``).
+OBSERVATIONS = ("default", "kinematics")
+#: Level-v0's action types.
+ACTIONS = ("acceleration", "continuous", "discrete")
+#: The discrete action type's meta-actions, in index order (as highway-env's).
+META_ACTIONS = ("lane_left", "idle", "lane_right", "faster", "slower")
+#: A ``kinematics`` row's entries.
+KINEMATICS = ("presence", "x", "y", "vx", "vy")
+#: Distances and speeds of a ``kinematics`` observation are shares of these (then clipped to
+#: -1..1), m and m/s.
+KINEMATICS_RANGE_M = 100.0
+KINEMATICS_SPEED_MPS = 40.0
+
+
+def kinematics(sim: Sim, vehicle: int, count: int) -> np.ndarray:
+    """The ``count`` rows of a ``kinematics`` observation: the agent's own (presence 1, at the
+    origin, its speed along x), then its ``count - 1`` nearest vehicles', nearest first (ties by
+    id), each relative to the agent in its frame (x ahead, y to its left), normalised by
+    :data:`KINEMATICS_RANGE_M` and :data:`KINEMATICS_SPEED_MPS` and clipped; rows for vehicles
+    that are not there are zeros."""
+    out = np.zeros((count, len(KINEMATICS)), dtype=np.float32)
+    v = sim.vehicles()
+    at = np.flatnonzero(v["id"] == vehicle)
+    if len(at) == 0:
+        return out
+    k = at[0]
+    h = v["heading_rad"][k]
+    c, s = np.cos(-h), np.sin(-h)
+    vx = v["speed_mps"] * np.cos(v["heading_rad"])
+    vy = v["speed_mps"] * np.sin(v["heading_rad"])
+    dx, dy = v["x_m"] - v["x_m"][k], v["y_m"] - v["y_m"][k]
+    dvx, dvy = vx - vx[k], vy - vy[k]
+    rows = np.stack([np.ones_like(dx), c * dx - s * dy, s * dx + c * dy,
+                     c * dvx - s * dvy, s * dvx + c * dvy], axis=1)
+    rows[:, 1:3] /= KINEMATICS_RANGE_M
+    rows[:, 3:5] /= KINEMATICS_SPEED_MPS
+    out[0] = [1.0, 0.0, 0.0, v["speed_mps"][k] / KINEMATICS_SPEED_MPS, 0.0]
+    others = [i for i in np.lexsort((v["id"], np.hypot(dx, dy))) if i != k][: count - 1]
+    if others:
+        out[1:1 + len(others)] = rows[others]
+    return np.clip(out, -1.0, 1.0)
+
+
 class LevelEnv(gym.Env):
     """One vehicle of ``level`` — the lowest-numbered one of driver profile ``profile`` — driven
     by the agent; everything else by the level's drivers.
@@ -179,9 +226,18 @@ class LevelEnv(gym.Env):
         render_size: tuple[int, int] | None = None,
         render_width_m: float | None | object = DEFAULT,
         telemetry: str | os.PathLike[str] | None = None,
+        observation: str | Any = "default",
+        observation_space: spaces.Space | None = None,
+        vehicles_count: int = 5,
+        action: str = "acceleration",
+        speed_step_mps: float = 2.5,
         **task: float,
     ) -> None:
-        """``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
+        """``observation`` is ``"default"``, ``"kinematics"`` (``vehicles_count`` rows, see
+        :func:`kinematics`) or a callable ``f(sim, vehicle) -> array`` with its
+        ``observation_space``; ``action`` is ``"acceleration"``, ``"continuous"`` (throttle and
+        steering as :meth:`Sim.set_controls`) or ``"discrete"`` (:data:`META_ACTIONS`, the
+        target speed moved by ``speed_step_mps``). ``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
         ``accel_penalty``, ``collision_penalty``. ``render_mode="rgb_array"`` makes
         :meth:`render` return the scene around the agent as RGB bytes, ``render_size``
         ``(width, height)`` pixels, ``render_width_m`` of ground across (``None``: the whole
@@ -206,8 +262,33 @@ class LevelEnv(gym.Env):
         self.task = Task(**task)
         self.overrides = dict(overrides or {})
         self.render_mode = render_mode
-        self.action_space = action_space()
-        self.observation_space = observation_space()
+        if not (callable(observation) or observation in OBSERVATIONS):
+            raise ValueError(f"observation {observation!r}: expected one of "
+                             f"{', '.join(OBSERVATIONS)} or a callable f(sim, vehicle)")
+        if callable(observation) and observation_space is None:
+            raise ValueError("a callable observation needs its observation_space")
+        if action not in ACTIONS:
+            raise ValueError(f"action {action!r}: expected one of {', '.join(ACTIONS)}")
+        if int(vehicles_count) < 1:
+            raise ValueError(f"vehicles_count={vehicles_count!r}: expected 1 or more")
+        self.observation_type = observation
+        self.vehicles_count = int(vehicles_count)
+        self.action_type = action
+        self.speed_step_mps = float(speed_step_mps)
+        if action == "acceleration":
+            self.action_space = action_space()
+        elif action == "continuous":
+            self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        else:
+            self.action_space = spaces.Discrete(len(META_ACTIONS))
+        if callable(observation):
+            self.observation_space = observation_space
+        elif observation == "kinematics":
+            self.observation_space = spaces.Box(
+                -1.0, 1.0, shape=(self.vehicles_count, len(KINEMATICS)), dtype=np.float32)
+        else:
+            self.observation_space = _default_observation_space()
+        self._target_mps = 0.0
         self.sim: Sim | None = None
         self.agent: int | None = None
         self._steps = 0
@@ -215,9 +296,52 @@ class LevelEnv(gym.Env):
 
     def _observe(self) -> tuple[np.ndarray, float, bool]:
         obs, mean = self.task.observe(self.sim, [self.agent])
-        if self.agent not in obs:
+        present = self.agent in obs
+        if self.observation_type == "kinematics":
+            return kinematics(self.sim, self.agent, self.vehicles_count), mean, present
+        if callable(self.observation_type):
+            return np.asarray(self.observation_type(self.sim, self.agent)), mean, present
+        if not present:
             return np.array([0.0, MAX_GAP_M, 0.0, mean], dtype=np.float32), mean, False
         return obs[self.agent], mean, True
+
+    def _speed(self) -> tuple[float, int]:
+        """The agent's speed, m/s, and lane (0 and 0 once it has gone)."""
+        v = self.sim.vehicles()
+        at = np.flatnonzero(v["id"] == self.agent)
+        if len(at) == 0:
+            return 0.0, 0
+        return float(v["speed_mps"][at[0]]), int(v["lane"][at[0]])
+
+    def _act(self, action: Any) -> float:
+        """Applies ``action`` for a period; the acceleration the reward's penalty takes."""
+        if self.action_type == "acceleration":
+            a = self.task.accel(action)
+            self.task.drive(self.sim, {self.agent: a})
+            return a
+        before, lane = self._speed()
+        dt = self.task.period_ticks * DT_S
+        present = self.agent in set(self.sim.vehicles()["id"].tolist())
+        if self.action_type == "continuous":
+            throttle, steering = np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[:2],
+                                         -1.0, 1.0)
+            if present:
+                self.sim.set_controls([self.agent], throttle, steering)
+        else:
+            meta = META_ACTIONS[int(np.asarray(action).reshape(-1)[0])]
+            if meta == "faster":
+                self._target_mps = min(self._target_mps + self.speed_step_mps, 40.0)
+            elif meta == "slower":
+                self._target_mps = max(self._target_mps - self.speed_step_mps, 0.0)
+            want = lane + {"lane_left": 1, "lane_right": -1}.get(meta, 0)
+            if present:
+                try:
+                    self.sim.set_target([self.agent], self._target_mps, [max(want, 0)])
+                except ValueError:  # no lane there: keep its own
+                    self.sim.set_target([self.agent], self._target_mps, [-1])
+        self.sim.step(self.task.period_ticks)
+        after, _ = self._speed()
+        return (after - before) / dt
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -249,6 +373,7 @@ class LevelEnv(gym.Env):
             self.agent = self._newest_on_road()
         self._steps = 0
         self._collisions = self.sim.collisions
+        self._target_mps = self._speed()[0]
         obs, _, _ = self._observe()
         return obs, {"time_s": self.sim.time_s, "vehicle": self.agent, "seed": sim_seed}
 
@@ -269,8 +394,7 @@ class LevelEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
-        a = self.task.accel(action)
-        self.task.drive(self.sim, {self.agent: a})
+        a = self._act(action)
         self._steps += 1
         obs, mean, present = self._observe()
         collisions = self.sim.collisions

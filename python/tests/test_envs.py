@@ -130,3 +130,67 @@ def test_on_a_level_that_starts_empty_the_agent_is_the_first_car_spawned_after_t
 
     with pytest.raises(ValueError, match="no spawner `up`; its spawners are: west, east, south, north"):
         gym.make("flockway/Level-v0", level="crossroads_signal", agent_spawner="up")
+
+
+@pytest.mark.parametrize("action", ["acceleration", "continuous", "discrete"])
+@pytest.mark.parametrize("observation", ["default", "kinematics"])
+def test_each_observation_and_action_type_passes_check_env(observation: str, action: str) -> None:
+    env = gym.make("flockway/Level-v0", level="on_ramp", profile="autonomous", warmup_s=10.0,
+                   episode_s=3.0, observation=observation, action=action, vehicles_count=4)
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, _ = env.reset(seed=2)
+    assert env.observation_space.contains(obs)
+    if observation == "kinematics":
+        assert obs.shape == (4, 5) and obs[0, 0] == 1.0 and obs[0, 1] == 0.0
+        assert obs[1:, 0].sum() == 3.0, "three neighbours on the motorway"
+        dist = np.hypot(obs[1:, 1], obs[1:, 2])
+        assert np.all(np.diff(dist) >= 0), "nearest first"
+
+
+def test_discrete_meta_actions_change_lane_and_speed() -> None:
+    env = gym.make("flockway/Level-v0", level="dense_road", profile="autonomous",
+                   warmup_s=5.0, episode_s=60.0, action="discrete")
+    env.reset(seed=1)
+    u = env.unwrapped
+    v = u.sim.vehicles()
+    road = str(v["road"][v["id"] == u.agent][0])
+    lanes = next(r["lanes"] for r in flockway.Level("dense_road").to_dict()["roads"]
+                 if r["name"] == road)
+    start_speed, lane0 = u._speed()
+    assert lanes >= 2
+    # Away from the edge it is at, then back.
+    first, back = (2, 0) if lane0 == lanes - 1 else (0, 2)
+    for _ in range(60):
+        env.step(first)
+    lane1 = u._speed()[1]
+    assert lane1 != lane0 and abs(lane1 - lane0) >= 1
+    for _ in range(60):
+        env.step(back)
+    assert (u._speed()[1] - lane1) * (lane0 - lane1) > 0, "back towards where it was"
+    target = u._target_mps
+    for _ in range(5):
+        env.step(3)  # faster
+    assert u._target_mps == pytest.approx(min(target + 12.5, 40.0))
+    for _ in range(100):
+        env.step(4)  # slower
+    assert u._target_mps == 0.0
+    assert u._speed()[0] < 0.5, "it stops when its target is 0"
+
+
+def test_a_custom_observation_and_bad_types() -> None:
+    from gymnasium import spaces
+
+    def mine(sim, vehicle):
+        return np.array([sim.time_s], dtype=np.float32)
+
+    box = spaces.Box(0.0, 1e6, shape=(1,), dtype=np.float32)
+    env = gym.make("flockway/Level-v0", level="stern_ring", warmup_s=1.0, episode_s=1.0,
+                   observation=mine, observation_space=box)
+    obs, _ = env.reset(seed=0)
+    assert obs[0] == 1.0, "the warm-up's end"
+    with pytest.raises(ValueError, match="observation 'pixels'"):
+        gym.make("flockway/Level-v0", observation="pixels")
+    with pytest.raises(ValueError, match="needs its observation_space"):
+        gym.make("flockway/Level-v0", observation=mine)
+    with pytest.raises(ValueError, match="action 'steer'"):
+        gym.make("flockway/Level-v0", action="steer")
