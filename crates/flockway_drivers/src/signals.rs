@@ -103,9 +103,10 @@ pub enum SignalError {
 impl SignalController {
     fn new(junction: &str, program: &SignalProgram, connections: usize) -> SignalController {
         let phase_states = program.states(connections);
-        let states = phase_states
-            .first()
-            .cloned()
+        // What the plan shows at time 0 (its offset may start it in any phase).
+        let states = program
+            .phase_at(0.0)
+            .and_then(|(i, _)| phase_states.get(i).cloned())
             .unwrap_or_else(|| vec![SignalState::Red; connections]);
         SignalController {
             junction: junction.to_owned(),
@@ -460,9 +461,19 @@ mod tests {
     }
 
     fn controller() -> SignalController {
-        let mut c = SignalController::new("j", &program(), 4);
-        c.update(0.0);
+        let c = SignalController::new("j", &program(), 4);
+        // Before any update it shows what the plan shows at 0 (offset 5 s: still phase 0).
+        assert_eq!(c.state_string(), "GGrr");
         c
+    }
+
+    #[test]
+    fn before_the_first_tick_it_shows_the_phase_its_offset_starts_in() {
+        let mut p = program();
+        p.offset_s = 21.0; // 1 s into the first amber
+        let c = SignalController::new("j", &p, 4);
+        assert_eq!(c.state_string(), "yyrr");
+        assert_eq!(c.phase(0.0).map(|(i, _)| i), Some(1));
     }
 
     #[test]

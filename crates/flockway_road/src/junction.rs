@@ -844,12 +844,6 @@ impl Junction {
         }
     }
 
-    /// The program's phases read once: each phase's state per connection. Empty without a
-    /// signal.
-    pub fn phase_states(&self) -> &[Vec<SignalState>] {
-        &self.phase_states
-    }
-
     /// The signal states at time `t_s`, one per connection; `None` without a signal.
     pub fn signal_at(&self, t_s: f64) -> Option<Vec<SignalState>> {
         let program = self.spec.signal.as_ref()?;
@@ -857,18 +851,6 @@ impl Junction {
             Some((i, _)) => self.phase_states[i].clone(),
             None => vec![SignalState::Red; self.paths.len()],
         })
-    }
-
-    /// What connection `k` is shown at time `t_s` (red for a connection the program has no
-    /// letter for); `None` without a signal.
-    pub fn signal_state(&self, t_s: f64, k: usize) -> Option<SignalState> {
-        let program = self.spec.signal.as_ref()?;
-        Some(
-            program
-                .phase_at(t_s)
-                .and_then(|(i, _)| self.phase_states[i].get(k).copied())
-                .unwrap_or(SignalState::Red),
-        )
     }
 }
 
