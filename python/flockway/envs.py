@@ -129,6 +129,28 @@ def check_render_mode(render_mode: str | None, metadata: dict[str, Any]) -> None
         )
 
 
+def episode_sim(level: Any, seed: int, overrides: dict[str, float],
+                telemetry: str | os.PathLike[str] | None, warmup_s: float) -> Sim:
+    """An episode's simulation: ``level`` on ``seed`` with ``overrides``, its telemetry to
+    ``telemetry`` (none without it), run through ``warmup_s`` under the level's own drivers and
+    signals."""
+    sim = Sim(level, seed=seed, overrides=overrides,
+              csv=telemetry if telemetry is not None else False)
+    if warmup_s > 0:
+        sim.run(warmup_s)
+    return sim
+
+
+def whole_level_frame(env: Any) -> np.ndarray | None:
+    """An environment's ``render()`` of the whole level: its ``sim`` now, top down,
+    ``render_size`` pixels, with ``render_mode="rgb_array"``; ``None`` without a render mode."""
+    if env.render_mode is None:
+        return None
+    if env.sim is None:
+        raise RuntimeError("call reset() before render()")
+    return render_frame(env.sim, None, env.render_size, None)
+
+
 def render_frame(sim: Sim, around: int | None, size: tuple[int, int],
                  width_m: float | None) -> np.ndarray:
     """A top-down frame of ``size`` pixels: ``width_m`` of ground centred on vehicle

@@ -11,8 +11,16 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from .envs import Task, action_space, check_render_mode, observation_space, render_size_of
-from .signals import Junction, SignalControlEnv, lane_counts, system_measures
+from .envs import (
+    Task,
+    action_space,
+    check_render_mode,
+    episode_sim,
+    observation_space,
+    render_size_of,
+    whole_level_frame,
+)
+from .signals import Junction, Timing, check_reward, lane_counts, system_measures
 from .sim import DT_S, Sim
 
 
@@ -104,12 +112,9 @@ class LevelParallelEnv(ParallelEnv):
         return obs, mean, set(obs)
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
-        rng = np.random.default_rng(seed)
-        sim_seed = int(rng.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
-                       csv=self.telemetry if self.telemetry is not None else False)
-        if self.warmup_s > 0:
-            self.sim.run(self.warmup_s)
+        sim_seed = int(np.random.default_rng(seed).integers(0, 2**31 - 1))
+        self.sim = episode_sim(self.level, sim_seed, self.overrides, self.telemetry,
+                               self.warmup_s)
         self._steps = 0
         self._collisions = self.sim.collisions
         self._seen = set()
@@ -162,12 +167,7 @@ class LevelParallelEnv(ParallelEnv):
     def render(self) -> np.ndarray | None:
         """With ``render_mode="rgb_array"``: the whole level now, top down, ``render_size``
         pixels; ``None`` without a render mode."""
-        if self.render_mode is None:
-            return None
-        if self.sim is None:
-            raise RuntimeError("call reset() before render()")
-        w, h = self.render_size
-        return self.sim.render(w, h, "top")
+        return whole_level_frame(self)
 
 
 def most_spawned(level: Any, seconds: float) -> int:
@@ -224,16 +224,10 @@ class SignalParallelEnv(ParallelEnv):
         check_render_mode(render_mode, self.metadata)
         if render_size is not None:
             self.render_size = render_size_of(render_size)
-        # One single-junction environment checks the keywords and gives the spaces.
-        probe = SignalControlEnv(level=level, delta_time_s=delta_time_s,
-                                 yellow_time_s=yellow_time_s, all_red_s=all_red_s,
-                                 min_green_s=min_green_s, warmup_s=warmup_s,
-                                 episode_s=episode_s, reward=reward, overrides=overrides)
+        self.timing = Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s, warmup_s,
+                             episode_s)
+        check_reward(reward)
         self.level = level
-        self.delta_ticks = probe.delta_ticks
-        self.yellow_time_s, self.min_green_s = probe.yellow_time_s, probe.min_green_s
-        self.all_red_s = probe.all_red_s
-        self.warmup_s, self.episode_s = probe.warmup_s, probe.episode_s
         self.reward_spec = reward
         self.fixed_time = bool(fixed_time)
         self.overrides = dict(overrides or {})
@@ -252,7 +246,7 @@ class SignalParallelEnv(ParallelEnv):
         self.possible_agents = list(names)
         self._spaces = {}
         for n in names:
-            j = Junction(sim, n, min_green_s, yellow_time_s, reward, all_red_s)
+            j = self.timing.junction(sim, n, reward)
             self._spaces[n] = (
                 spaces.Box(0.0, 1.0, shape=(j.observation_size,), dtype=np.float32),
                 spaces.Discrete(len(j.greens)),
@@ -269,16 +263,11 @@ class SignalParallelEnv(ParallelEnv):
         return self._spaces[agent][1]
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
-        rng = np.random.default_rng(seed)
-        sim_seed = int(rng.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
-                       csv=self.telemetry if self.telemetry is not None else False)
-        if self.warmup_s > 0:
-            self.sim.run(self.warmup_s)
+        sim_seed = int(np.random.default_rng(seed).integers(0, 2**31 - 1))
+        self.sim = episode_sim(self.level, sim_seed, self.overrides, self.telemetry,
+                               self.timing.warmup_s)
         self.controlled = {
-            n: Junction(self.sim, n, self.min_green_s, self.yellow_time_s, self.reward_spec,
-                        self.all_red_s)
-            for n in self.possible_agents
+            n: self.timing.junction(self.sim, n, self.reward_spec) for n in self.possible_agents
         }
         if not self.fixed_time:
             for j in self.controlled.values():
@@ -297,11 +286,11 @@ class SignalParallelEnv(ParallelEnv):
             for a in self.agents:
                 if a in actions:
                     self.controlled[a].act(self.sim, int(np.asarray(actions[a]).reshape(-1)[0]))
-        self.sim.step(self.delta_ticks)
+        self.sim.step(self.timing.delta_ticks)
         self._steps += 1
         lanes = self.sim.junctions()
         counts = lane_counts(self.sim) if self.reward_spec == "pressure" else None
-        done = self._steps * self.delta_ticks / 120 >= self.episode_s - 1e-9
+        done = self.timing.done(self._steps)
         system = system_measures(lanes)
         obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
         for a in self.agents:
@@ -317,12 +306,7 @@ class SignalParallelEnv(ParallelEnv):
 
     def render(self) -> np.ndarray | None:
         """With ``render_mode="rgb_array"``: the whole level now, top down."""
-        if self.render_mode is None:
-            return None
-        if self.sim is None:
-            raise RuntimeError("call reset() before render()")
-        w, h = self.render_size
-        return self.sim.render(w, h, "top")
+        return whole_level_frame(self)
 
 
 def signal_parallel_env(**kwargs: Any) -> SignalParallelEnv:

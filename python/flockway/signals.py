@@ -13,14 +13,15 @@ program running, for comparison. This module needs gymnasium only; the PettingZo
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .envs import check_render_mode, render_size_of
-from .sim import Sim
+from .envs import check_render_mode, episode_sim, render_size_of, whole_level_frame
+from .sim import DT_S, Sim
 
 #: A vehicle takes this much of a lane, m (length and standstill gap): the jam density that
 #: scales the observed densities and queues to 0..1, as sumo-rl's.
@@ -62,9 +63,7 @@ class Junction:
             names = [s["junction"] for s in sim.signals()]
             raise ValueError(f"{sim.level}: no signalised junction `{name}`; the signalised "
                              f"junctions are: {', '.join(names) or 'none'}")
-        if not (callable(reward) or reward in REWARDS):
-            raise ValueError(f"reward {reward!r}: expected one of {', '.join(REWARDS)} or a "
-                             "callable f(junction, sim) -> float")
+        check_reward(reward)
         self.name = name
         self.greens = green_phases(sig["phases"])
         if not self.greens:
@@ -172,6 +171,48 @@ def max_pressure(junction: Junction, sim: Sim,
     return best
 
 
+@dataclass(frozen=True)
+class Timing:
+    """How a controlled junction's decisions are timed, s (checked: all from 0, the decision
+    interval and the episode above 0)."""
+
+    delta_time_s: float = 5.0
+    yellow_time_s: float = 3.0
+    all_red_s: float = 2.0
+    min_green_s: float = 10.0
+    warmup_s: float = 60.0
+    episode_s: float = 600.0
+
+    def __post_init__(self) -> None:
+        for key, value in vars(self).items():
+            if not (float(value) >= 0.0 and np.isfinite(value)):
+                raise ValueError(f"{key}={value!r}: expected seconds from 0")
+        if self.delta_time_s <= 0 or self.episode_s <= 0:
+            raise ValueError("delta_time_s and episode_s must be above 0")
+
+    @property
+    def delta_ticks(self) -> int:
+        """Simulation steps between decisions."""
+        return max(1, round(self.delta_time_s / DT_S))
+
+    def junction(self, sim: Sim, name: str,
+                 reward: str | Callable[[Junction, Sim], float]) -> Junction:
+        """Junction ``name`` of ``sim`` under an agent with these timings."""
+        return Junction(sim, name, self.min_green_s, self.yellow_time_s, reward,
+                        self.all_red_s)
+
+    def done(self, decisions: int) -> bool:
+        """Whether ``decisions`` decisions fill the episode."""
+        return decisions * self.delta_ticks * DT_S >= self.episode_s - 1e-9
+
+
+def check_reward(reward: Any) -> None:
+    """Refuses a reward that is neither a name in :data:`REWARDS` nor a callable."""
+    if not (callable(reward) or reward in REWARDS):
+        raise ValueError(f"reward {reward!r}: expected one of {', '.join(REWARDS)} or a "
+                         "callable f(junction, sim) -> float")
+
+
 class SignalControlEnv(gym.Env):
     """``flockway/SignalControl-v0``: one signalised junction of ``level`` driven by the agent
     (the first one, or ``junction``); the others keep their programs.
@@ -210,25 +251,10 @@ class SignalControlEnv(gym.Env):
         check_render_mode(render_mode, self.metadata)
         if render_size is not None:
             self.render_size = render_size_of(render_size)
-        timings = {"delta_time_s": delta_time_s, "yellow_time_s": yellow_time_s,
-                   "all_red_s": all_red_s, "min_green_s": min_green_s, "warmup_s": warmup_s,
-                   "episode_s": episode_s}
-        for key, value in timings.items():
-            if not (float(value) >= 0.0 and np.isfinite(value)):
-                raise ValueError(f"{key}={value!r}: expected seconds from 0")
-        if delta_time_s <= 0 or episode_s <= 0:
-            raise ValueError("delta_time_s and episode_s must be above 0")
-        if not (callable(reward) or reward in REWARDS):
-            raise ValueError(f"reward {reward!r}: expected one of {', '.join(REWARDS)} or a "
-                             "callable f(junction, sim) -> float")
+        self.timing = Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s, warmup_s,
+                             episode_s)
+        check_reward(reward)
         self.level = level
-        self.junction_name = junction
-        self.delta_ticks = max(1, round(delta_time_s * 120))
-        self.yellow_time_s = float(yellow_time_s)
-        self.all_red_s = float(all_red_s)
-        self.min_green_s = float(min_green_s)
-        self.warmup_s = float(warmup_s)
-        self.episode_s = float(episode_s)
         self.reward_spec = reward
         self.fixed_time = bool(fixed_time)
         self.overrides = dict(overrides or {})
@@ -236,9 +262,8 @@ class SignalControlEnv(gym.Env):
         self.render_mode = render_mode
         # The spaces come from the junction: read them off a first look at the level.
         probe = Sim(level, overrides=self.overrides, csv=False)
-        name = junction if junction is not None else _first_signal(probe)
-        j = Junction(probe, name, min_green_s, yellow_time_s, reward, all_red_s)
-        self.junction_name = name
+        self.junction_name = junction if junction is not None else _first_signal(probe)
+        j = self.timing.junction(probe, self.junction_name, reward)
         self.action_space = spaces.Discrete(len(j.greens))
         self.observation_space = spaces.Box(0.0, 1.0, shape=(j.observation_size,),
                                             dtype=np.float32)
@@ -250,12 +275,9 @@ class SignalControlEnv(gym.Env):
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         sim_seed = int(self.np_random.integers(0, 2**31 - 1))
-        self.sim = Sim(self.level, seed=sim_seed, overrides=self.overrides,
-                       csv=self.telemetry if self.telemetry is not None else False)
-        if self.warmup_s > 0:
-            self.sim.run(self.warmup_s)
-        self.junction = Junction(self.sim, self.junction_name, self.min_green_s,
-                                 self.yellow_time_s, self.reward_spec, self.all_red_s)
+        self.sim = episode_sim(self.level, sim_seed, self.overrides, self.telemetry,
+                               self.timing.warmup_s)
+        self.junction = self.timing.junction(self.sim, self.junction_name, self.reward_spec)
         if not self.fixed_time:
             self.junction.start(self.sim)
         self._steps = 0
@@ -269,12 +291,12 @@ class SignalControlEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         if not self.fixed_time:
             self.junction.act(self.sim, int(np.asarray(action).reshape(-1)[0]))
-        self.sim.step(self.delta_ticks)
+        self.sim.step(self.timing.delta_ticks)
         self._steps += 1
         lanes = self.sim.junctions()
         obs = self.junction.observe(self.sim, lanes)
         reward = self.junction.reward(self.sim, lanes)
-        truncated = self._steps * self.delta_ticks / 120 >= self.episode_s - 1e-9
+        truncated = self.timing.done(self._steps)
         return obs, reward, False, bool(truncated), self._info(lanes)
 
     def _info(self, lanes: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -288,12 +310,7 @@ class SignalControlEnv(gym.Env):
 
     def render(self) -> np.ndarray | None:
         """With ``render_mode="rgb_array"``: the whole level now, top down."""
-        if self.render_mode is None:
-            return None
-        if self.sim is None:
-            raise RuntimeError("call reset() before render()")
-        w, h = self.render_size
-        return self.sim.render(w, h, "top")
+        return whole_level_frame(self)
 
 
 def system_measures(lanes: dict[str, np.ndarray]) -> dict[str, float]:

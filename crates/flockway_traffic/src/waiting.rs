@@ -15,7 +15,8 @@ pub const HALTING_MPS: f32 = 0.1;
 /// Per vehicle, its waiting on the road it is on; per lane, the delay of every vehicle on it.
 #[derive(Resource, Debug, Clone, Default, PartialEq)]
 pub struct WaitingTimes {
-    /// Per vehicle: the road it is on and how long it has halted there, s.
+    /// Per vehicle: the road it is on and how long it has halted there, s. Only ever looked
+    /// up by entity and replaced whole, never iterated, so its hash order cannot reach a result.
     vehicles: HashMap<Entity, (RoadId, f64)>,
     /// Per road and lane: the time lost on it by every vehicle so far, s (driving below the
     /// speed limit counts its shortfall's share of each step).
