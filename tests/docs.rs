@@ -37,6 +37,12 @@ fn the_signals_table_lists_the_signals_csv_columns_in_order() {
 }
 
 #[test]
+fn the_detectors_table_lists_the_detectors_csv_columns_in_order() {
+    let keys = table_keys(&read("docs/cli.md"), "## The detectors CSV");
+    assert_eq!(keys, flockway::run::DETECTOR_COLUMNS);
+}
+
+#[test]
 fn the_conflicts_table_lists_the_conflicts_csv_columns_in_order() {
     let keys = table_keys(&read("docs/cli.md"), "## The conflicts CSV");
     assert_eq!(keys, flockway::run::CONFLICT_COLUMNS);

@@ -24,10 +24,20 @@ fn shipped_levels() -> Vec<PathBuf> {
     levels
 }
 
+/// The SHA-256 of `bytes`, in hex.
+fn sha256(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
 /// The golden record of one level: the run's length, its CSV digest and its summary without
 /// the wall-clock figures.
 fn record(level: &Path, dir: &Path) -> serde_json::Value {
     let csv = dir.join("run.csv");
+    // The directory is shared: no earlier level's detectors file may pass for this one's.
+    let _ = std::fs::remove_file(dir.join("run.detectors.csv"));
     let loaded = load_level(level).expect("the level loads");
     let name = level_name(&loaded, level);
     let seconds = loaded.telemetry.stats_from_s + MEASURED_S;
@@ -42,21 +52,24 @@ fn record(level: &Path, dir: &Path) -> serde_json::Value {
         .finish()
         .expect("the run finishes");
     let bytes = std::fs::read(&csv).expect("the csv");
-    let digest: String = Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
+    let digest = sha256(&bytes);
     let mut summary = serde_json::to_value(&summary).expect("json");
     if let Some(obj) = summary.as_object_mut() {
         obj.remove("wall_seconds");
         obj.remove("realtime_factor");
     }
-    serde_json::json!({
+    let mut record = serde_json::json!({
         "seconds": seconds,
         "csv_bytes": bytes.len(),
         "csv_sha256": digest,
         "summary": summary,
-    })
+    });
+    // A level with detectors: their CSV too (the run ends mid-period, so its last rows are the
+    // shorter period closed at the end).
+    if let Ok(detectors) = std::fs::read(dir.join("run.detectors.csv")) {
+        record["detectors_csv_sha256"] = serde_json::Value::String(sha256(&detectors));
+    }
+    record
 }
 
 #[test]

@@ -57,6 +57,7 @@ fn a_saved_level_keeps_every_optional_part() {
         destroyers: [(name: "out", place: OnRoad(road: "b", s_m: 100.0)), (name: "box", place: Volume(min: (0.0, 0.0, 0.0), max: (1.0, 1.0, 1.0)))],
         triggers: [(name: "fast", road: "b", from_m: 10.0, to_m: 20.0, lanes: [0], effect: SpeedLimit(kmh: 100.0)),
                    (name: "wet", road: "a", from_m: 10.0, to_m: 20.0, effect: Friction(scale: 0.6))],
+        detectors: [(name: "loop", road: "a", s_m: 50.0, lanes: [1], period_s: 30.0), (name: "all", road: "b", s_m: 5.0)],
         vehicles: [(road: "a", lane: 0, count: 3, profile: "auto", from_m: 10.0, to_m: 60.0, speed_kmh: 30.0, jitter_m: 1.0)],
         telemetry: (period_s: 0.25, stats_from_s: 5.0),
         expect: ["collisions == 0", "flow_veh_per_h.out >= 100", "road_length_m.a in 99..101"],

@@ -17,7 +17,9 @@ from .data import data_dir, level_path
 from .sim import Sim
 
 #: What :meth:`Level.set` accepts as ``item``: the kind of a named item.
-ITEM_KINDS = ("road", "junction", "spawner", "destroyer", "trigger", "profile", "vehicle_type")
+ITEM_KINDS = (
+    "road", "junction", "spawner", "destroyer", "trigger", "detector", "profile", "vehicle_type",
+)
 
 _TARGETS = {
     "road": "Road",
@@ -25,6 +27,7 @@ _TARGETS = {
     "spawner": "Spawner",
     "destroyer": "Destroyer",
     "trigger": "Trigger",
+    "detector": "Detector",
     "profile": "Profile",
     "vehicle_type": "VehicleType",
 }

@@ -285,6 +285,33 @@ class Sim:
             raise RuntimeError(f"{self.level} has no signals, so no {path.name} is written")
         return pd.read_csv(path, keep_default_na=False, na_values=[])
 
+    def detectors(self) -> dict[str, np.ndarray]:
+        """Every induction loop of the level now (a loop per lane a detector covers), in the
+        level's detector order, then lane order: ``detector`` and ``road`` (names), ``lane``,
+        ``s_m``, ``vehicles`` (over the point in the last step); the current period so far:
+        ``period_begin_s``, ``count`` (vehicles whose front passed), ``occupancy_pct`` (share
+        of the period a vehicle covered the point), ``mean_speed_kmh`` (of those that passed,
+        NaN with none); and the last closed period: ``last_count``, ``last_flow_veh_h``,
+        ``last_occupancy_pct``, ``last_mean_speed_kmh`` (0, 0, 0 and NaN before the first
+        period closes). Empty arrays for a level without detectors."""
+        raw = self._s.detectors()
+        out = {k: v for k, v in raw.items() if k not in ("detectors", "road_names", "detector", "road")}
+        out["detector"] = _names(raw["detectors"], raw["detector"])
+        out["road"] = _names(raw["road_names"], raw["road"])
+        return out
+
+    def detector_log(self, current: bool = False):
+        """Every detector period closed so far as a pandas DataFrame, a row per loop and
+        period: the columns of the detectors CSV written beside the telemetry
+        (``run.detectors.csv``), kept in memory too, so it works with ``csv=False``. With
+        ``current=True``, each loop's current period so far follows (its ``end_s`` is now). A
+        speed or length with no vehicle is NaN."""
+        import io
+
+        import pandas as pd
+
+        return pd.read_csv(io.StringIO(self._s.detector_log_csv(bool(current))))
+
     # -- results ---------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
         """The summary of the run so far: the JSON contract of ``flockway run --summary``."""

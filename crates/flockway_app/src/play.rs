@@ -400,11 +400,16 @@ impl PlaySession {
         }
     }
 
-    /// Copies the telemetry streamed so far (flushed at every sample) to `to`, and for a level
-    /// with signals the signals CSV beside it (`STEM.signals.csv`, as `flockway run` writes).
+    /// Copies the telemetry streamed so far (flushed at every sample) to `to`, for a level
+    /// with signals the signals CSV beside it (`STEM.signals.csv`, as `flockway run` writes)
+    /// and for a level with detectors their periods closed so far (`STEM.detectors.csv`).
     /// Returns whether there was a signals CSV.
     pub fn export_csv(&self, to: &Path) -> std::io::Result<bool> {
         std::fs::copy(&self.csv_path, to)?;
+        let detectors = flockway_runner::detectors_path(&self.csv_path);
+        if detectors.exists() {
+            std::fs::copy(&detectors, flockway_runner::detectors_path(to))?;
+        }
         let signals = flockway_runner::signals_path(&self.csv_path);
         if !signals.exists() {
             return Ok(false);

@@ -34,6 +34,9 @@ pub(crate) fn apply(level: &mut Level, command: &Command) -> Result<(), EditErro
         | Command::SetDestroyer(..)
         | Command::AddTrigger(_)
         | Command::SetTrigger(..)
+        | Command::AddDetector(_)
+        | Command::SetDetector(..)
+        | Command::DeleteDetector(_)
         | Command::MoveMarker { .. }
         | Command::DeleteMarker { .. } => markers(level, command),
         Command::AddPrefab { .. } | Command::SetJunction(..) | Command::DeleteJunction(_) => {
@@ -284,7 +287,7 @@ fn set_road(
     Ok(())
 }
 
-/// Spawners, destroyers and triggers.
+/// Spawners, destroyers, triggers and detectors.
 fn markers(level: &mut Level, command: &Command) -> Result<(), EditError> {
     match command {
         Command::AddSpawner(s) => level.spawners.push(s.clone()),
@@ -299,6 +302,12 @@ fn markers(level: &mut Level, command: &Command) -> Result<(), EditError> {
             }
         }
         Command::SetTrigger(i, t) => *item(&mut level.triggers, "trigger", *i)? = t.clone(),
+        Command::AddDetector(d) => level.detectors.push(d.clone()),
+        Command::SetDetector(i, d) => *item(&mut level.detectors, "detector", *i)? = d.clone(),
+        Command::DeleteDetector(i) => {
+            item(&mut level.detectors, "detector", *i)?;
+            level.detectors.remove(*i);
+        }
         Command::MoveMarker { kind, index, s_m } => {
             if !s_m.is_finite() || *s_m < 0.0 {
                 return Err(EditError::BadArc(*s_m));
@@ -547,6 +556,11 @@ fn set_field(
             let i = named(&level.triggers, |t| t.name.as_str(), target, name)?;
             let new = with_field(&level.triggers[i], target, path, value)?;
             markers(level, &Command::SetTrigger(i, new))
+        }
+        Target::Detector(name) => {
+            let i = named(&level.detectors, |d| d.name.as_str(), target, name)?;
+            let new = with_field(&level.detectors[i], target, path, value)?;
+            markers(level, &Command::SetDetector(i, new))
         }
         Target::Profile(name) => {
             let i = named(&level.driver_profiles, |p| p.name.as_str(), target, name)?;
@@ -914,6 +928,9 @@ mod tests {
             Command::SetDestroyer(..) => "SetDestroyer",
             Command::AddTrigger(_) => "AddTrigger",
             Command::SetTrigger(..) => "SetTrigger",
+            Command::AddDetector(_) => "AddDetector",
+            Command::SetDetector(..) => "SetDetector",
+            Command::DeleteDetector(_) => "DeleteDetector",
             Command::MoveMarker { .. } => "MoveMarker",
             Command::DeleteMarker { .. } => "DeleteMarker",
             Command::SetLevelInfo { .. } => "SetLevelInfo",
@@ -941,7 +958,8 @@ mod tests {
     #[test]
     fn every_kind_of_command_applies_and_undoes_to_the_exact_level_before_it() {
         use flockway_level::{
-            DestroyerSpec, InitialVehiclesSpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+            DestroyerSpec, DetectorSpec, InitialVehiclesSpec, TriggerEffectSpec, TriggerSpec,
+            VehicleTypeSpec,
         };
         let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
         let mut level = crossroads_level();
@@ -976,6 +994,13 @@ mod tests {
             to_m: 30.0,
             lanes: None,
             effect: TriggerEffectSpec::SpeedLimit { kmh: 30.0 },
+        };
+        let detector = DetectorSpec {
+            name: "loop".to_owned(),
+            road: "x east out".to_owned(),
+            s_m: 50.0,
+            lanes: None,
+            period_s: 30.0,
         };
         let vehicle_type = VehicleTypeSpec {
             name: "sedan 2".to_owned(),
@@ -1080,6 +1105,13 @@ mod tests {
                 t.effect = TriggerEffectSpec::SpeedLimit { kmh: 40.0 };
                 Command::SetTrigger(0, t)
             }),
+            Box::new(move |_| Command::AddDetector(detector.clone())),
+            Box::new(|e| {
+                let mut d = e.level().detectors[0].clone();
+                d.lanes = Some(vec![0]);
+                Command::SetDetector(0, d)
+            }),
+            Box::new(|_| Command::DeleteDetector(0)),
             Box::new(|_| Command::MoveMarker {
                 kind: MarkerKind::Trigger,
                 index: 0,
@@ -1157,7 +1189,7 @@ mod tests {
         }
         assert!(validate(e.level()).is_empty(), "{:?}", validate(e.level()));
         let all: Vec<&str> = kinds.iter().copied().collect();
-        assert_eq!(all.len(), 38, "one of every kind: {all:?}");
+        assert_eq!(all.len(), 41, "one of every kind: {all:?}");
         while let Some(level) = before.pop() {
             let label = e.undo_label().unwrap_or_default().to_owned();
             assert!(e.undo());

@@ -2,8 +2,8 @@
 //! plain data (serde), so a script can list them in a RON file for `flockway edit --apply`.
 
 use flockway_level::{
-    DestroyerSpec, DriverProfileSpec, Expectation, InitialVehiclesSpec, SpawnerSpec, TelemetrySpec,
-    TriggerSpec, VehicleTypeSpec,
+    DestroyerSpec, DetectorSpec, DriverProfileSpec, Expectation, InitialVehiclesSpec, SpawnerSpec,
+    TelemetrySpec, TriggerSpec, VehicleTypeSpec,
 };
 use flockway_road::{ControlPoint, JunctionSpec, LinkSpec, RoadSpec};
 use glam::DVec3;
@@ -148,6 +148,12 @@ pub enum Command {
     AddTrigger(TriggerSpec),
     /// Replaces a trigger.
     SetTrigger(usize, TriggerSpec),
+    /// Adds a detector (induction loops).
+    AddDetector(DetectorSpec),
+    /// Replaces a detector.
+    SetDetector(usize, DetectorSpec),
+    /// Deletes a detector.
+    DeleteDetector(usize),
     /// Moves a marker along its road (a trigger keeps its length).
     MoveMarker {
         /// What kind of marker.
@@ -253,6 +259,9 @@ impl Command {
             Command::SetSpawner(..) | Command::SetDestroyer(..) | Command::SetTrigger(..) => {
                 "edit marker"
             }
+            Command::AddDetector(_) => "add detector",
+            Command::SetDetector(..) => "edit detector",
+            Command::DeleteDetector(_) => "delete detector",
             Command::MoveMarker { .. } => "move marker",
             Command::DeleteMarker { .. } => "delete marker",
             Command::SetLevelInfo { .. } => "edit level settings",
@@ -292,6 +301,7 @@ impl Command {
             | Command::JoinExit { .. }
             | Command::SetPoint { .. }
             | Command::DeleteMarker { .. }
+            | Command::DeleteDetector(_)
             | Command::DeleteVehicleType(_)
             | Command::DeleteDriverProfile(_)
             | Command::DeleteVehicles(_)
@@ -317,6 +327,7 @@ impl Command {
             Command::SetDriverProfile(i, _) => Some((11, *i, 0)),
             Command::SetVehicles(i, _) => Some((12, *i, 0)),
             Command::SetJunction(i, _) => Some((13, *i, 0)),
+            Command::SetDetector(i, _) => Some((14, *i, 0)),
             _ => None,
         }
     }
@@ -337,6 +348,8 @@ pub enum Target {
     Destroyer(String),
     /// A trigger, by name.
     Trigger(String),
+    /// A detector, by name.
+    Detector(String),
     /// A driver profile, by name.
     Profile(String),
     /// A vehicle type, by name.
@@ -352,6 +365,7 @@ impl std::fmt::Display for Target {
             Target::Spawner(n) => write!(f, "spawner `{n}`"),
             Target::Destroyer(n) => write!(f, "destroyer `{n}`"),
             Target::Trigger(n) => write!(f, "trigger `{n}`"),
+            Target::Detector(n) => write!(f, "detector `{n}`"),
             Target::Profile(n) => write!(f, "driver profile `{n}`"),
             Target::VehicleType(n) => write!(f, "vehicle type `{n}`"),
         }

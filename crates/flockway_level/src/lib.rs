@@ -27,9 +27,10 @@ pub use refs::{
     ItemKind, ItemRef, Site, blocks_removal, references, remove_item, rename, visit_references,
 };
 pub use schema::{
-    Arrivals, CURRENT_VERSION, DemandStep, DepartureSpec, DestroyerPlaceSpec, DestroyerSpec,
-    DriverModel, DriverProfileSpec, InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec,
-    SpawnerSpec, SsmSpec, TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
+    Arrivals, CURRENT_VERSION, DEFAULT_DETECTOR_PERIOD_S, DemandStep, DepartureSpec,
+    DestroyerPlaceSpec, DestroyerSpec, DetectorSpec, DriverModel, DriverProfileSpec,
+    InitialVehiclesSpec, Level, ProfileShare, Range, RouteSpec, SpawnerSpec, SsmSpec,
+    TelemetrySpec, TriggerEffectSpec, TriggerSpec, VehicleTypeSpec,
 };
 pub use score::{Better, Formula, Medal, Medals, ScoreError, ScoreSpec};
 pub use sumo::{DemandReport, ImportError, import_sumo, import_sumo_net};

@@ -92,6 +92,8 @@ pub enum Site {
     DestroyerRoad(usize),
     /// Trigger `.0`'s road.
     TriggerRoad(usize),
+    /// Detector `.0`'s road.
+    DetectorRoad(usize),
     /// Initial vehicle group `.0`'s road.
     VehiclesRoad(usize),
     /// Initial vehicle group `.0`'s profile.
@@ -139,6 +141,10 @@ impl Site {
             Site::TriggerRoad(t) => format!(
                 "trigger `{}`",
                 level.triggers.get(t).map_or("", |t| t.name.as_str())
+            ),
+            Site::DetectorRoad(d) => format!(
+                "detector `{}`",
+                level.detectors.get(d).map_or("", |d| d.name.as_str())
             ),
             Site::VehiclesRoad(v) | Site::VehiclesProfile(v) => {
                 format!("vehicle group {}", v + 1)
@@ -213,6 +219,9 @@ pub fn visit_references(level: &mut Level, mut f: impl FnMut(Site, ItemKind, &mu
     for (t, trigger) in level.triggers.iter_mut().enumerate() {
         f(Site::TriggerRoad(t), Road, &mut trigger.road);
     }
+    for (d, detector) in level.detectors.iter_mut().enumerate() {
+        f(Site::DetectorRoad(d), Road, &mut detector.road);
+    }
     for (v, group) in level.vehicles.iter_mut().enumerate() {
         f(Site::VehiclesRoad(v), Road, &mut group.road);
         f(Site::VehiclesProfile(v), Profile, &mut group.profile);
@@ -264,6 +273,7 @@ enum Removal {
     Destination(usize),
     Destroyer(usize),
     Trigger(usize),
+    Detector(usize),
     Vehicles(usize),
     Expectation(usize),
 }
@@ -310,6 +320,7 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
             Site::SpawnerDestination(s) => Some(Removal::Destination(s)),
             Site::DestroyerRoad(d) => Some(Removal::Destroyer(d)),
             Site::TriggerRoad(t) => Some(Removal::Trigger(t)),
+            Site::DetectorRoad(d) => Some(Removal::Detector(d)),
             Site::VehiclesRoad(v) => Some(Removal::Vehicles(v)),
             Site::Expectation(e) => Some(Removal::Expectation(e)),
             _ => None,
@@ -373,6 +384,7 @@ pub fn remove_item(level: &mut Level, item: &ItemRef) -> Result<(), Vec<Site>> {
             Removal::Spawner(s) => drop(level.spawners.remove(s)),
             Removal::Destroyer(d) => drop(level.destroyers.remove(d)),
             Removal::Trigger(t) => drop(level.triggers.remove(t)),
+            Removal::Detector(d) => drop(level.detectors.remove(d)),
             Removal::Vehicles(v) => drop(level.vehicles.remove(v)),
             Removal::Expectation(e) => drop(level.expect.remove(e)),
         }

@@ -52,6 +52,10 @@ pub struct Level {
     /// Vehicles present at the start, in groups spaced evenly along a lane.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub vehicles: Vec<InitialVehiclesSpec>,
+    /// Induction loops: points on a road's lanes that count the vehicles passing, how long
+    /// they are covered and how fast vehicles pass, per period (`STEM.detectors.csv`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub detectors: Vec<DetectorSpec>,
     /// What is recorded, and how often.
     #[serde(default, skip_serializing_if = "TelemetrySpec::is_default")]
     pub telemetry: TelemetrySpec,
@@ -82,6 +86,7 @@ impl Level {
             spawners: Vec::new(),
             destroyers: Vec::new(),
             triggers: Vec::new(),
+            detectors: Vec::new(),
             vehicles: Vec::new(),
             telemetry: TelemetrySpec::default(),
             ssm: SsmSpec::default(),
@@ -424,6 +429,40 @@ pub struct TriggerSpec {
     pub lanes: Option<Vec<u32>>,
     /// What it does.
     pub effect: TriggerEffectSpec,
+}
+
+/// An induction loop: a point across some lanes of a road that measures, per period, the
+/// vehicles whose front passes it, the share of time a vehicle covers it and their speeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DetectorSpec {
+    /// Unique name (the detectors CSV's `detector` column).
+    pub name: String,
+    /// Road it lies across.
+    pub road: String,
+    /// Arc position, metres.
+    pub s_m: f64,
+    /// Lanes it covers (one loop each); `None` for all.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lanes: Option<Vec<u32>>,
+    /// Length of a measuring period, s (a row per lane and period).
+    #[serde(
+        default = "default_detector_period_s",
+        skip_serializing_if = "is_default_detector_period"
+    )]
+    pub period_s: f64,
+}
+
+/// A detector's period unless the level gives one, s: traffic counts are usually kept by the
+/// minute.
+pub const DEFAULT_DETECTOR_PERIOD_S: f64 = 60.0;
+
+fn default_detector_period_s() -> f64 {
+    DEFAULT_DETECTOR_PERIOD_S
+}
+
+fn is_default_detector_period(p: &f64) -> bool {
+    *p == DEFAULT_DETECTOR_PERIOD_S
 }
 
 /// `count` vehicles present at the start, evenly spaced along one lane.

@@ -69,6 +69,11 @@ impl Issue {
                 i.and_then(|i| level.triggers.get(i))
                     .map(|t| t.name.as_str()),
             ),
+            "detectors" => named(
+                "detector",
+                i.and_then(|i| level.detectors.get(i))
+                    .map(|d| d.name.as_str()),
+            ),
             "driver_profiles" => named(
                 "driver profile",
                 i.and_then(|i| level.driver_profiles.get(i))
@@ -213,6 +218,7 @@ impl Checker<'_> {
             ("spawners", l.spawners.len()),
             ("destroyers", l.destroyers.len()),
             ("triggers", l.triggers.len()),
+            ("detectors", l.detectors.len()),
             ("vehicles", l.vehicles.len()),
             ("expect", l.expect.len()),
         ] {
@@ -231,6 +237,7 @@ impl Checker<'_> {
         self.spawners();
         self.destroyers();
         self.triggers();
+        self.detectors();
         self.initial_vehicles();
         self.telemetry();
         self.expectations();
@@ -835,6 +842,43 @@ impl Checker<'_> {
         }
     }
 
+    fn detectors(&mut self) {
+        let l = self.level;
+        self.unique("detectors", l.detectors.iter().map(|d| d.name.as_str()));
+        for (i, d) in l.detectors.iter().enumerate() {
+            let base = vec![Field("detectors"), Index(i)];
+            let p = |f: &'static str| [&base[..], &[Field(f)]].concat();
+            if let Some(r) = self.road_lane(&base, &d.road, None) {
+                self.arc(p("s_m"), r, d.s_m, "detector");
+                let lanes = l.roads[r].lanes;
+                let mut seen = BTreeSet::new();
+                for (k, lane) in d.lanes.iter().flatten().enumerate() {
+                    let at = [&base[..], &[Field("lanes"), Index(k)]].concat();
+                    if *lane >= lanes {
+                        self.issue(at, format!("lane {lane} is out of range: road `{}` has {lanes} lane(s), numbered 0 to {}", d.road, lanes - 1));
+                    } else if !seen.insert(*lane) {
+                        self.issue(at, format!("lane {lane} is listed twice"));
+                    }
+                }
+                if d.lanes.as_ref().is_some_and(Vec::is_empty) {
+                    self.issue(
+                        p("lanes"),
+                        "no lanes: list at least one, or leave `lanes` out for all".to_owned(),
+                    );
+                }
+            }
+            if !finite_in(d.period_s, 1.0 / 120.0, MAX_DURATION_S) {
+                self.issue(
+                    p("period_s"),
+                    format!(
+                        "period_s is {}; expected a number of seconds from 1/120 to {MAX_DURATION_S}",
+                        d.period_s
+                    ),
+                );
+            }
+        }
+    }
+
     fn initial_vehicles(&mut self) {
         let l = self.level;
         let mut total: u64 = 0;
@@ -1007,6 +1051,7 @@ mod tests {
         assert!(problems("").is_empty());
         assert!(problems(r#"score: (formula: "mean_speed_kmh.auto - 2 * collisions", unit: "km/h", medals: (bronze: 1.0, silver: 2.0, gold: 3.0)),"#).is_empty());
         assert!(problems(r#"triggers: [(name: "t", road: "main", from_m: 10.0, to_m: 20.0, effect: SpeedLimit(kmh: 100.0))],"#).is_empty());
+        assert!(problems(r#"detectors: [(name: "d", road: "main", s_m: 50.0), (name: "e", road: "main", s_m: 90.0, lanes: [1], period_s: 0.5)],"#).is_empty());
     }
 
     #[test]
@@ -1043,6 +1088,34 @@ mod tests {
             (
                 r#"vehicles: [(road: "main", count: 5, profile: "auto", jitter_m: 10.0)],"#,
                 "jitter_m 10 could make neighbours overlap",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "side", s_m: 50.0)],"#,
+                "8:35: unknown road `side`",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 150.0)],"#,
+                "detector 150 m is outside road `main`, which is 100.0 m long",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 50.0, lanes: [0, 2])],"#,
+                "lane 2 is out of range: road `main` has 2 lane(s)",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 50.0, lanes: [1, 1])],"#,
+                "lane 1 is listed twice",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 50.0, lanes: [])],"#,
+                "no lanes",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 50.0, period_s: 0.0)],"#,
+                "period_s is 0; expected a number of seconds from 1/120",
+            ),
+            (
+                r#"detectors: [(name: "d", road: "main", s_m: 5.0), (name: "d", road: "main", s_m: 9.0)],"#,
+                "`d`",
             ),
             (r#"telemetry: (period_s: 0.3333),"#, "period_s 0.3333"),
             (

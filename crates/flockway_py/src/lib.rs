@@ -447,6 +447,39 @@ impl PySession {
         Ok(d)
     }
 
+    /// Every induction loop now: a dict of arrays (detector names under `detectors`, road
+    /// names under `road_names`).
+    fn detectors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let c = self.inner.detectors();
+        let d = PyDict::new(py);
+        d.set_item("detector", c.detector.into_pyarray(py))?;
+        d.set_item("road", c.road.into_pyarray(py))?;
+        d.set_item("lane", c.lane.into_pyarray(py))?;
+        d.set_item("s_m", c.s_m.into_pyarray(py))?;
+        d.set_item("vehicles", c.vehicles.into_pyarray(py))?;
+        d.set_item("period_begin_s", c.period_begin_s.into_pyarray(py))?;
+        d.set_item("count", c.count.into_pyarray(py))?;
+        d.set_item("occupancy_pct", c.occupancy_pct.into_pyarray(py))?;
+        d.set_item("mean_speed_kmh", c.mean_speed_kmh.into_pyarray(py))?;
+        d.set_item("last_count", c.last_count.into_pyarray(py))?;
+        d.set_item("last_flow_veh_h", c.last_flow_veh_h.into_pyarray(py))?;
+        d.set_item("last_occupancy_pct", c.last_occupancy_pct.into_pyarray(py))?;
+        d.set_item(
+            "last_mean_speed_kmh",
+            c.last_mean_speed_kmh.into_pyarray(py),
+        )?;
+        d.set_item("detectors", c.detectors)?;
+        d.set_item("road_names", self.inner.road_names().to_vec())?;
+        Ok(d)
+    }
+
+    /// Every detector period closed so far, as the detectors CSV's text; with `current`, each
+    /// loop's current period so far after them.
+    #[pyo3(signature = (current=false))]
+    fn detector_log_csv(&self, current: bool) -> String {
+        self.inner.detector_log(current)
+    }
+
     /// The summary so far, as JSON text (the summary contract of `flockway run`).
     fn summary_json(&self) -> PyResult<String> {
         serde_json::to_string(&self.inner.summary())

@@ -7,12 +7,14 @@
 //! Modules: `assets` (where a level's vehicle and driver files are, loaded), `world` (a level
 //! turned into a world), `runner` (stepping and streamed telemetry), `summary` (the metrics and
 //! the expectations at the end), [`batch`], `session` (a run stepped from outside), `approach`
-//! (signals and junction lanes read and set between steps), `routes` (routes set from outside).
+//! (signals and junction lanes read and set between steps), `detectors` (the induction loops'
+//! CSV), `routes` (routes set from outside).
 
 mod approach;
 mod assets;
 pub mod batch;
 mod conflicts;
+mod detectors;
 mod routes;
 mod runner;
 mod session;
@@ -29,6 +31,9 @@ pub use assets::{
     load_driver_profiles, load_profiles, load_vehicle_types,
 };
 pub use conflicts::{CONFLICT_COLUMNS, ConflictsWriter};
+pub use detectors::{
+    DETECTOR_COLUMNS, DetectorColumns, DetectorsWriter, detectors_path, reading_row, readings_csv,
+};
 pub use flockway_analysis::{ExpectationResult, Summary};
 pub use routes::{Heading, route_from};
 pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_models, parse_driver};

@@ -166,6 +166,8 @@ pub struct Runner {
     csv: Option<TelemetryWriter>,
     /// Beside the CSV, when the level has signals: every change of a signal's states.
     signals: Option<crate::signals::SignalsWriter>,
+    /// Beside the CSV, when the level has detectors: a row per loop and period.
+    detectors: Option<crate::detectors::DetectorsWriter>,
     /// The conflicts CSV, when asked for.
     conflicts: Option<crate::conflicts::ConflictsWriter>,
     per_vehicle: Option<PerVehicleFiles>,
@@ -278,6 +280,16 @@ impl Runner {
             }
             _ => None,
         };
+        let detectors = match &options.csv {
+            Some(csv) if !level.detectors.is_empty() => {
+                let path = crate::detectors::detectors_path(csv);
+                Some(
+                    crate::detectors::DetectorsWriter::create(&path)
+                        .map_err(|source| RunError::Output { path, source })?,
+                )
+            }
+            _ => None,
+        };
         let conflicts = match &options.conflicts {
             Some(path) => Some(crate::conflicts::ConflictsWriter::create(path).map_err(
                 |source| RunError::Output {
@@ -307,6 +319,7 @@ impl Runner {
             total_ticks,
             csv,
             signals,
+            detectors,
             conflicts,
             per_vehicle,
             plots: options.plots.clone(),
@@ -416,10 +429,29 @@ impl Runner {
                         source,
                     })?;
             }
+            self.write_detectors()?;
             self.write_samples()?;
             self.write_conflicts()?;
         }
         Ok(n)
+    }
+
+    /// Streams the detector readings closed this tick to the detectors CSV, if one is written
+    /// (otherwise they are kept in the [`flockway_traffic::Detectors`] resource only).
+    fn write_detectors(&mut self) -> Result<(), RunError> {
+        let Some(writer) = &mut self.detectors else {
+            return Ok(());
+        };
+        let world = self.sim.world();
+        writer
+            .record(
+                world.resource::<RoadNetwork>(),
+                world.resource::<flockway_traffic::Detectors>(),
+            )
+            .map_err(|source| RunError::Output {
+                path: writer.path().to_owned(),
+                source,
+            })
     }
 
     /// Streams the conflicts finished this tick to the conflicts CSV, if one is being written
@@ -548,6 +580,21 @@ impl Runner {
         }
         if let Some(files) = self.per_vehicle.take() {
             files.finish()?;
+        }
+        if let Some(mut detectors) = self
+            .sim
+            .world_mut()
+            .get_resource_mut::<flockway_traffic::Detectors>()
+        {
+            // The last period ends with the run.
+            detectors.close_all();
+        }
+        self.write_detectors()?;
+        if let Some(detectors) = self.detectors.take() {
+            let path = detectors.path().to_owned();
+            detectors
+                .finish()
+                .map_err(|source| RunError::Output { path, source })?;
         }
         if let Some(signals) = self.signals.take() {
             let path = signals.path().to_owned();

@@ -609,6 +609,30 @@ impl Session {
         Ok(())
     }
 
+    /// Every induction loop of the level now (empty columns for a level without detectors).
+    pub fn detectors(&self) -> crate::DetectorColumns {
+        self.runner
+            .sim()
+            .world()
+            .get_resource::<flockway_traffic::Detectors>()
+            .map(crate::DetectorColumns::of)
+            .unwrap_or_default()
+    }
+
+    /// Every detector period closed so far, as the detectors CSV's text (a header only for a
+    /// level without detectors); with `current`, each loop's current period so far after them.
+    pub fn detector_log(&self, current: bool) -> String {
+        let world = self.runner.sim().world();
+        let none = flockway_traffic::Detectors::default();
+        crate::readings_csv(
+            world.resource::<RoadNetwork>(),
+            world
+                .get_resource::<flockway_traffic::Detectors>()
+                .unwrap_or(&none),
+            current,
+        )
+    }
+
     /// The summary of the run so far, as `flockway run` reports it at its end.
     pub fn summary(&self) -> Summary {
         measure(

@@ -6,8 +6,9 @@ use flockway_drivers::{DriverSpec, DriversPlugin};
 use flockway_level::Level;
 use flockway_road::{Junctions, Road, RoadId, RoadNetwork, RoadPlugin};
 use flockway_traffic::{
-    CapacityWindows, Departure, Destroyer, DestroyerPlace, SpawnChoice, SpawnRoute, Spawner,
-    SsmThresholds, TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect, spawn_driven,
+    CapacityWindows, Departure, Destroyer, DestroyerPlace, Detector, Detectors, SpawnChoice,
+    SpawnRoute, Spawner, SsmThresholds, TelemetrySettings, TrafficPlugin, Trigger, TriggerEffect,
+    spawn_driven,
 };
 use flockway_vehicle::{VehiclePlugin, VehicleSpawn, VehicleType};
 use std::collections::BTreeMap;
@@ -238,6 +239,29 @@ pub fn populate(
             },
             StableId::new(IdKind::Trigger, i as u32),
         ));
+    }
+    if !level.detectors.is_empty() {
+        let mut list = Vec::with_capacity(level.detectors.len());
+        for d in &level.detectors {
+            let id = road(&d.road)?;
+            let lanes = match &d.lanes {
+                Some(lanes) => {
+                    let mut lanes = lanes.clone();
+                    lanes.sort_unstable();
+                    lanes.dedup();
+                    lanes
+                }
+                None => (0..network.get(id).map_or(1, |g| g.lanes())).collect(),
+            };
+            list.push(Detector {
+                name: d.name.clone(),
+                road: id,
+                s_m: d.s_m,
+                lanes,
+                period_ticks: ticks_of(d.period_s).max(1),
+            });
+        }
+        world.insert_resource(Detectors::new(list));
     }
     // Initial vehicles need the network now, before the first step builds it (to the same
     // result) from the road components.

@@ -7,6 +7,7 @@
 //! `Record`, [`Destroyer`] in `Despawn`. Vehicles get a [`VehicleId`] (spawn order, stable across
 //! runs) that keys their random stream and their telemetry rows.
 
+mod detectors;
 mod junctions;
 mod spawn;
 mod ssm;
@@ -15,6 +16,7 @@ mod trips;
 mod waiting;
 mod zones;
 
+pub use detectors::{Detector, DetectorReading, Detectors, LoopCounters, measure_detectors};
 pub use junctions::{
     APPROACH_ZONE_M, CapacityWindows, DISCHARGE_FROM, JunctionMeasures, JunctionTotals, LaneWindow,
     QUEUED_MPS, SATURATED_M, measure_junctions,
@@ -64,7 +66,12 @@ impl SimPlugin for TrafficPlugin {
         sim.world_mut().init_resource::<Conflicts>();
         sim.add_systems(
             StepSet::Record,
-            (sample_telemetry, measure_junctions, track_waiting),
+            (
+                sample_telemetry,
+                measure_junctions,
+                track_waiting,
+                measure_detectors,
+            ),
         );
         // On what the drivers see: the lane index and the places it was built from.
         sim.add_systems(
