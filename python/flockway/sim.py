@@ -4,8 +4,10 @@ drivers written in Python."""
 
 from __future__ import annotations
 
+import copy
 import json
 import os
+import pickle
 import tempfile
 from pathlib import Path
 from typing import Any, Mapping
@@ -29,6 +31,54 @@ def _values(values: Any, n: int, dtype: Any) -> np.ndarray:
     if a.ndim == 0:
         a = np.full(n, a, dtype=dtype)
     return np.ascontiguousarray(a)
+
+
+#: Native calls that only read the run (the session's documented contract: reading changes
+#: nothing a step computes); a snapshot leaves them out.
+_READS = frozenset({
+    "vehicles", "leaders", "signals", "approaches", "detectors", "detector_log_csv",
+    "summary_json", "render", "road_names",
+})
+
+#: The snapshot format this version writes and reads.
+SNAPSHOT_FORMAT = 1
+
+
+def _kept(value: Any) -> Any:
+    """`value` as a call's log keeps it: a copy the caller can no longer change."""
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, (list, dict, tuple)):
+        return copy.deepcopy(value)
+    return value
+
+
+class _Recorded:
+    """The native session, every call that changes the run logged in order: a run is its
+    level, seed and the calls made on it (the same calls give the same bytes), so the log is a
+    snapshot of it. Consecutive steps are one entry."""
+
+    __slots__ = ("_s", "log")
+
+    def __init__(self, session: Any) -> None:
+        self._s = session
+        self.log: list[tuple[str, tuple[Any, ...]]] = []
+
+    def __getattr__(self, name: str) -> Any:
+        attr = getattr(self._s, name)
+        if name in _READS or not callable(attr):
+            return attr
+
+        def call(*args: Any) -> Any:
+            out = attr(*args)
+            # Logged once it succeeded: a refused call changes nothing.
+            if name == "step" and self.log and self.log[-1][0] == "step":
+                self.log[-1] = ("step", (self.log[-1][1][0] + int(args[0]),))
+            else:
+                self.log.append((name, tuple(_kept(a) for a in args)))
+            return out
+
+        return call
 
 
 class Sim:
@@ -69,9 +119,9 @@ class Sim:
         pairs = [(str(k), float(v)) for k, v in (overrides or {}).items()]
         given = dict(drivers or {})
         models = [(str(k), v) for k, v in given.items() if isinstance(v, str)]
-        self._s = _flockway.Session(
-            str(path), seed, pairs, None if self.csv is None else str(self.csv), models
-        )
+        # What opens the run again, for snapshots.
+        self._opened = (str(path), seed, pairs, models)
+        self._s = self._open()
         self.level = path
         self.drivers: dict[str, Any] = {
             k: v for k, v in given.items() if not isinstance(v, str)
@@ -79,6 +129,98 @@ class Sim:
         for name, driver in self.drivers.items():
             if not callable(getattr(driver, "decide", None)):
                 raise TypeError(f"driver `{name}` has no decide(obs) method")
+
+    def _open(self) -> _Recorded:
+        """A new native session of this Sim's level, seed, overrides and built-in drivers,
+        streaming to its CSV."""
+        path, seed, pairs, models = self._opened
+        csv = None if self.csv is None else str(self.csv)
+        return _Recorded(_flockway.Session(path, seed, pairs, csv, models))
+
+    # -- snapshots -------------------------------------------------------------------------
+    def snapshot(self) -> bytes:
+        """The run's state now as bytes (they pickle, and survive the process): its level
+        file's text, seed, overrides and built-in drivers, and every call made on it that
+        changed it, in order. :meth:`restore` runs those again, so a restored run is the
+        same, bit for bit, as one never snapshotted, whatever it holds (rigid bodies, random
+        streams, drivers' memories, spawners' timers, signals, detectors); restoring costs
+        the time the run took to get here. A Python driver is not asked again: what it
+        decided is among the calls."""
+        path = self._opened[0]
+        return pickle.dumps(
+            {
+                "format": SNAPSHOT_FORMAT,
+                "flockway": _flockway.__version__,
+                "opened": self._opened,
+                "level_text": Path(path).read_text(encoding="utf-8"),
+                "calls": self._s.log,
+                "time_s": self.time_s,
+            },
+            protocol=pickle.HIGHEST_PROTOCOL,
+        )
+
+    def restore(self, state: bytes) -> None:
+        """Puts this Sim in the state of :meth:`snapshot`'s ``state`` (taken from any Sim):
+        its telemetry CSV starts again and, when stepped on, is byte for byte the CSV of the
+        run the snapshot came from. Its Python drivers stay its own. A ``ValueError`` for
+        bytes that are not a snapshot, one of another format, or one whose level file has
+        changed or gone since."""
+        try:
+            snap = pickle.loads(state) if isinstance(state, (bytes, bytearray)) else None
+        except Exception as e:  # noqa: BLE001 (any unpickling error means the same)
+            raise ValueError(f"restore: not a Flockway snapshot ({e})") from None
+        if not isinstance(snap, dict) or "calls" not in snap:
+            raise ValueError("restore: not a Flockway snapshot")
+        if snap.get("format") != SNAPSHOT_FORMAT:
+            raise ValueError(
+                f"restore: a snapshot of format {snap.get('format')!r}; this Flockway reads "
+                f"format {SNAPSHOT_FORMAT}"
+            )
+        path = snap["opened"][0]
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except OSError as e:
+            raise ValueError(f"restore: the snapshot's level {path} cannot be read: {e}") from None
+        if text != snap["level_text"]:
+            raise ValueError(f"restore: the level {path} changed since the snapshot was taken")
+        self._opened = tuple(snap["opened"])
+        self.level = Path(path)
+        self._s = self._open()
+        for name, args in snap["calls"]:
+            getattr(self._s, name)(*args)
+        assert self.time_s == snap["time_s"], "a replayed run reaches the snapshot's time"
+
+    def clone(self) -> Sim:
+        """An independent copy of this Sim in its state now (see :meth:`snapshot`), with the
+        same Python drivers; it streams its telemetry to a temporary file of its own (none if
+        this one writes none)."""
+        twin = Sim.__new__(Sim)
+        twin._init_copy(self.csv is not None, self.drivers)
+        twin.restore(self.snapshot())
+        return twin
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> Sim:
+        twin = Sim.__new__(Sim)
+        twin._init_copy(self.csv is not None, copy.deepcopy(self.drivers, memo))
+        twin.restore(self.snapshot())
+        return twin
+
+    def __getstate__(self) -> dict[str, Any]:
+        # A pickled Sim is its snapshot; its copy writes its telemetry to a temporary file.
+        return {"snapshot": self.snapshot(), "csv": self.csv is not None, "drivers": self.drivers}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self._init_copy(state["csv"], state["drivers"])
+        self.restore(state["snapshot"])
+
+    def _init_copy(self, csv: bool, drivers: dict[str, Any]) -> None:
+        """The attributes a copy has before it is restored."""
+        self._tmp = None
+        self.csv = None
+        if csv:
+            self._tmp = tempfile.TemporaryDirectory(prefix="flockway-")
+            self.csv = Path(self._tmp.name) / "run.csv"
+        self.drivers = dict(drivers)
 
     # -- time ------------------------------------------------------------------------------
     @property

@@ -1,4 +1,4 @@
-"""The examples in docs/python.md's sections on signals run as written."""
+"""The examples in docs/python.md's sections on signals and snapshots run as written."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ def _blocks(section: str) -> list[str]:
     return re.findall(r"```python\n(.*?)```", text[start:end], re.S)
 
 
-@pytest.mark.parametrize("section", ["Signals and junctions", "Signal control"])
+@pytest.mark.parametrize("section", ["Signals and junctions", "Signal control", "Snapshots"])
 def test_the_section_examples_run(section: str) -> None:
     blocks = _blocks(section)
     assert blocks, section
