@@ -163,7 +163,7 @@ def render_frame(sim: Sim, around: int | None, size: tuple[int, int],
 
 
 #: Level-v0's observation types (or a callable, with ``observation_space``).
-OBSERVATIONS = ("default", "kinematics")
+OBSERVATIONS = ("default", "kinematics", "lanes")
 #: Level-v0's action types.
 ACTIONS = ("acceleration", "continuous", "discrete")
 #: The discrete action type's meta-actions, in index order (as highway-env's).
@@ -205,6 +205,57 @@ def kinematics(sim: Sim, vehicle: int, count: int) -> np.ndarray:
     return np.clip(out, -1.0, 1.0)
 
 
+#: The ``lanes`` observation's channels, in order.
+LANES = ("presence", "vx")
+#: Its rows: lanes of this width, m, centred on the agent's.
+LANE_WIDTH_M = 3.5
+#: Its columns: cells of this length, m, from :data:`LANES_BEHIND_M` behind the agent to
+#: :data:`LANES_AHEAD_M` ahead.
+LANES_CELL_M = 5.0
+LANES_BEHIND_M = 50.0
+LANES_AHEAD_M = 100.0
+
+
+def lanes_grid(sim: Sim, vehicle: int, lanes: int) -> np.ndarray:
+    """A ``lanes`` observation: an occupancy grid in the agent's frame, shape ``(2, lanes,
+    cells)``. Row ``r`` is the lane ``(lanes - 1) // 2 - r`` lanes to the agent's left (so the
+    leftmost row first and the agent's lane in the middle), :data:`LANE_WIDTH_M` wide; column
+    ``c`` the cell :data:`LANES_CELL_M` long starting ``c`` cells after
+    :data:`LANES_BEHIND_M` behind the agent's centre. Channel 0 is 1 where another vehicle's
+    centre is, channel 1 that vehicle's speed along the agent's heading relative to the
+    agent's, over :data:`KINEMATICS_SPEED_MPS` (clipped to -1..1); the agent's own cell shows
+    it with relative speed 0. Zeros once the agent has gone."""
+    cells = int(round((LANES_AHEAD_M + LANES_BEHIND_M) / LANES_CELL_M))
+    out = np.zeros((len(LANES), lanes, cells), dtype=np.float32)
+    v = sim.vehicles()
+    at = np.flatnonzero(v["id"] == vehicle)
+    if len(at) == 0:
+        return out
+    k = at[0]
+    h = v["heading_rad"][k]
+    c, s = np.cos(-h), np.sin(-h)
+    dx, dy = v["x_m"] - v["x_m"][k], v["y_m"] - v["y_m"][k]
+    ahead, left = c * dx - s * dy, s * dx + c * dy
+    vx = v["speed_mps"] * np.cos(v["heading_rad"] - h)
+    row = (lanes - 1) // 2 - np.floor(left / LANE_WIDTH_M + 0.5).astype(np.int64)
+    col = np.floor((ahead + LANES_BEHIND_M) / LANES_CELL_M).astype(np.int64)
+    inside = (row >= 0) & (row < lanes) & (col >= 0) & (col < cells)
+    # The nearest vehicle in a cell shows: written farthest first.
+    for i in np.argsort(-np.hypot(dx, dy), kind="stable"):
+        if inside[i]:
+            out[0, row[i], col[i]] = 1.0
+            out[1, row[i], col[i]] = np.clip((vx[i] - vx[k]) / KINEMATICS_SPEED_MPS, -1.0, 1.0)
+    return out
+
+
+#: The reward's terms, each a number per step, weighted and summed (see :class:`LevelEnv`).
+REWARD_TERMS = ("mean_speed", "agent_speed", "accel_sq", "collisions", "lane_change",
+                "close_headway")
+
+#: A time headway to the leader below this is ``close_headway``, s.
+CLOSE_HEADWAY_S = 1.0
+
+
 class LevelEnv(gym.Env):
     """One vehicle of ``level`` — the lowest-numbered one of driver profile ``profile`` — driven
     by the agent; everything else by the level's drivers.
@@ -216,7 +267,15 @@ class LevelEnv(gym.Env):
       default): the shared controller drives at the speed it gives (never below 0) for
       ``period_s``.
     * Reward per step: the mean speed of every vehicle, m/s, less ``accel_penalty`` × a² and
-      ``collision_penalty`` per contact or guardrail hit during the step.
+      ``collision_penalty`` per contact or guardrail hit during the step. ``reward_weights``
+      makes it any weighted sum of the terms in :data:`REWARD_TERMS` (``info["reward_terms"]``
+      gives each every step): ``mean_speed`` (m/s, every vehicle), ``agent_speed`` (m/s),
+      ``accel_sq`` (the agent's acceleration squared, m²/s⁴), ``collisions`` (contacts and
+      guardrail hits during the step), ``lane_change`` (1 when the agent's lane changed),
+      ``close_headway`` (1 when the agent follows its leader closer than
+      :data:`CLOSE_HEADWAY_S`). The defaults are ``{"mean_speed": 1, "accel_sq":
+      -accel_penalty, "collisions": -collision_penalty}``; weights given replace those of
+      their terms, and the others stay.
     * An episode: ``warmup_s`` with the vehicle under its own driver, then ``episode_s`` under
       the agent (truncated then). It ends (terminated) if the agent's vehicle leaves the level.
     * On a level with no vehicle of the profile at the start (spawners only), the agent is the
@@ -253,10 +312,13 @@ class LevelEnv(gym.Env):
         vehicles_count: int = 5,
         action: str = "acceleration",
         speed_step_mps: float = 2.5,
+        lanes_count: int = 5,
+        reward_weights: dict[str, float] | None = None,
         **task: float,
     ) -> None:
         """``observation`` is ``"default"``, ``"kinematics"`` (``vehicles_count`` rows, see
-        :func:`kinematics`) or a callable ``f(sim, vehicle) -> array`` with its
+        :func:`kinematics`), ``"lanes"`` (an occupancy grid ``lanes_count`` lanes wide, see
+        :func:`lanes_grid`) or a callable ``f(sim, vehicle) -> array`` with its
         ``observation_space``; ``action`` is ``"acceleration"``, ``"continuous"`` (throttle and
         steering as :meth:`Sim.set_controls`) or ``"discrete"`` (:data:`META_ACTIONS`, the
         target speed moved by ``speed_step_mps``). ``task`` holds :class:`Task`'s keywords: ``period_s``, ``max_accel``,
@@ -293,6 +355,23 @@ class LevelEnv(gym.Env):
             raise ValueError(f"action {action!r}: expected one of {', '.join(ACTIONS)}")
         if int(vehicles_count) < 1:
             raise ValueError(f"vehicles_count={vehicles_count!r}: expected 1 or more")
+        if int(lanes_count) < 1:
+            raise ValueError(f"lanes_count={lanes_count!r}: expected 1 or more")
+        self.lanes_count = int(lanes_count)
+        self._custom_weights = bool(reward_weights)
+        self.reward_weights = {
+            "mean_speed": 1.0,
+            "accel_sq": -self.task.accel_penalty,
+            "collisions": -self.task.collision_penalty,
+        }
+        for term, weight in (reward_weights or {}).items():
+            if term not in REWARD_TERMS:
+                raise ValueError(f"reward_weights: unknown term {term!r}; the terms are "
+                                 f"{', '.join(REWARD_TERMS)}")
+            w = float(weight)
+            if not np.isfinite(w):
+                raise ValueError(f"reward_weights[{term!r}] = {weight!r}: expected a finite number")
+            self.reward_weights[term] = w
         self.observation_type = observation
         self.vehicles_count = int(vehicles_count)
         self.action_type = action
@@ -308,6 +387,10 @@ class LevelEnv(gym.Env):
         elif observation == "kinematics":
             self.observation_space = spaces.Box(
                 -1.0, 1.0, shape=(self.vehicles_count, len(KINEMATICS)), dtype=np.float32)
+        elif observation == "lanes":
+            cells = int(round((LANES_AHEAD_M + LANES_BEHIND_M) / LANES_CELL_M))
+            self.observation_space = spaces.Box(
+                -1.0, 1.0, shape=(len(LANES), self.lanes_count, cells), dtype=np.float32)
         else:
             self.observation_space = _default_observation_space()
         self._target_mps = 0.0
@@ -321,6 +404,8 @@ class LevelEnv(gym.Env):
         present = self.agent in obs
         if self.observation_type == "kinematics":
             return kinematics(self.sim, self.agent, self.vehicles_count), mean, present
+        if self.observation_type == "lanes":
+            return lanes_grid(self.sim, self.agent, self.lanes_count), mean, present
         if callable(self.observation_type):
             return np.asarray(self.observation_type(self.sim, self.agent)), mean, present
         if not present:
@@ -416,16 +501,40 @@ class LevelEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self.sim is None:
             raise RuntimeError("call reset() before step()")
+        _, lane_before = self._speed()
         a = self._act(action)
         self._steps += 1
         obs, mean, present = self._observe()
         collisions = self.sim.collisions
         new = collisions - self._collisions
         self._collisions = collisions
-        reward = self.task.reward(mean, a, new)
+        terms = self._reward_terms(mean, a, new, lane_before, present)
+        if self._custom_weights:
+            reward = sum(w * terms[t] for t, w in self.reward_weights.items())
+        else:  # the task's own formula, to the last bit
+            reward = self.task.reward(mean, a, new)
         truncated = self._steps * self.task.period_ticks * DT_S >= self.episode_s - 1e-9
-        info = {"time_s": self.sim.time_s, "collisions": new, "mean_speed_mps": mean}
+        info = {"time_s": self.sim.time_s, "collisions": new, "mean_speed_mps": mean,
+                "reward_terms": terms}
         return obs, float(reward), not present, bool(truncated and present), info
+
+    def _reward_terms(self, mean: float, accel: float, collisions: int, lane_before: int,
+                      present: bool) -> dict[str, float]:
+        """Every term of :data:`REWARD_TERMS` for the step just run."""
+        speed, lane = self._speed()
+        close = 0.0
+        if present:
+            lead = self.sim.leaders([self.agent])
+            if lead["id"][0] >= 0 and speed > 0.0:
+                close = float(float(lead["gap_m"][0]) / speed < CLOSE_HEADWAY_S)
+        return {
+            "mean_speed": float(mean),
+            "agent_speed": float(speed),
+            "accel_sq": float(accel * accel),
+            "collisions": float(collisions),
+            "lane_change": float(present and lane != lane_before),
+            "close_headway": close,
+        }
 
     def render(self) -> np.ndarray | None:
         """With ``render_mode="rgb_array"``: the scene now, top down, ``render_size`` pixels,

@@ -133,7 +133,7 @@ def test_on_a_level_that_starts_empty_the_agent_is_the_first_car_spawned_after_t
 
 
 @pytest.mark.parametrize("action", ["acceleration", "continuous", "discrete"])
-@pytest.mark.parametrize("observation", ["default", "kinematics"])
+@pytest.mark.parametrize("observation", ["default", "kinematics", "lanes"])
 def test_each_observation_and_action_type_passes_check_env(observation: str, action: str) -> None:
     env = gym.make("flockway/Level-v0", level="on_ramp", profile="autonomous", warmup_s=10.0,
                    episode_s=3.0, observation=observation, action=action, vehicles_count=4)
@@ -145,6 +145,56 @@ def test_each_observation_and_action_type_passes_check_env(observation: str, act
         assert obs[1:, 0].sum() == 3.0, "three neighbours on the motorway"
         dist = np.hypot(obs[1:, 1], obs[1:, 2])
         assert np.all(np.diff(dist) >= 0), "nearest first"
+    if observation == "lanes":
+        assert obs.shape == (2, 5, 30)
+        assert obs[0, 2, 10] == 1.0 and obs[1, 2, 10] == 0.0, "the agent, mid-row, 50 m in"
+
+
+def test_the_lanes_grid_puts_each_vehicle_in_its_lane_and_cell() -> None:
+    env = gym.make("flockway/Level-v0", level="dense_road", profile="autonomous", warmup_s=20.0,
+                   episode_s=5.0, observation="lanes", lanes_count=7)
+    obs, info = env.reset(seed=4)
+    sim, me = env.unwrapped.sim, info["vehicle"]
+    v = sim.vehicles()
+    k = int(np.flatnonzero(v["id"] == me)[0])
+    # On the straight first 200 m the road runs along x: lanes and cells from x, y alone.
+    assert v["x_m"][k] < 150.0 and abs(v["heading_rad"][k]) < 0.05
+    expected = np.zeros((7, 30))
+    for i in range(len(v["id"])):
+        dx, dy = v["x_m"][i] - v["x_m"][k], v["y_m"][i] - v["y_m"][k]
+        row, col = 3 - int(np.floor(dy / 3.5 + 0.5)), int(np.floor((dx + 50.0) / 5.0))
+        if 0 <= row < 7 and 0 <= col < 30 and v["x_m"][i] < 200.0:
+            expected[row, col] = 1.0
+    assert expected.sum() >= 10, "a dense road"
+    np.testing.assert_array_equal(obs[0], expected)
+    assert np.all(obs[1][obs[0] == 0.0] == 0.0), "speeds only where there is a vehicle"
+
+
+def test_reward_terms_are_reported_and_weighted() -> None:
+    common = dict(level="stern_ring", warmup_s=5.0, episode_s=4.0)
+    plain = gym.make("flockway/Level-v0", **common)
+    weighted = gym.make("flockway/Level-v0", **common, accel_penalty=0.3,
+                        reward_weights={"agent_speed": 0.5, "mean_speed": 0.0,
+                                        "close_headway": -2.0})
+    plain.reset(seed=5)
+    weighted.reset(seed=5)
+    for action in ([1.0], [-1.0], [0.2], [0.0]):
+        _, r0, _, _, i0 = plain.step(action)
+        _, r1, _, _, i1 = weighted.step(action)
+        terms = i1["reward_terms"]
+        assert terms == i0["reward_terms"], "the same run: the weights only weigh"
+        assert set(terms) == set(flockway.envs.REWARD_TERMS)
+        # The default: mean speed less 0.1 a² and 100 per contact.
+        assert r0 == pytest.approx(terms["mean_speed"] - 0.1 * terms["accel_sq"]
+                                   - 100.0 * terms["collisions"])
+        # Given weights replace those terms; accel_penalty still sets accel_sq's.
+        assert r1 == pytest.approx(0.5 * terms["agent_speed"] - 0.3 * terms["accel_sq"]
+                                   - 100.0 * terms["collisions"] - 2.0 * terms["close_headway"])
+        assert terms["agent_speed"] > 0.0 and terms["lane_change"] == 0.0
+    with pytest.raises(ValueError, match="unknown term 'comfort'; the terms are mean_speed"):
+        gym.make("flockway/Level-v0", reward_weights={"comfort": 1.0})
+    with pytest.raises(ValueError, match="lanes_count=0"):
+        gym.make("flockway/Level-v0", observation="lanes", lanes_count=0)
 
 
 def test_discrete_meta_actions_change_lane_and_speed() -> None:
