@@ -54,19 +54,19 @@ def _kept(value: Any) -> Any:
 
 
 class _Recorded:
-    """The native session, every call that changes the run logged in order: a run is its
-    level, seed and the calls made on it (the same calls give the same bytes), so the log is a
-    snapshot of it. Consecutive steps are one entry."""
+    """The native session, every call that changes the run logged in order (unless
+    ``log`` is ``None``): a run is its level, seed and the calls made on it (the same calls
+    give the same bytes), so the log is a snapshot of it. Consecutive steps are one entry."""
 
     __slots__ = ("_s", "log")
 
-    def __init__(self, session: Any) -> None:
+    def __init__(self, session: Any, record: bool) -> None:
         self._s = session
-        self.log: list[tuple[str, tuple[Any, ...]]] = []
+        self.log: list[tuple[str, tuple[Any, ...]]] | None = [] if record else None
 
     def __getattr__(self, name: str) -> Any:
         attr = getattr(self._s, name)
-        if name in _READS or not callable(attr):
+        if self.log is None or name in _READS or not callable(attr):
             return attr
 
         def call(*args: Any) -> Any:
@@ -96,7 +96,9 @@ class Sim:
     name) with the built-in driver and its default parameters, as ``flockway run --driver
     NAME=MODEL`` does: the bar a challenge's controller has to beat. The telemetry CSV streams
     to ``csv`` (a temporary file without one; none at all with ``csv=False``) and
-    :meth:`telemetry` reads it back.
+    :meth:`telemetry` reads it back. With ``snapshots=False`` it keeps no log of the calls
+    that change it (see :meth:`snapshot`): a long run with Python drivers then does not grow
+    with their decisions, and :meth:`snapshot` raises ``RuntimeError``.
 
     The same level, seed and sequence of calls give bit-identical arrays.
     """
@@ -108,8 +110,10 @@ class Sim:
         overrides: Mapping[str, float] | None = None,
         drivers: Mapping[str, Any] | None = None,
         csv: str | os.PathLike[str] | None | bool = None,
+        snapshots: bool = True,
     ) -> None:
         path = level_path(level)
+        self._snapshots = bool(snapshots)
         self._tmp = None
         if csv is None or csv is True:
             self._tmp = tempfile.TemporaryDirectory(prefix="flockway-")
@@ -135,7 +139,7 @@ class Sim:
         streaming to its CSV."""
         path, seed, pairs, models = self._opened
         csv = None if self.csv is None else str(self.csv)
-        return _Recorded(_flockway.Session(path, seed, pairs, csv, models))
+        return _Recorded(_flockway.Session(path, seed, pairs, csv, models), self._snapshots)
 
     # -- snapshots -------------------------------------------------------------------------
     def snapshot(self) -> bytes:
@@ -145,7 +149,10 @@ class Sim:
         same, bit for bit, as one never snapshotted, whatever it holds (rigid bodies, random
         streams, drivers' memories, spawners' timers, signals, detectors); restoring costs
         the time the run took to get here. A Python driver is not asked again: what it
-        decided is among the calls."""
+        decided is among the calls. A ``RuntimeError`` for a Sim made with
+        ``snapshots=False``."""
+        if self._s.log is None:
+            raise RuntimeError("this Sim keeps no snapshots (it was made with snapshots=False)")
         path = self._opened[0]
         return pickle.dumps(
             {
@@ -215,6 +222,7 @@ class Sim:
 
     def _init_copy(self, csv: bool, drivers: dict[str, Any]) -> None:
         """The attributes a copy has before it is restored."""
+        self._snapshots = True
         self._tmp = None
         self.csv = None
         if csv:
@@ -570,5 +578,5 @@ def run(
 ) -> dict[str, Any]:
     """Runs a level to its end (or ``seconds``) with ``drivers`` for its custom models; returns
     the summary, as ``flockway run --summary`` writes it."""
-    sim = Sim(level, seed=seed, overrides=overrides, drivers=drivers, csv=csv)
+    sim = Sim(level, seed=seed, overrides=overrides, drivers=drivers, csv=csv, snapshots=False)
     return sim.run(seconds)

@@ -197,3 +197,14 @@ def test_the_pettingzoo_environments_pickle_mid_episode() -> None:
             assert here[1] == there[1]
             for agent in here[0]:
                 np.testing.assert_array_equal(here[0][agent], there[0][agent])
+
+
+def test_a_sim_made_without_snapshots_keeps_no_calls() -> None:
+    sim = flockway.Sim("dense_road", seed=1, csv=False, snapshots=False)
+    sim.step(120)
+    sim.set_target(sim.vehicles()["id"][:2], 5.0)
+    sim.step(10)
+    with pytest.raises(RuntimeError, match="snapshots=False"):
+        sim.snapshot()
+    with pytest.raises(RuntimeError, match="snapshots=False"):
+        pickle.dumps(sim)
