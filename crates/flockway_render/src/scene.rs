@@ -91,6 +91,8 @@ pub mod palette {
 
     /// Link arrows in the editor: which lane leads onto which.
     pub const LINK: [f32; 4] = [0.15, 0.8, 0.95, 1.0];
+    /// Detector loops: a rectangle on each lane a detector covers.
+    pub const DETECTOR: [f32; 4] = [0.55, 0.9, 1.0, 1.0];
     /// Speed-limit trigger stretches (translucent).
     pub const SPEED_TRIGGER: [f32; 4] = [1.0, 0.55, 0.0, 0.35];
     /// Friction trigger stretches (translucent).
@@ -117,7 +119,7 @@ pub struct StaticScene {
 
 impl StaticScene {
     /// Builds the ground, every road's surface, markings and guardrails, and markers for the
-    /// level's spawners, destroyers and triggers.
+    /// level's spawners, destroyers, detectors and triggers.
     pub fn build(network: &RoadNetwork, level: &Level) -> StaticScene {
         let mut scene = StaticScene {
             min: Vec3::splat(f32::INFINITY),
@@ -224,6 +226,23 @@ impl StaticScene {
                         ],
                     );
                 }
+            }
+        }
+        for d in &level.detectors {
+            let Some(g) = road(&d.road) else { continue };
+            let f = g.frame_at(d.s_m);
+            let lane_w = f.width_m / f64::from(g.lanes().max(1));
+            let all: Vec<u32> = (0..g.lanes()).collect();
+            for &lane in d.lanes.as_deref().unwrap_or(&all) {
+                let across = flockway_road::lane_offset(f.width_m, g.lanes(), lane);
+                // A loop cut into the lane: 2 m along it, the lane's width less 0.6 m, just
+                // above the asphalt.
+                scene.cuboid(
+                    f.offset(across).as_vec3(),
+                    f.tangent.as_vec3(),
+                    Vec3::new(2.0, (lane_w as f32 - 0.6).max(0.5), 0.04),
+                    palette::DETECTOR,
+                );
             }
         }
         scene.translucent_from = scene.indices.len() as u32;
