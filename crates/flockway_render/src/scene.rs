@@ -783,6 +783,39 @@ mod tests {
     }
 
     #[test]
+    fn each_detector_loop_is_a_rectangle_on_its_lane() {
+        let mut level =
+            flockway_level::load_level(std::path::Path::new("../../levels/dense_road.ron"))
+                .expect("shipped level");
+        let network = RoadNetwork::build_with(&level.roads, &level.junctions).expect("network");
+        let painted = |scene: &StaticScene| {
+            scene
+                .vertices
+                .iter()
+                .filter(|v| v.colour == palette::DETECTOR)
+                .map(|v| Vec3::from(v.position))
+                .collect::<Vec<_>>()
+        };
+        assert!(painted(&StaticScene::build(&network, &level)).is_empty());
+        level.detectors = vec![flockway_level::DetectorSpec {
+            name: "loop".into(),
+            road: "main".into(),
+            s_m: 100.0,
+            lanes: Some(vec![0, 3]),
+            period_s: 60.0,
+        }];
+        let loops = painted(&StaticScene::build(&network, &level));
+        // Two boxes of six faces, four corners each; 2 m along the straight at x = 100 m, on
+        // lanes 0 and 3 (3 m wide, centred 4.5 m right and left of the centre line).
+        assert_eq!(loops.len(), 2 * 6 * 4);
+        assert!(loops.iter().all(|p| (p.x - 100.0).abs() <= 1.0 + 1e-3));
+        let (right, left): (Vec<&Vec3>, Vec<&Vec3>) = loops.iter().partition(|p| p.y < 0.0);
+        assert_eq!((right.len(), left.len()), (24, 24));
+        assert!(right.iter().all(|p| (p.y + 4.5).abs() <= 1.2 + 1e-3));
+        assert!(left.iter().all(|p| (p.y - 4.5).abs() <= 1.2 + 1e-3));
+    }
+
+    #[test]
     fn each_signalised_lane_gets_a_bar_at_its_line_in_the_colour_it_shows() {
         let level =
             flockway_level::load_level(std::path::Path::new("../../levels/signal_queue.ron"))
