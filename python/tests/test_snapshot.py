@@ -82,6 +82,15 @@ def test_a_clone_is_independent_and_runs_on_as_the_original_would() -> None:
     for key in ("id", "x_m", "y_m", "speed_mps", "throttle"):
         np.testing.assert_array_equal(sim.vehicles()[key], deep.vehicles()[key])
     assert len(twin.vehicles()["id"]) != len(sim.vehicles()["id"])
+    # Without telemetry, the copies write none; with it, each its own temporary file.
+    assert twin.csv is None and deep.csv is None
+    writing = flockway.Sim("dense_road", seed=4)
+    writing.step(240)
+    copy_ = writing.clone()
+    assert copy_.csv is not None and copy_.csv != writing.csv
+    copy_.step(120)
+    writing.step(120)
+    assert copy_.csv.read_bytes() == writing.csv.read_bytes()
 
 
 class Counting:
