@@ -22,24 +22,28 @@ import numpy as np
 os.environ.setdefault("FLOCKWAY_THREADS", "1")
 
 
+def _idle_rate(env, steps: int, vehicles) -> tuple[float, float]:
+    """Environment steps per second over ``steps`` steps of the meta-action ``idle`` (1) after
+    a reset with seed 0, and the mean of ``vehicles(env)`` over them."""
+    env.reset(seed=0)
+    counts = []
+    t = time.perf_counter()
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(1)
+        counts.append(vehicles(env))
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - t), float(np.mean(counts))
+
+
 def highway(steps: int) -> tuple[float, float, float]:
     import gymnasium as gym
     import highway_env  # noqa: F401  (registers the environments)
 
     env = gym.make("highway-v0")  # 4 lanes, 50 vehicles, 1 decision/s, 15 Hz simulation
     env.unwrapped.config["duration"] = 10**6
-    env.reset(seed=0)
-    idle = 1
-    counts = []
-    t = time.perf_counter()
-    for _ in range(steps):
-        _, _, terminated, truncated, _ = env.step(idle)
-        counts.append(len(env.unwrapped.road.vehicles))
-        if terminated or truncated:
-            env.reset()
-    wall = time.perf_counter() - t
-    period_s = 1.0 / env.unwrapped.config["policy_frequency"]
-    return steps / wall, period_s, float(np.mean(counts))
+    rate, vehicles = _idle_rate(env, steps, lambda e: len(e.unwrapped.road.vehicles))
+    return rate, 1.0 / env.unwrapped.config["policy_frequency"], vehicles
 
 
 def flockway(steps: int) -> tuple[float, float, float]:
@@ -50,17 +54,8 @@ def flockway(steps: int) -> tuple[float, float, float]:
     env = gym.make("flockway/Level-v0", level="dense_road", profile="autonomous",
                    warmup_s=30.0, episode_s=10**6, observation="kinematics",
                    action="discrete", period_s=1.0)
-    env.reset(seed=0)
-    idle = 1
-    counts = []
-    t = time.perf_counter()
-    for _ in range(steps):
-        _, _, terminated, truncated, _ = env.step(idle)
-        counts.append(len(env.unwrapped.sim.vehicles()["id"]))
-        if terminated or truncated:
-            env.reset()
-    wall = time.perf_counter() - t
-    return steps / wall, 1.0, float(np.mean(counts))
+    rate, vehicles = _idle_rate(env, steps, lambda e: len(e.unwrapped.sim.vehicles()["id"]))
+    return rate, 1.0, vehicles
 
 
 def main() -> None:

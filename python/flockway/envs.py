@@ -176,6 +176,18 @@ KINEMATICS_RANGE_M = 100.0
 KINEMATICS_SPEED_MPS = 40.0
 
 
+def _agent_frame(sim: Sim, vehicle: int) -> tuple[dict[str, np.ndarray], int, float,
+                                                  np.ndarray, np.ndarray] | None:
+    """Every vehicle now, the agent's row, its heading and every vehicle's position relative
+    to it (world axes), m; ``None`` once the agent has gone."""
+    v = sim.vehicles()
+    at = np.flatnonzero(v["id"] == vehicle)
+    if len(at) == 0:
+        return None
+    k = int(at[0])
+    return v, k, v["heading_rad"][k], v["x_m"] - v["x_m"][k], v["y_m"] - v["y_m"][k]
+
+
 def kinematics(sim: Sim, vehicle: int, count: int) -> np.ndarray:
     """The ``count`` rows of a ``kinematics`` observation: the agent's own (presence 1, at the
     origin, its speed along x), then its ``count - 1`` nearest vehicles', nearest first (ties by
@@ -183,16 +195,13 @@ def kinematics(sim: Sim, vehicle: int, count: int) -> np.ndarray:
     :data:`KINEMATICS_RANGE_M` and :data:`KINEMATICS_SPEED_MPS` and clipped; rows for vehicles
     that are not there are zeros."""
     out = np.zeros((count, len(KINEMATICS)), dtype=np.float32)
-    v = sim.vehicles()
-    at = np.flatnonzero(v["id"] == vehicle)
-    if len(at) == 0:
+    frame = _agent_frame(sim, vehicle)
+    if frame is None:
         return out
-    k = at[0]
-    h = v["heading_rad"][k]
+    v, k, h, dx, dy = frame
     c, s = np.cos(-h), np.sin(-h)
     vx = v["speed_mps"] * np.cos(v["heading_rad"])
     vy = v["speed_mps"] * np.sin(v["heading_rad"])
-    dx, dy = v["x_m"] - v["x_m"][k], v["y_m"] - v["y_m"][k]
     dvx, dvy = vx - vx[k], vy - vy[k]
     rows = np.stack([np.ones_like(dx), c * dx - s * dy, s * dx + c * dy,
                      c * dvx - s * dvy, s * dvx + c * dvy], axis=1)
@@ -227,14 +236,11 @@ def lanes_grid(sim: Sim, vehicle: int, lanes: int) -> np.ndarray:
     it with relative speed 0. Zeros once the agent has gone."""
     cells = int(round((LANES_AHEAD_M + LANES_BEHIND_M) / LANES_CELL_M))
     out = np.zeros((len(LANES), lanes, cells), dtype=np.float32)
-    v = sim.vehicles()
-    at = np.flatnonzero(v["id"] == vehicle)
-    if len(at) == 0:
+    frame = _agent_frame(sim, vehicle)
+    if frame is None:
         return out
-    k = at[0]
-    h = v["heading_rad"][k]
+    v, k, h, dx, dy = frame
     c, s = np.cos(-h), np.sin(-h)
-    dx, dy = v["x_m"] - v["x_m"][k], v["y_m"] - v["y_m"][k]
     ahead, left = c * dx - s * dy, s * dx + c * dy
     vx = v["speed_mps"] * np.cos(v["heading_rad"] - h)
     row = (lanes - 1) // 2 - np.floor(left / LANE_WIDTH_M + 0.5).astype(np.int64)

@@ -20,7 +20,7 @@ from .envs import (
     render_size_of,
     whole_level_frame,
 )
-from .signals import Junction, Timing, check_reward, lane_counts, system_measures
+from .signals import Junction, Timing, configure, lane_counts, system_measures
 from .sim import DT_S, Sim
 
 
@@ -221,18 +221,9 @@ class SignalParallelEnv(ParallelEnv):
         render_mode: str | None = None,
         render_size: tuple[int, int] | None = None,
     ) -> None:
-        check_render_mode(render_mode, self.metadata)
-        if render_size is not None:
-            self.render_size = render_size_of(render_size)
-        self.timing = Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s, warmup_s,
-                             episode_s)
-        check_reward(reward)
-        self.level = level
-        self.reward_spec = reward
-        self.fixed_time = bool(fixed_time)
-        self.overrides = dict(overrides or {})
-        self.telemetry = telemetry
-        self.render_mode = render_mode
+        configure(self, level, Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s,
+                                      warmup_s, episode_s),
+                  reward, fixed_time, overrides, telemetry, render_mode, render_size)
         sim = Sim(level, overrides=self.overrides, csv=False)
         names = [s["junction"] for s in sim.signals()]
         if junctions is not None:

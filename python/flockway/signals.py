@@ -213,6 +213,23 @@ def check_reward(reward: Any) -> None:
                          "callable f(junction, sim) -> float")
 
 
+def configure(env: Any, level: str, timing: Timing, reward: Any, fixed_time: bool,
+              overrides: dict[str, float] | None, telemetry: Any, render_mode: str | None,
+              render_size: tuple[int, int] | None) -> None:
+    """The keywords both signal-control environments take, checked and kept on ``env``."""
+    check_render_mode(render_mode, env.metadata)
+    if render_size is not None:
+        env.render_size = render_size_of(render_size)
+    env.timing = timing
+    check_reward(reward)
+    env.level = level
+    env.reward_spec = reward
+    env.fixed_time = bool(fixed_time)
+    env.overrides = dict(overrides or {})
+    env.telemetry = telemetry
+    env.render_mode = render_mode
+
+
 class SignalControlEnv(gym.Env):
     """``flockway/SignalControl-v0``: one signalised junction of ``level`` driven by the agent
     (the first one, or ``junction``); the others keep their programs.
@@ -248,18 +265,9 @@ class SignalControlEnv(gym.Env):
         render_mode: str | None = None,
         render_size: tuple[int, int] | None = None,
     ) -> None:
-        check_render_mode(render_mode, self.metadata)
-        if render_size is not None:
-            self.render_size = render_size_of(render_size)
-        self.timing = Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s, warmup_s,
-                             episode_s)
-        check_reward(reward)
-        self.level = level
-        self.reward_spec = reward
-        self.fixed_time = bool(fixed_time)
-        self.overrides = dict(overrides or {})
-        self.telemetry = telemetry
-        self.render_mode = render_mode
+        configure(self, level, Timing(delta_time_s, yellow_time_s, all_red_s, min_green_s,
+                                      warmup_s, episode_s),
+                  reward, fixed_time, overrides, telemetry, render_mode, render_size)
         # The spaces come from the junction: read them off a first look at the level.
         probe = Sim(level, overrides=self.overrides, csv=False)
         self.junction_name = junction if junction is not None else _first_signal(probe)

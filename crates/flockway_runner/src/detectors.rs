@@ -24,10 +24,7 @@ pub const DETECTOR_COLUMNS: [&str; 12] = [
 
 /// Where the detectors CSV of a telemetry CSV goes: `run.csv` → `run.detectors.csv`.
 pub fn detectors_path(csv: &Path) -> PathBuf {
-    let stem = csv
-        .file_stem()
-        .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned());
-    csv.with_file_name(format!("{stem}.detectors.csv"))
+    crate::signals::beside(csv, "detectors")
 }
 
 /// One reading as the CSV's cells (an empty cell for a speed or length with no vehicle).
@@ -143,11 +140,16 @@ impl DetectorColumns {
             detectors: detectors.list.iter().map(|d| d.name.clone()).collect(),
             ..DetectorColumns::default()
         };
-        // The last closed reading of each loop: the latest in the time-ordered list.
+        // The last closed reading of each loop: the latest in the time-ordered list, found from
+        // its end (a long run's list is long; every loop closed lately).
+        let loops: usize = detectors.list.iter().map(|d| d.lanes.len()).sum();
         let mut last: std::collections::BTreeMap<(usize, u32), &DetectorReading> =
             std::collections::BTreeMap::new();
-        for r in &detectors.readings {
-            last.insert((r.detector, r.lane), r);
+        for r in detectors.readings.iter().rev() {
+            if last.len() == loops {
+                break;
+            }
+            last.entry((r.detector, r.lane)).or_insert(r);
         }
         for (k, d) in detectors.list.iter().enumerate() {
             for (r, c) in detectors.current(k).iter().zip(&detectors.counters[k]) {

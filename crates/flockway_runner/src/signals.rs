@@ -21,10 +21,15 @@ pub const SIGNAL_COLUMNS: [&str; 8] = [
 
 /// Where the signals CSV of a telemetry CSV goes: `run.csv` → `run.signals.csv`.
 pub fn signals_path(csv: &Path) -> PathBuf {
+    beside(csv, "signals")
+}
+
+/// A file written beside a telemetry CSV: `run.csv` → `run.KIND.csv`.
+pub(crate) fn beside(csv: &Path, kind: &str) -> PathBuf {
     let stem = csv
         .file_stem()
         .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned());
-    csv.with_file_name(format!("{stem}.signals.csv"))
+    csv.with_file_name(format!("{stem}.{kind}.csv"))
 }
 
 /// Streams signal changes to a CSV: a row per connection when the run starts, then one per
