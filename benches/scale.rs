@@ -1,10 +1,68 @@
 //! Scale: 1 000 and 10 000 autonomous cars on a 4-lane ring (40 m apart per lane, 60 km/h), the
-//! whole step (perception, drivers, physics, telemetry sampling). Criterion reports the time per
-//! step; the real-time factor is 1/120 s divided by it.
+//! whole step (perception, drivers, physics, telemetry sampling); and a city: a 12 × 12 grid of
+//! signalised junctions as netconvert writes one (imported, 3 400 lanes with the junctions'
+//! internal ones), every street lane started with a car every 30 m (about 4 400), the whole step
+//! of the run (spawners, signals, junction rules, destroyers, telemetry into the trace) after 10
+//! simulated seconds. Criterion reports the time per step; the real-time factor is 1/120 s
+//! divided by it. The city prints its vehicles alive on average and µs per vehicle-step.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 mod common;
-use std::time::Duration;
+#[path = "common/grid.rs"]
+mod grid;
+use flockway::drivers::{BuiltinModel, DriverSpec};
+use flockway::level::import_sumo_net;
+use flockway::road::RoadNetwork;
+use flockway::run::{RunOptions, Runner};
+use flockway::traffic::spawn_driven;
+use flockway::vehicle::{VehicleModel, VehicleSpawn, VehicleType};
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Junctions per side of the city.
+const CITY_SIDE: usize = 12;
+/// Spacing of the cars the city starts with along every street lane, m.
+const CITY_SPACING_M: f64 = 30.0;
+
+fn alive(runner: &mut Runner) -> u64 {
+    let world = runner.sim_mut().world_mut();
+    world.query::<&VehicleModel>().iter(world).count() as u64
+}
+
+/// The city run, its streets filled, after 10 simulated seconds.
+fn city() -> Runner {
+    let net = grid::grid_net(CITY_SIDE, true);
+    let level =
+        import_sumo_net(&net, Path::new("city.net.xml"), "city").unwrap_or_else(|e| panic!("{e}"));
+    let options = RunOptions {
+        seconds: Some(100_000.0),
+        ..RunOptions::default()
+    };
+    let mut runner = Runner::new(level, "city", &options).unwrap_or_else(|e| panic!("{e}"));
+    let world = runner.sim_mut().world_mut();
+    let network = world.resource::<RoadNetwork>().clone();
+    let model = Arc::new(VehicleType::default());
+    let driver = DriverSpec::default_for(BuiltinModel::FlockLanes);
+    for (id, g) in network.iter() {
+        if network.junction_path(id).is_some() {
+            continue;
+        }
+        let mut s = 10.0;
+        while s < g.length_m() - 10.0 {
+            for lane in 0..g.lanes() {
+                let at = VehicleSpawn::new(model.clone(), id, s)
+                    .lateral(g.lane_offset_m(lane, s))
+                    .speed(8.0);
+                spawn_driven(world, at, &driver, lane, Arc::from("autonomous"))
+                    .unwrap_or_else(|e| panic!("{e}"));
+            }
+            s += CITY_SPACING_M;
+        }
+    }
+    runner.step(10 * 120).unwrap_or_else(|e| panic!("{e}"));
+    runner
+}
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("scale");
@@ -16,6 +74,40 @@ fn bench(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("ring_step", n), |b| b.iter(|| sim.step()));
     }
     group.finish();
+    let mut group = c.benchmark_group("city");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(10));
+    // Set up only when the filter selects it (filling the city takes a while).
+    let mut runner: Option<Runner> = None;
+    let (mut vehicle_steps, mut steps, mut spent) = (0u64, 0u64, Duration::ZERO);
+    group.bench_function("step", |b| {
+        let runner = runner.get_or_insert_with(city);
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            for _ in 0..iters {
+                let n = alive(runner);
+                let started = Instant::now();
+                runner.step(1).unwrap_or_else(|e| panic!("{e}"));
+                let took = started.elapsed();
+                total += took;
+                spent += took;
+                vehicle_steps += n;
+                steps += 1;
+            }
+            total
+        })
+    });
+    group.finish();
+    if steps == 0 {
+        return;
+    }
+    println!(
+        "city: {:.0} vehicles alive on average, {:.2} µs per vehicle-step, {:.2}× real time \
+         ({steps} steps measured)",
+        vehicle_steps as f64 / steps as f64,
+        spent.as_secs_f64() * 1e6 / vehicle_steps as f64,
+        steps as f64 / 120.0 / spent.as_secs_f64(),
+    );
 }
 
 criterion_group!(benches, bench);

@@ -116,21 +116,30 @@ pub struct Chassis {
     pub body: RigidBodyHandle,
 }
 
-/// Whether a vehicle's body can touch guardrails in rapier. A car's bounding box on a curve or
-/// a diagonal road overlaps the guardrail pieces beside it, and rapier then updates that pair
-/// every step (a quarter of the step with 10 000 cars on a ring); so the car's collider ignores
-/// guardrails while its box is clearly away from its road's edges, and takes them in again
-/// before it can reach one. Contacts are the same: the gate opens with room for twice the
-/// distance the box's side can move in one step.
+/// Whether a vehicle's body is in rapier's collision detection, and with what. Cars touch
+/// only in crashes, yet rapier refits every moving car's box in its broad phase and searches
+/// the tree for the car's new pairs every step; and a car's box on a curve or a diagonal road
+/// overlaps the guardrail pieces beside it, a pair rapier then updates every step (a quarter
+/// of the step with 10 000 cars on a ring). So a car's collider leaves rapier while no other
+/// car's body is within reach and it is clearly away from its road's edges, and leaves the
+/// guardrails out of its filter while clear of them; each comes back before anything can
+/// reach the box, with room for twice the distance the two can close in one step. Contacts
+/// are the same as without gates, bit for bit.
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
-pub struct RailGate {
+pub struct ContactGate {
     pub(crate) collider: ColliderHandle,
-    pub(crate) half_length_m: f32,
-    pub(crate) half_width_m: f32,
+    /// The collider box's half extents (length, width, height), m.
+    pub(crate) half_extents: Vec3,
+    /// Height of the box's centre above the centre of mass, m.
+    pub(crate) offset_z_m: f32,
     /// Whether guardrails are in the collider's filter now.
-    pub(crate) open: bool,
+    pub(crate) rails_open: bool,
     /// Whether they should be from the next step.
-    pub(crate) want_open: bool,
+    pub(crate) want_rails: bool,
+    /// Whether the collider is in rapier now.
+    pub(crate) enabled: bool,
+    /// Whether another car's body was within reach at the last search.
+    pub(crate) near: bool,
 }
 
 /// Margin kept between a car's box and its road's edge (the guardrail's inner face) before the
@@ -145,21 +154,36 @@ pub(crate) const RAIL_GATE_HYSTERESIS_M: f32 = 0.3;
 /// are near, and the edge of the road the car tracks no longer bounds where it can go, m.
 pub(crate) const RAIL_GATE_END_M: f64 = 10.0;
 
-impl RailGate {
-    /// A gate for a body's collider with the box's half length and width, open.
-    pub fn new(collider: ColliderHandle, half_length_m: f32, half_width_m: f32) -> RailGate {
-        RailGate {
+/// Margin kept between two cars' boxes before both colliders go into rapier, on top of the
+/// distance the two can close in two steps, m.
+pub const CONTACT_GATE_MARGIN_M: f32 = 0.3;
+
+/// How much further apart two cars must be before their colliders leave rapier again, m.
+pub(crate) const CONTACT_GATE_HYSTERESIS_M: f32 = 0.5;
+
+impl ContactGate {
+    /// A gate for a body's collider box (half extents, its centre's height above the centre of
+    /// mass), open: the collider in rapier with guardrails in its filter.
+    pub fn new(collider: ColliderHandle, half_extents: Vec3, offset_z_m: f32) -> ContactGate {
+        ContactGate {
             collider,
-            half_length_m,
-            half_width_m,
-            open: true,
-            want_open: true,
+            half_extents,
+            offset_z_m,
+            rails_open: true,
+            want_rails: true,
+            enabled: true,
+            near: true,
         }
     }
 
     /// Whether guardrails are in the collider's filter.
-    pub fn is_open(&self) -> bool {
-        self.open
+    pub fn rails_open(&self) -> bool {
+        self.rails_open
+    }
+
+    /// Whether the collider is in rapier's collision detection.
+    pub fn in_rapier(&self) -> bool {
+        self.enabled
     }
 }
 

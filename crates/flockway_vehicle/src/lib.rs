@@ -21,6 +21,7 @@ mod components;
 mod drivetrain;
 mod dyno;
 mod forces;
+mod gates;
 mod longitudinal;
 mod params;
 mod physics;
@@ -30,13 +31,15 @@ mod systems;
 mod tyre;
 
 pub use components::{
-    BodyForces, Chassis, Controls, Motion, OFF_ROAD_FRICTION, RAIL_GATE_MARGIN_M, RailGate,
-    RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType, WHEEL_NAMES, WheelState,
+    BodyForces, CONTACT_GATE_MARGIN_M, Chassis, ContactGate, Controls, Motion, OFF_ROAD_FRICTION,
+    RAIL_GATE_MARGIN_M, RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType,
+    WHEEL_NAMES, WheelState,
 };
 pub use drivetrain::{
     Driveline, Gearbox, Pedals, RPM_TO_RAD_S, STANDSTILL_MPS, SpinInput, SpinOutput, apply_brake,
 };
 pub use dyno::{DynoReport, DynoSettings, run_dyno};
+pub use gates::{CloseCars, find_close_cars, gate_colliders};
 pub use longitudinal::LongitudinalModel;
 pub use params::{
     BrakeParams, ChassisParams, ClutchParams, Differential, EngineParams, GearboxParams,
@@ -50,8 +53,7 @@ pub use physics::{
 pub use spawn::{SpawnError, VehicleSpawn, rest_pose, spawn_vehicle};
 pub use steering::{ackermann, slew};
 pub use systems::{
-    PARALLEL_MIN_VEHICLES, apply_body_forces, drive_vehicles, gate_guardrails, sync_vehicles,
-    track_road,
+    PARALLEL_MIN_VEHICLES, apply_body_forces, drive_vehicles, sync_vehicles, track_road,
 };
 pub use tyre::{CURVE_SAMPLES, SampledCurve, Tyre};
 
@@ -107,7 +109,7 @@ impl SimPlugin for VehiclePlugin {
             StepSet::Physics,
             (
                 step_physics.in_set(VehicleSystems::Step),
-                (sync_vehicles, gate_guardrails)
+                (sync_vehicles, find_close_cars, gate_colliders)
                     .chain()
                     .in_set(VehicleSystems::Sync),
             )

@@ -104,10 +104,11 @@ impl EventHandler for EventCollector {
 pub struct Physics {
     /// Bodies, colliders and rapier's pipeline state.
     pub world: PhysicsWorld,
-    /// Whether vehicle colliders leave guardrails out of their filter while clearly away from
-    /// them (see `RailGate`; on by default). Off, every car pairs with the rails beside it, as
-    /// rapier alone would: the results are the same, only slower.
-    pub rail_gates: bool,
+    /// Whether vehicle colliders leave rapier while no other car is within reach and the
+    /// guardrails out of their filter while clearly away from them (see `ContactGate`; on by
+    /// default). Off, every car is in rapier with the rails in its filter, as rapier alone would
+    /// have it: the results are the same, only slower.
+    pub gates: bool,
     events: EventCollector,
     statics: Vec<ColliderHandle>,
     ground_z: f32,
@@ -134,7 +135,7 @@ impl Default for Physics {
         world.integration_parameters.max_ccd_substeps = 0;
         Physics {
             world,
-            rail_gates: true,
+            gates: true,
             events: EventCollector::default(),
             statics: Vec::new(),
             ground_z: 0.0,

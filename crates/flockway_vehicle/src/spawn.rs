@@ -2,7 +2,7 @@
 //! road position, with every component it runs on.
 
 use crate::components::{
-    BodyForces, Chassis, Controls, Motion, RailGate, RoadTrack, VehicleModel, VehicleState,
+    BodyForces, Chassis, ContactGate, Controls, Motion, RoadTrack, VehicleModel, VehicleState,
     VehicleType, WheelState,
 };
 use crate::drivetrain::{Gearbox, Pedals};
@@ -133,19 +133,27 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
         ))
         .id();
     let c = &p.chassis;
-    let body = RigidBodyBuilder::dynamic()
-        .pose(Pose::from_parts(pos, rot))
-        .linvel(forward * spawn.speed_mps)
-        .additional_mass_properties(MassProperties::new(Vec3::ZERO, c.mass_kg, model.inertia()))
-        // Forces are set afresh every tick; a sleeping car would ignore its driver.
-        .can_sleep(false)
-        .build();
     // The body box spans ground clearance to roof, placed relative to the centre of mass.
     let box_half_h = (c.height_m - c.ground_clearance_m) / 2.0;
     let box_centre_z = c.ground_clearance_m + box_half_h - c.com_height_m;
+    let box_offset = Vec3::new(0.0, 0.0, box_centre_z);
+    // All the mass is the body's: the collider carries exactly none, so switching it out of
+    // rapier and back in (`ContactGate`) leaves the body's mass properties bit for bit as they
+    // were. They are the sum rapier forms of a massless box at its offset and the chassis.
+    let massless_box = Cuboid::new(Vec3::new(c.length_m / 2.0, c.width_m / 2.0, box_half_h))
+        .mass_properties(0.0)
+        .transform_by(&Pose::from_translation(box_offset));
+    let mass = massless_box + MassProperties::new(Vec3::ZERO, c.mass_kg, model.inertia());
+    let body = RigidBodyBuilder::dynamic()
+        .pose(Pose::from_parts(pos, rot))
+        .linvel(forward * spawn.speed_mps)
+        .additional_mass_properties(mass)
+        // Forces are set afresh every tick; a sleeping car would ignore its driver.
+        .can_sleep(false)
+        .build();
     let collider = ColliderBuilder::cuboid(c.length_m / 2.0, c.width_m / 2.0, box_half_h)
-        .translation(Vec3::new(0.0, 0.0, box_centre_z))
-        .density(0.0)
+        .translation(box_offset)
+        .mass_properties(MassProperties::new(Vec3::ZERO, 0.0, Vec3::ZERO))
         .friction(0.3)
         .collision_groups(InteractionGroups::new(
             VEHICLE_GROUP,
@@ -162,7 +170,11 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
     let (handle, collider) = physics.world.insert(body, collider);
     world.entity_mut(entity).insert((
         Chassis { body: handle },
-        RailGate::new(collider, c.length_m / 2.0, c.width_m / 2.0),
+        ContactGate::new(
+            collider,
+            Vec3::new(c.length_m / 2.0, c.width_m / 2.0, box_half_h),
+            box_centre_z,
+        ),
     ));
     Ok(entity)
 }

@@ -1,83 +1,15 @@
 //! The per-tick vehicle systems: forces computed and applied before rapier steps, the new state
-//! read back and tracked along the roads after it, and guardrails gated in or out of each car's
-//! collider.
+//! read back and tracked along the roads after it.
 
 use crate::components::{
-    BodyForces, Chassis, Controls, Motion, RAIL_GATE_END_M, RAIL_GATE_HYSTERESIS_M,
-    RAIL_GATE_MARGIN_M, RailGate, RoadTrack, VehicleModel, VehicleState,
+    BodyForces, Chassis, ContactGate, Controls, Motion, RoadTrack, VehicleModel, VehicleState,
 };
 use crate::forces::vehicle_forces;
-use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
+use crate::physics::Physics;
 use bevy_ecs::prelude::*;
 use flockway_core::DT_S;
 use flockway_road::RoadNetwork;
 use glam::{DVec3, Vec3};
-use rapier3d::prelude::*;
-
-impl RailGate {
-    /// Decides from the car's track and motion whether guardrails must be in its filter for the
-    /// next step.
-    fn decide(&mut self, network: &RoadNetwork, track: &RoadTrack, motion: &Motion) {
-        let near_end = network.get(track.road).is_none_or(|g| {
-            !g.is_closed()
-                && (track.s_m < RAIL_GATE_END_M || track.s_m > g.length_m() - RAIL_GATE_END_M)
-        });
-        let upright = (motion.rotation * Vec3::Z).z > 0.8;
-        if near_end || !track.on_road || !upright {
-            self.want_open = true;
-            return;
-        }
-        // The box's reach across the road: its half width and half length turned by the
-        // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
-        let cos = track.heading_cos.abs().min(1.0);
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let reach = self.half_length_m * sin + self.half_width_m * cos + 0.1;
-        let edge = 0.5 * track.width_m + flockway_road::GUARDRAIL_OFFSET_M as f32;
-        let clearance = edge - (track.lateral_m.abs() as f32 + reach);
-        // How far the box's side can move in two steps: sliding across, and turning.
-        let across = motion.linvel.dot(track.left).abs();
-        let turning = motion.angvel.z.abs() * self.half_length_m;
-        let moves = 2.0 * DT_S as f32 * (across + turning);
-        let needed = moves + RAIL_GATE_MARGIN_M;
-        self.want_open = if self.open {
-            clearance < needed + RAIL_GATE_HYSTERESIS_M
-        } else {
-            clearance < needed
-        };
-    }
-}
-
-/// Puts guardrails into or out of each vehicle collider's filter as its [`RailGate`] decided,
-/// and notes each car's road where roads cross without meeting.
-pub fn gate_guardrails(
-    mut physics: ResMut<Physics>,
-    mut gates: Query<(&mut RailGate, &RoadTrack)>,
-) {
-    let gating = physics.rail_gates;
-    let crossings = physics.has_crossings();
-    for (mut gate, track) in &mut gates {
-        if crossings {
-            physics.note_vehicle_road(gate.collider, track.road);
-        }
-        let want_open = gate.want_open || !gating;
-        if want_open == gate.open {
-            continue;
-        }
-        let filter = if want_open {
-            VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
-        } else {
-            VEHICLE_GROUP | GROUND_GROUP
-        };
-        if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
-            collider.set_collision_groups(InteractionGroups::new(
-                VEHICLE_GROUP,
-                filter,
-                InteractionTestMode::And,
-            ));
-        }
-        gate.open = want_open;
-    }
-}
 
 /// Below this many vehicles the force computation runs on one thread: spreading a handful of
 /// cars over the task pool costs more than it saves.
@@ -139,7 +71,12 @@ pub fn apply_body_forces(mut physics: ResMut<Physics>, vehicles: Query<(&Chassis
 pub fn sync_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
-    mut vehicles: Query<(&Chassis, &mut Motion, &mut RoadTrack, Option<&mut RailGate>)>,
+    mut vehicles: Query<(
+        &Chassis,
+        &mut Motion,
+        &mut RoadTrack,
+        Option<&mut ContactGate>,
+    )>,
 ) {
     let physics: &Physics = &physics;
     let network: &RoadNetwork = &network;
@@ -147,7 +84,7 @@ pub fn sync_vehicles(
         &'a Chassis,
         Mut<'a, Motion>,
         Mut<'a, RoadTrack>,
-        Option<Mut<'a, RailGate>>,
+        Option<Mut<'a, ContactGate>>,
     );
     let run = |(chassis, mut motion, mut track, gate): Item| {
         let Some(body) = physics.world.bodies.get(chassis.body) else {
@@ -174,7 +111,7 @@ pub fn sync_vehicles(
         );
         track.speed_along_mps = linvel.dot(track.tangent);
         if let Some(mut gate) = gate {
-            gate.decide(network, &track, &motion);
+            gate.decide_rails(network, &track, &motion);
         }
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {

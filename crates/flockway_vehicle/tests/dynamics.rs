@@ -358,8 +358,10 @@ fn negative_throttle_brakes_then_reverses() {
 }
 
 /// A busy scene: several cars on a banked ring accelerating, braking, steering and bumping
-/// (into each other and the guardrails), with or without rail gates.
-fn busy_run(rail_gates: bool) -> (Vec<(u32, [u32; 13])>, usize) {
+/// (into each other and the guardrails), with or without gates. Returns every car's final
+/// state's bits, the contacts with guardrails and with other cars that began, and how many
+/// car-steps a collider spent out of rapier.
+fn busy_run(gates: bool) -> (Vec<(u32, [u32; 13])>, usize, usize, usize) {
     let mut spec = RoadSpec::ring("ring", 2, 60.0, DVec3::new(30.0, -20.0, 2.0), 80.0, 16);
     for (i, p) in spec.points.iter_mut().enumerate() {
         *p = ControlPoint {
@@ -368,8 +370,10 @@ fn busy_run(rail_gates: bool) -> (Vec<(u32, [u32; 13])>, usize) {
         };
     }
     let mut sim = world_with(vec![spec]);
-    sim.world_mut().resource_mut::<Physics>().rail_gates = rail_gates;
+    sim.world_mut().resource_mut::<Physics>().gates = gates;
     let mut rail_hits = 0;
+    let mut car_hits = 0;
+    let mut out_of_rapier = 0;
     let cars: Vec<Entity> = (0..8)
         .map(|i| {
             spawn(
@@ -397,6 +401,18 @@ fn busy_run(rail_gates: bool) -> (Vec<(u32, [u32; 13])>, usize) {
             .iter_current_update_messages()
             .filter(|c| c.started && matches!(c.other, flockway_vehicle::ContactWith::Guardrail(_)))
             .count();
+        car_hits += messages
+            .iter_current_update_messages()
+            .filter(|c| c.started && matches!(c.other, flockway_vehicle::ContactWith::Vehicle(_)))
+            .count();
+        out_of_rapier += cars
+            .iter()
+            .filter(|&&car| {
+                sim.world()
+                    .get::<flockway_vehicle::ContactGate>(car)
+                    .is_some_and(|g| !g.in_rapier())
+            })
+            .count();
     }
     let states = cars
         .iter()
@@ -421,7 +437,7 @@ fn busy_run(rail_gates: bool) -> (Vec<(u32, [u32; 13])>, usize) {
             (car.index_u32(), bits)
         })
         .collect();
-    (states, rail_hits)
+    (states, rail_hits, car_hits, out_of_rapier)
 }
 
 #[test]
@@ -432,12 +448,20 @@ fn the_same_run_twice_is_bit_identical() {
 }
 
 #[test]
-fn rail_gates_change_nothing_but_the_work() {
-    // Gates closed while cars are clear of the rails, or every car always paired with them:
-    // the same bits, crashes into the rails included.
-    let (gated, hits) = busy_run(true);
-    assert!(hits > 0, "the scene has cars hitting the rails");
-    assert_eq!((gated, hits), busy_run(false));
+fn gates_change_nothing_but_the_work() {
+    // Colliders out of rapier while no car is within reach, guardrails out of their filters
+    // while clear of them; or every car always in rapier with the rails: the same bits, crashes
+    // into the rails and into each other included.
+    let (gated, rail_hits, car_hits, out) = busy_run(true);
+    assert!(rail_hits > 0, "the scene has cars hitting the rails");
+    assert!(car_hits > 0, "and cars hitting each other");
+    assert!(out > 1000, "colliders left rapier ({out} car-steps)");
+    let (ungated, rail_hits2, car_hits2, out2) = busy_run(false);
+    assert_eq!(out2, 0);
+    assert_eq!(
+        (gated, rail_hits, car_hits),
+        (ungated, rail_hits2, car_hits2)
+    );
 }
 
 #[test]
@@ -485,8 +509,8 @@ fn contacts_with_guardrails_and_other_cars_become_messages() {
     let mut seen = Vec::new();
     let gate = |sim: &Sim, car: Entity| {
         sim.world()
-            .get::<flockway_vehicle::RailGate>(car)
-            .map(|g| g.is_open())
+            .get::<flockway_vehicle::ContactGate>(car)
+            .map(|g| g.rails_open())
     };
     let mut wild_gate_opened = false;
     for tick in 0..ticks(5.0) {

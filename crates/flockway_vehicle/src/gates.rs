@@ -1,0 +1,421 @@
+//! Gating vehicle colliders in and out of rapier's collision detection (see [`ContactGate`]):
+//! each car decides from its track whether guardrails can be near, a grid search over every
+//! car's box finds the cars another can reach, and [`gate_colliders`] applies both.
+
+use crate::components::{
+    CONTACT_GATE_HYSTERESIS_M, CONTACT_GATE_MARGIN_M, ContactGate, Motion, RAIL_GATE_END_M,
+    RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
+};
+use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
+use bevy_ecs::prelude::*;
+use flockway_core::DT_S;
+use flockway_road::RoadNetwork;
+use glam::{Mat3, Vec2, Vec3};
+use rapier3d::prelude::*;
+
+impl ContactGate {
+    /// Decides from the car's track and motion whether guardrails must be in its filter for the
+    /// next step.
+    pub(crate) fn decide_rails(
+        &mut self,
+        network: &RoadNetwork,
+        track: &RoadTrack,
+        motion: &Motion,
+    ) {
+        let near_end = network.get(track.road).is_none_or(|g| {
+            !g.is_closed()
+                && (track.s_m < RAIL_GATE_END_M || track.s_m > g.length_m() - RAIL_GATE_END_M)
+        });
+        let upright = (motion.rotation * Vec3::Z).z > 0.8;
+        if near_end || !track.on_road || !upright {
+            self.want_rails = true;
+            return;
+        }
+        // The box's reach across the road: its half width and half length turned by the
+        // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
+        let (half_length, half_width) = (self.half_extents.x, self.half_extents.y);
+        let cos = track.heading_cos.abs().min(1.0);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let reach = half_length * sin + half_width * cos + 0.1;
+        let edge = 0.5 * track.width_m + flockway_road::GUARDRAIL_OFFSET_M as f32;
+        let clearance = edge - (track.lateral_m.abs() as f32 + reach);
+        // How far the box's side can move in two steps: sliding across, and turning.
+        let across = motion.linvel.dot(track.left).abs();
+        let turning = motion.angvel.z.abs() * half_length;
+        let moves = 2.0 * DT_S as f32 * (across + turning);
+        let needed = moves + RAIL_GATE_MARGIN_M;
+        self.want_rails = if self.rails_open {
+            clearance < needed + RAIL_GATE_HYSTERESIS_M
+        } else {
+            clearance < needed
+        };
+    }
+}
+
+/// One car's collider box as the close-car search sees it: its footprint (the rectangle along
+/// its flattened heading that holds the box's projection on the ground) and its vertical span.
+#[derive(Debug, Clone, Copy)]
+struct BoxNow {
+    centre: Vec2,
+    z: f32,
+    /// Half the box's vertical extent, m.
+    half_z: f32,
+    /// The flattened heading, unit length.
+    axis: Vec2,
+    /// The footprint's half extents along `axis` and across it, m.
+    half: Vec2,
+    /// How far any point of the box can move in two steps, m.
+    reach_m: f32,
+    /// Whether it had a car within reach at the last search (which widens its threshold).
+    was_near: bool,
+}
+
+impl BoxNow {
+    fn of(gate: &ContactGate, motion: &Motion) -> BoxNow {
+        let m = Mat3::from_quat(motion.rotation);
+        let h = gate.half_extents;
+        let half_axes = [m.x_axis * h.x, m.y_axis * h.y, m.z_axis * h.z];
+        let axis = m.x_axis.truncate().normalize_or(Vec2::X);
+        let across = axis.perp();
+        let along = |dir: Vec2| {
+            half_axes
+                .iter()
+                .map(|a| a.truncate().dot(dir).abs())
+                .sum::<f32>()
+        };
+        let centre = motion.position + m.z_axis * gate.offset_z_m;
+        BoxNow {
+            centre: centre.truncate(),
+            z: centre.z,
+            half_z: half_axes.iter().map(|a| a.z.abs()).sum(),
+            axis,
+            half: Vec2::new(along(axis), along(across)),
+            reach_m: 2.0
+                * DT_S as f32
+                * (motion.linvel.length() + motion.angvel.length() * h.length()),
+            was_near: gate.near,
+        }
+    }
+}
+
+/// A lower bound of the distance between two boxes: the largest gap between their footprints'
+/// projections on each footprint's axes, or between their vertical spans (projecting never
+/// lengthens a distance, and each footprint holds its box's projection).
+fn gap_lower_bound(a: &BoxNow, b: &BoxNow) -> f32 {
+    let d = b.centre - a.centre;
+    let (ua, va, ub, vb) = (a.axis, a.axis.perp(), b.axis, b.axis.perp());
+    let (uu, uv, vu, vv) = (
+        ua.dot(ub).abs(),
+        ua.dot(vb).abs(),
+        va.dot(ub).abs(),
+        va.dot(vb).abs(),
+    );
+    let vertical = (b.z - a.z).abs() - a.half_z - b.half_z;
+    let on_ua = d.dot(ua).abs() - a.half.x - (b.half.x * uu + b.half.y * uv);
+    let on_va = d.dot(va).abs() - a.half.y - (b.half.x * vu + b.half.y * vv);
+    let on_ub = d.dot(ub).abs() - b.half.x - (a.half.x * uu + a.half.y * vu);
+    let on_vb = d.dot(vb).abs() - b.half.y - (a.half.x * uv + a.half.y * vv);
+    vertical.max(on_ua).max(on_va).max(on_ub).max(on_vb)
+}
+
+/// Whether two boxes are close enough that their colliders must be in rapier.
+fn within_reach(a: &BoxNow, b: &BoxNow) -> bool {
+    let hysteresis = if a.was_near || b.was_near {
+        CONTACT_GATE_HYSTERESIS_M
+    } else {
+        0.0
+    };
+    let threshold = a.reach_m + b.reach_m + CONTACT_GATE_MARGIN_M + hysteresis;
+    // Most pairs fail on the circles around the footprints already.
+    let circles = a.half.length() + b.half.length() + threshold;
+    (b.centre - a.centre).length_squared() < circles * circles && gap_lower_bound(a, b) < threshold
+}
+
+/// The close-car search's buffers, kept from step to step.
+#[derive(Default)]
+pub struct CloseCars {
+    boxes: Vec<BoxNow>,
+    /// `(grid cell, index into boxes)`, sorted.
+    cells: Vec<(u64, u32)>,
+    near: Vec<bool>,
+}
+
+impl CloseCars {
+    /// Marks in `near` every box with another box within reach. Each box goes into the grid
+    /// cell of its centre, cells as wide as the farthest two boxes can interact, so only
+    /// neighbouring cells are compared: O(n log n), never every pair.
+    fn search(&mut self) {
+        let n = self.boxes.len();
+        self.near.clear();
+        self.near.resize(n, false);
+        if n < 2 {
+            return;
+        }
+        let widest = self
+            .boxes
+            .iter()
+            .map(|b| b.half.length() + b.reach_m)
+            .fold(0.0_f32, f32::max);
+        let side = 2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M;
+        // Cells ordered by column, then row: a column's neighbouring rows are adjacent keys.
+        let key =
+            |x: i32, y: i32| (u64::from(x as u32 ^ 1 << 31) << 32) | u64::from(y as u32 ^ 1 << 31);
+        let cell_of = |b: &BoxNow| {
+            let c = (b.centre / side).floor();
+            (c.x as i32, c.y as i32)
+        };
+        self.cells.clear();
+        self.cells
+            .extend(self.boxes.iter().enumerate().map(|(i, b)| {
+                let (x, y) = cell_of(b);
+                (key(x, y), i as u32)
+            }));
+        self.cells.sort_unstable();
+        let (cells, boxes, near) = (&self.cells, &self.boxes, &mut self.near);
+        let mut pair = |i: u32, j: u32| {
+            if within_reach(&boxes[i as usize], &boxes[j as usize]) {
+                near[i as usize] = true;
+                near[j as usize] = true;
+            }
+        };
+        let mut start = 0;
+        while start < cells.len() {
+            let k = cells[start].0;
+            let len = cells[start..].iter().take_while(|c| c.0 == k).count();
+            let here = &cells[start..start + len];
+            start += len;
+            for (m, &(_, i)) in here.iter().enumerate() {
+                for &(_, j) in &here[m + 1..] {
+                    pair(i, j);
+                }
+            }
+            // Each pair of neighbouring cells once: the one above this one, and the three
+            // of the next column (adjacent keys).
+            let (x, y) = cell_of(&boxes[here[0].1 as usize]);
+            let above = key(x, y.wrapping_add(1));
+            for &(_, j) in cells[start..].iter().take_while(|c| c.0 == above) {
+                for &(_, i) in here {
+                    pair(i, j);
+                }
+            }
+            let x1 = x.wrapping_add(1);
+            let (lo, hi) = (key(x1, y.wrapping_sub(1)), key(x1, y.wrapping_add(1)));
+            let from = start + cells[start..].partition_point(|c| c.0 < lo);
+            for &(_, j) in cells[from..].iter().take_while(|c| c.0 <= hi) {
+                for &(_, i) in here {
+                    pair(i, j);
+                }
+            }
+        }
+    }
+}
+
+/// Finds for every car whether another car's body is within reach of its own (so both
+/// colliders must be in rapier for the next step).
+pub fn find_close_cars(
+    physics: Res<Physics>,
+    mut gates: Query<(&mut ContactGate, &Motion)>,
+    mut search: Local<CloseCars>,
+) {
+    if !physics.gates {
+        return;
+    }
+    search.boxes.clear();
+    search
+        .boxes
+        .extend(gates.iter().map(|(gate, motion)| BoxNow::of(gate, motion)));
+    search.search();
+    for ((mut gate, _), &near) in gates.iter_mut().zip(&search.near) {
+        if gate.near != near {
+            gate.near = near;
+        }
+    }
+}
+
+/// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
+/// filter, as its [`ContactGate`] decided; and notes each car's road where roads cross without
+/// meeting.
+pub fn gate_colliders(
+    mut physics: ResMut<Physics>,
+    mut gates: Query<(&mut ContactGate, &RoadTrack)>,
+) {
+    let gating = physics.gates;
+    let crossings = physics.has_crossings();
+    for (mut gate, track) in &mut gates {
+        if crossings {
+            physics.note_vehicle_road(gate.collider, track.road);
+        }
+        let rails = gate.want_rails || !gating;
+        let enabled = rails || gate.near;
+        if rails == gate.rails_open && enabled == gate.enabled {
+            continue;
+        }
+        if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
+            if rails != gate.rails_open {
+                let filter = if rails {
+                    VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
+                } else {
+                    VEHICLE_GROUP | GROUND_GROUP
+                };
+                collider.set_collision_groups(InteractionGroups::new(
+                    VEHICLE_GROUP,
+                    filter,
+                    InteractionTestMode::And,
+                ));
+            }
+            if enabled != gate.enabled {
+                collider.set_enabled(enabled);
+            }
+        }
+        gate.rails_open = rails;
+        gate.enabled = enabled;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Quat;
+
+    const HALF: Vec3 = Vec3::new(2.3, 0.9, 0.6);
+
+    fn motion(x: f32, y: f32, heading: f32, speed: f32) -> Motion {
+        // Pitched and rolled a little, as on a banked curve under braking.
+        let rotation = Quat::from_rotation_z(heading)
+            * Quat::from_rotation_y(0.05)
+            * Quat::from_rotation_x(0.08);
+        Motion {
+            position: Vec3::new(x, y, 0.5),
+            rotation,
+            linvel: rotation * Vec3::X * speed,
+            angvel: Vec3::ZERO,
+            forward_mps: speed,
+            accel_mps2: 0.0,
+        }
+    }
+
+    fn boxed(x: f32, y: f32, heading: f32, speed: f32) -> BoxNow {
+        let gate = ContactGate::new(ColliderHandle::invalid(), HALF, 0.2);
+        let mut b = BoxNow::of(&gate, &motion(x, y, heading, speed));
+        b.was_near = false;
+        b
+    }
+
+    /// The eight corners of the collider box.
+    fn corners(m: &Motion) -> Vec<Vec3> {
+        let centre = m.position + m.rotation * Vec3::new(0.0, 0.0, 0.2);
+        let mut out = Vec::new();
+        for sx in [-1.0, 1.0] {
+            for sy in [-1.0, 1.0] {
+                for sz in [-1.0, 1.0] {
+                    out.push(centre + m.rotation * (HALF * Vec3::new(sx, sy, sz)));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_gap_bound_is_nearly_exact_for_cars_side_by_side_and_nose_to_tail() {
+        // Level cars would give 1.7 m and 5.4 m exactly; the pitch and roll widen each
+        // footprint by a few centimetres.
+        let a = boxed(0.0, 0.0, 0.0, 0.0);
+        let side = gap_lower_bound(&a, &boxed(0.0, 3.5, 0.0, 0.0));
+        assert!((1.6..1.7).contains(&side), "{side}");
+        let tail = gap_lower_bound(&a, &boxed(10.0, 0.0, 0.0, 0.0));
+        assert!((5.3..5.4).contains(&tail), "{tail}");
+        // Overlapping boxes have a negative gap.
+        assert!(gap_lower_bound(&a, &boxed(3.0, 0.5, 0.3, 0.0)) < 0.0);
+    }
+
+    #[test]
+    fn the_gap_bound_never_exceeds_the_distance_between_the_boxes() {
+        // Two boxes turned against each other at many headings and places: the bound stays
+        // below the distance between their nearest corners, and below zero where a corner
+        // of one is inside the other's footprint.
+        for step in 0..72 {
+            let heading = step as f32 * 5.0_f32.to_radians();
+            for (x, y) in [(5.0, 3.0), (4.0, 0.0), (0.0, 2.6), (-3.5, -3.5)] {
+                let (ma, mb) = (motion(0.0, 0.0, 0.0, 0.0), motion(x, y, heading, 0.0));
+                let (a, b) = (boxed(0.0, 0.0, 0.0, 0.0), boxed(x, y, heading, 0.0));
+                let nearest = corners(&ma)
+                    .iter()
+                    .flat_map(|p| corners(&mb).into_iter().map(move |q| p.distance(q)))
+                    .fold(f32::INFINITY, f32::min);
+                assert!(
+                    gap_lower_bound(&a, &b) <= nearest + 1e-5,
+                    "heading {heading} at {x},{y}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn boxes_on_roads_that_cross_at_different_heights_are_not_close() {
+        let a = boxed(0.0, 0.0, 0.0, 20.0);
+        let mut b = boxed(0.0, 0.0, 1.57, 20.0);
+        b.z += 6.0;
+        assert!(!within_reach(&a, &b));
+        b.z -= 5.0;
+        assert!(within_reach(&a, &b));
+    }
+
+    fn near_of(boxes: Vec<BoxNow>) -> Vec<bool> {
+        let mut search = CloseCars {
+            boxes,
+            ..CloseCars::default()
+        };
+        search.search();
+        search.near
+    }
+
+    #[test]
+    fn the_grid_finds_the_same_close_cars_as_every_pair() {
+        // Cars scattered over a few cells, some on cell borders, some in negative coordinates.
+        let mut boxes = Vec::new();
+        let mut seed = 7_u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1 << 24) as f32
+        };
+        for _ in 0..400 {
+            boxes.push(boxed(
+                next() * 200.0 - 100.0,
+                next() * 60.0 - 30.0,
+                next() * 6.3,
+                next() * 40.0,
+            ));
+        }
+        let mut brute = vec![false; boxes.len()];
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                if within_reach(&boxes[i], &boxes[j]) {
+                    brute[i] = true;
+                    brute[j] = true;
+                }
+            }
+        }
+        assert!(
+            brute.iter().filter(|&&n| n).count() > 20,
+            "the scene has close cars"
+        );
+        assert!(brute.iter().filter(|&&n| !n).count() > 20, "and lone ones");
+        assert_eq!(near_of(boxes), brute);
+    }
+
+    #[test]
+    fn reach_grows_with_speed() {
+        // Nose to tail 1 m apart: close when the rear one is fast enough to cover it in two
+        // steps, not when both stand.
+        let front = boxed(5.6, 0.0, 0.0, 0.0);
+        assert_eq!(
+            near_of(vec![boxed(0.0, 0.0, 0.0, 0.0), front]),
+            [false, false]
+        );
+        assert_eq!(
+            near_of(vec![boxed(0.0, 0.0, 0.0, 60.0), front]),
+            [true, true]
+        );
+        assert_eq!(near_of(vec![boxed(0.0, 0.0, 0.0, 0.0)]), [false]);
+    }
+}
