@@ -3,7 +3,6 @@
 use bevy_ecs::prelude::*;
 use flockway_road::{Link, RoadId, RoadNetwork};
 use flockway_vehicle::{RoadTrack, VehicleModel};
-use std::collections::BTreeMap;
 
 /// One vehicle in a lane of the index.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -67,8 +66,7 @@ impl Beside {
         lo: f64,
     ) -> impl Iterator<Item = LaneEntry> + use<'a> {
         let entries = index
-            .roads
-            .get(&self.road)
+            .road(self.road)
             .and_then(|r| r.lanes.first())
             .map_or(&[][..], Vec::as_slice);
         let (offset, to) = (self.offset_m, self.to_m);
@@ -104,7 +102,8 @@ const MAX_HOPS: usize = 8;
 /// the start of this tick. Queries cost O(log n + k) for k vehicles returned.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct LaneIndex {
-    roads: BTreeMap<RoadId, RoadLanes>,
+    /// By road id (the network's slots: a road's id is its index).
+    roads: Vec<Option<RoadLanes>>,
     vehicles: usize,
     /// Vehicles signalling a lane change.
     signalling: usize,
@@ -120,7 +119,7 @@ impl LaneIndex {
         vehicles: impl Iterator<Item = (Entity, &'a RoadTrack, f32, i8)>,
     ) {
         // Keep the allocations of last tick's lanes.
-        for road in self.roads.values_mut() {
+        for road in self.roads.iter_mut().flatten() {
             road.lanes.iter_mut().for_each(Vec::clear);
         }
         self.signalling = 0;
@@ -132,7 +131,11 @@ impl LaneIndex {
             if !track.on_road {
                 continue;
             }
-            let Some(road) = self.roads.get_mut(&track.road) else {
+            let Some(road) = self
+                .roads
+                .get_mut(track.road.0 as usize)
+                .and_then(Option::as_mut)
+            else {
                 continue;
             };
             let Some(lane) = road.lanes.get_mut(track.lane as usize) else {
@@ -149,7 +152,7 @@ impl LaneIndex {
             });
             self.vehicles += 1;
         }
-        for road in self.roads.values_mut() {
+        for road in self.roads.iter_mut().flatten() {
             for lane in &mut road.lanes {
                 lane.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
             }
@@ -159,9 +162,15 @@ impl LaneIndex {
     /// Reads what the index needs of `network` apart from its vehicles: each road's length,
     /// links and lanes in, and the paths beside each junction path.
     fn read_network(&mut self, network: &RoadNetwork) {
-        self.roads.retain(|id, _| network.get(*id).is_some());
+        let slots = network.iter().last().map_or(0, |(id, _)| id.0 as usize + 1);
+        self.roads.resize_with(slots, || None);
+        for (i, road) in self.roads.iter_mut().enumerate() {
+            if network.get(RoadId(i as u32)).is_none() {
+                *road = None;
+            }
+        }
         for (id, g) in network.iter() {
-            let road = self.roads.entry(id).or_default();
+            let road = self.roads[id.0 as usize].get_or_insert_with(RoadLanes::default);
             road.length_m = g.length_m();
             road.closed = g.is_closed();
             let links = network.links(id);
@@ -206,6 +215,11 @@ impl LaneIndex {
         self.read_from = Some(network.revision());
     }
 
+    /// The indexed road with this id.
+    fn road(&self, id: RoadId) -> Option<&RoadLanes> {
+        self.roads.get(id.0 as usize)?.as_ref()
+    }
+
     /// Number of vehicles indexed.
     pub fn len(&self) -> usize {
         self.vehicles
@@ -218,8 +232,7 @@ impl LaneIndex {
 
     /// The vehicles of one lane, sorted by arc position.
     pub fn lane(&self, road: RoadId, lane: u32) -> &[LaneEntry] {
-        self.roads
-            .get(&road)
+        self.road(road)
             .and_then(|r| r.lanes.get(lane as usize))
             .map_or(&[], Vec::as_slice)
     }
@@ -232,7 +245,7 @@ impl LaneIndex {
 
     /// Number of lanes of a road in the index.
     pub fn lanes(&self, road: RoadId) -> u32 {
-        self.roads.get(&road).map_or(0, |r| r.lanes.len() as u32)
+        self.road(road).map_or(0, |r| r.lanes.len() as u32)
     }
 
     /// Every vehicle in `lane` whose arc distance from `s_m` lies in `[-behind_m, ahead_m]`,
@@ -252,7 +265,7 @@ impl LaneIndex {
         exclude: Option<Entity>,
         out: &mut Vec<Seen>,
     ) {
-        let Some(r) = self.roads.get(&road) else {
+        let Some(r) = self.road(road) else {
             return;
         };
         let Some(entries) = r.lanes.get(lane as usize) else {
@@ -305,7 +318,7 @@ impl LaneIndex {
         if !r.closed && hi > r.length_m {
             // Traffic continues onto its lane's link.
             if let Some((next, lane2)) = r.lane_next(lane, None)
-                && let Some(r2) = self.roads.get(&next)
+                && let Some(r2) = self.road(next)
                 && let Some(e2) = r2.lanes.get(lane2 as usize)
             {
                 let end = e2.partition_point(|e| e.s_m <= hi - r.length_m);
@@ -332,7 +345,7 @@ impl LaneIndex {
         if !r.closed && lo < 0.0 {
             // And back along the lanes that lead onto this one.
             for &(prev, lane0) in r.prev.get(lane as usize).map_or(&[][..], Vec::as_slice) {
-                let Some(r0) = self.roads.get(&prev) else {
+                let Some(r0) = self.road(prev) else {
                     continue;
                 };
                 let Some(e0) = r0.lanes.get(lane0 as usize) else {
@@ -364,7 +377,7 @@ impl LaneIndex {
         range_m: f64,
         next: Option<RoadId>,
     ) -> Option<Seen> {
-        let r = self.roads.get(&road)?;
+        let r = self.road(road)?;
         let entries = r.lanes.get(lane as usize)?;
         let ahead = |e: &LaneEntry| e.s_m > s_m || (e.s_m == s_m && e.entity > me);
         let seen = |e: &LaneEntry, gap_m: f64, lane: u32| {
@@ -406,7 +419,7 @@ impl LaneIndex {
             if gap > range_m {
                 return None;
             }
-            let r = self.roads.get(&road)?;
+            let r = self.road(road)?;
             let first = r.lanes.get(lane as usize)?.first();
             // Into a junction: a car on a path sharing its lane there counts.
             let sibling = if hop == 0 {
@@ -480,7 +493,7 @@ impl LaneIndex {
         me: Entity,
         range_m: f64,
     ) -> Option<Seen> {
-        let r = self.roads.get(&road)?;
+        let r = self.road(road)?;
         let entries = r.lanes.get(lane as usize)?;
         let behind = |e: &LaneEntry| e.s_m < s_m || (e.s_m == s_m && e.entity < me);
         let i = entries.partition_point(behind);
@@ -519,10 +532,10 @@ impl LaneIndex {
         if hops == 0 || s_m > range_m {
             return None;
         }
-        let r = self.roads.get(&road)?;
+        let r = self.road(road)?;
         let mut best: Option<Seen> = None;
         for &(prev, lane0) in r.prev.get(lane as usize)? {
-            let Some(r0) = self.roads.get(&prev) else {
+            let Some(r0) = self.road(prev) else {
                 continue;
             };
             if r0.closed {
@@ -710,10 +723,14 @@ mod tests {
                 length_m: 4.6,
                 signal: 0,
             };
-            index.roads.get_mut(&road).expect("indexed road").lanes[lane as usize].push(e);
+            index.roads[road.0 as usize]
+                .as_mut()
+                .expect("indexed road")
+                .lanes[lane as usize]
+                .push(e);
             all.push((road, lane, e));
         }
-        for r in index.roads.values_mut() {
+        for r in index.roads.iter_mut().flatten() {
             for l in &mut r.lanes {
                 l.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
             }
@@ -743,7 +760,7 @@ mod tests {
         for closed in [true, false] {
             for seed in 1..=20u64 {
                 let (index, all) = placements(closed, 60, seed);
-                let len0 = index.roads[&RoadId(0)].length_m;
+                let len0 = index.road(RoadId(0)).expect("indexed road").length_m;
                 let mut rng = Lcg(seed * 77);
                 for _ in 0..40 {
                     let lane = (rng.next() * 3.0) as u32;
@@ -834,7 +851,7 @@ mod tests {
         assert!(index.is_empty());
         let (index, all) = placements(false, 200, 3);
         // From near the end of road a, the leader may be on road b.
-        let len0 = index.roads[&RoadId(0)].length_m;
+        let len0 = index.road(RoadId(0)).expect("indexed road").length_m;
         let lane0_last = index
             .lane(RoadId(0), 0)
             .last()
