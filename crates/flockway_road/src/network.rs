@@ -121,8 +121,6 @@ pub struct RoadNetwork {
     by_name: BTreeMap<String, RoadId>,
     /// The junctions, in the level's order; their paths are roads after the level's own.
     junctions: Vec<Junction>,
-    /// For each junction path's road: its junction and path index.
-    paths: BTreeMap<RoadId, (usize, usize)>,
     /// Per junction, its paths' roads in connection order.
     path_roads: Vec<Vec<RoadId>>,
     /// Pairs of roads that cross without meeting (a bridge), smaller id first, sorted.
@@ -168,6 +166,8 @@ struct Slot {
     links: Vec<Link>,
     /// Per lane of this road: the `(road, lane)` pairs that lead onto it.
     incoming: Vec<Vec<(RoadId, u32)>>,
+    /// If the road is a path through a junction: the junction's index and the path's.
+    path: Option<(usize, usize)>,
 }
 
 /// How far ahead, in metres, a route is read for which lanes lead on along it.
@@ -260,6 +260,7 @@ impl RoadNetwork {
                 meshes,
                 links: Vec::new(),
                 incoming: vec![Vec::new(); lanes],
+                path: paths.get(&id).copied(),
             });
         }
         let mut resolved = Vec::new();
@@ -363,7 +364,6 @@ impl RoadNetwork {
             slots,
             by_name,
             junctions,
-            paths,
             path_roads,
             crossings,
             revision: NEXT_REVISION.fetch_add(1, Ordering::Relaxed),
@@ -390,7 +390,7 @@ impl RoadNetwork {
 
     /// If road `id` is a path through a junction: the junction's index and the path's.
     pub fn junction_path(&self, id: RoadId) -> Option<(usize, usize)> {
-        self.paths.get(&id).copied()
+        self.slot(id).and_then(|s| s.path)
     }
 
     /// The junction path that takes traffic from the end of `from` onto `to`, if one does
@@ -399,7 +399,7 @@ impl RoadNetwork {
         self.links(from)
             .iter()
             .map(|l| l.to)
-            .find(|&p| self.paths.contains_key(&p) && self.link(p, to).is_some())
+            .find(|&p| self.junction_path(p).is_some() && self.link(p, to).is_some())
     }
 
     /// The road of path `k` of junction `j`.
