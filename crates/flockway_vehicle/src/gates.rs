@@ -160,16 +160,27 @@ impl CloseCars {
         // Cells ordered by column, then row: a column's neighbouring rows are adjacent keys.
         let key =
             |x: i32, y: i32| (u64::from(x as u32 ^ 1 << 31) << 32) | u64::from(y as u32 ^ 1 << 31);
-        let cell_of = |b: &BoxNow| {
-            let c = (b.centre / side).floor();
-            (c.x as i32, c.y as i32)
+        let unkey = |k: u64| {
+            (
+                ((k >> 32) as u32 ^ 1 << 31) as i32,
+                (k as u32 ^ 1 << 31) as i32,
+            )
+        };
+        // Rounded down by a plain conversion, not the C library's `floorf`, so the cells never
+        // depend on the maths library.
+        let per_side = 1.0 / side;
+        let cell = |v: f32| {
+            let q = v * per_side;
+            let i = q as i32;
+            i - i32::from(q < i as f32)
         };
         self.cells.clear();
-        self.cells
-            .extend(self.boxes.iter().enumerate().map(|(i, b)| {
-                let (x, y) = cell_of(b);
-                (key(x, y), i as u32)
-            }));
+        self.cells.extend(
+            self.boxes
+                .iter()
+                .enumerate()
+                .map(|(i, b)| (key(cell(b.centre.x), cell(b.centre.y)), i as u32)),
+        );
         self.cells.sort_unstable();
         let (cells, boxes, near) = (&self.cells, &self.boxes, &mut self.near);
         let mut pair = |i: u32, j: u32| {
@@ -191,7 +202,7 @@ impl CloseCars {
             }
             // Each pair of neighbouring cells once: the one above this one, and the three
             // of the next column (adjacent keys).
-            let (x, y) = cell_of(&boxes[here[0].1 as usize]);
+            let (x, y) = unkey(k);
             let above = key(x, y.wrapping_add(1));
             for &(_, j) in cells[start..].iter().take_while(|c| c.0 == above) {
                 for &(_, i) in here {
