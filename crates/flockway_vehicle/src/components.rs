@@ -123,8 +123,9 @@ pub struct Chassis {
 /// of the step with 10 000 cars on a ring). So a car's collider leaves rapier while no other
 /// car's body is within reach and it is clearly away from its road's edges, and leaves the
 /// guardrails out of its filter while clear of them; each comes back before anything can
-/// reach the box, with room for twice the distance the two can close in one step. Contacts
-/// are the same as without gates, bit for bit.
+/// reach the box, with room for the distance the two can close in two steps and a margin.
+/// Contacts are the same as without gates, bit for bit (a car moved by hand onto another
+/// while its collider is out touches it a step later).
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
 pub struct ContactGate {
     pub(crate) collider: ColliderHandle,

@@ -11,8 +11,9 @@
 //! Drivers write only [`Controls`].
 //!
 //! Modules: `components` (what a vehicle is made of), `spawn` (putting one into the world),
-//! `forces` (one tick's forces in named stages), `systems` (the per-tick systems), and the
-//! models they use: `tyre`, `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
+//! `forces` (one tick's forces in named stages), `systems` (the per-tick systems), `gates`
+//! (which colliders rapier sees), and the models they use: `tyre`, `drivetrain`, `steering`,
+//! `params`, `physics`, and the `dyno`.
 //!
 //! Conventions: world x east, y north, z up; body x forward, y left, z up; wheels in the order
 //! front left, front right, rear left, rear right.
