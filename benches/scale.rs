@@ -3,8 +3,9 @@
 //! signalised junctions as netconvert writes one (imported: 552 streets of two lanes and 2 020
 //! junction paths, 3 124 lanes), every street lane started with a car every 30 m (4 416), the
 //! whole step of the run (spawners, signals, junction rules, destroyers, telemetry into the
-//! trace) after 10 simulated seconds. Criterion reports the time per step; the real-time factor is 1/120 s
-//! divided by it. The city prints its vehicles alive on average and µs per vehicle-step.
+//! trace) after 10 simulated seconds. Criterion reports the time per step; the real-time factor
+//! is 1/120 s divided by it. The city prints its vehicles alive on average and µs per
+//! vehicle-step.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 mod common;
