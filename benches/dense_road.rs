@@ -7,16 +7,13 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use flockway::level::load_level;
 use flockway::run::{RunOptions, Runner};
-use flockway::vehicle::VehicleModel;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 const TICKS: u64 = 120;
 
-fn alive(runner: &mut Runner) -> u64 {
-    let world = runner.sim_mut().world_mut();
-    world.query::<&VehicleModel>().iter(world).count() as u64
-}
+#[path = "common/timed.rs"]
+mod timed;
 
 fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("levels/dense_road.ron");
@@ -28,36 +25,25 @@ fn bench(c: &mut Criterion) {
     };
     let mut runner = Runner::new(level, "dense_road", &options).unwrap_or_else(|e| panic!("{e}"));
     runner.step(60 * TICKS).unwrap_or_else(|e| panic!("{e}"));
-    let (mut vehicle_steps, mut steps, mut spent) = (0u64, 0u64, Duration::ZERO);
+    let mut timed = timed::Timed::default();
     let mut group = c.benchmark_group("dense_road");
     group.sample_size(20);
     group.measurement_time(Duration::from_secs(20));
     group.bench_function("simulated_second", |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            for _ in 0..iters {
-                for _ in 0..TICKS {
-                    let n = alive(&mut runner);
-                    let started = Instant::now();
-                    runner.step(1).unwrap_or_else(|e| panic!("{e}"));
-                    let took = started.elapsed();
-                    total += took;
-                    spent += took;
-                    vehicle_steps += n;
-                    steps += 1;
-                }
-            }
-            total
+            (0..iters * TICKS)
+                .map(|_| timed.step(&mut runner))
+                .sum::<Duration>()
         })
     });
     group.finish();
-    let mean_alive = vehicle_steps as f64 / steps as f64;
-    let per_step = spent.as_secs_f64() / steps as f64;
     println!(
-        "dense_road: {mean_alive:.1} vehicles alive on average, {:.2} µs per vehicle-step, \
-         {:.1} simulated seconds per wall second ({steps} steps measured)",
-        spent.as_secs_f64() * 1e6 / vehicle_steps as f64,
-        1.0 / (per_step * 120.0),
+        "dense_road: {:.1} vehicles alive on average, {:.2} µs per vehicle-step, \
+         {:.1} simulated seconds per wall second ({} steps measured)",
+        timed.mean_alive(),
+        timed.us_per_vehicle_step(),
+        timed.real_time_factor(),
+        timed.steps,
     );
 }
 

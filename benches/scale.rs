@@ -11,25 +11,22 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 mod common;
 #[path = "common/grid.rs"]
 mod grid;
+#[path = "common/timed.rs"]
+mod timed;
 use flockway::drivers::{BuiltinModel, DriverSpec};
 use flockway::level::import_sumo_net;
 use flockway::road::RoadNetwork;
 use flockway::run::{RunOptions, Runner};
 use flockway::traffic::spawn_driven;
-use flockway::vehicle::{VehicleModel, VehicleSpawn, VehicleType};
+use flockway::vehicle::{VehicleSpawn, VehicleType};
 use std::path::Path;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Junctions per side of the city.
 const CITY_SIDE: usize = 12;
 /// Spacing of the cars the city starts with along every street lane, m.
 const CITY_SPACING_M: f64 = 30.0;
-
-fn alive(runner: &mut Runner) -> u64 {
-    let world = runner.sim_mut().world_mut();
-    world.query::<&VehicleModel>().iter(world).count() as u64
-}
 
 /// The city run, its streets filled, after 10 simulated seconds.
 fn city() -> Runner {
@@ -80,34 +77,22 @@ fn bench(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(10));
     // Set up only when the filter selects it (filling the city takes a while).
     let mut runner: Option<Runner> = None;
-    let (mut vehicle_steps, mut steps, mut spent) = (0u64, 0u64, Duration::ZERO);
+    let mut timed = timed::Timed::default();
     group.bench_function("step", |b| {
         let runner = runner.get_or_insert_with(city);
-        b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            for _ in 0..iters {
-                let n = alive(runner);
-                let started = Instant::now();
-                runner.step(1).unwrap_or_else(|e| panic!("{e}"));
-                let took = started.elapsed();
-                total += took;
-                spent += took;
-                vehicle_steps += n;
-                steps += 1;
-            }
-            total
-        })
+        b.iter_custom(|iters| (0..iters).map(|_| timed.step(runner)).sum::<Duration>())
     });
     group.finish();
-    if steps == 0 {
+    if timed.steps == 0 {
         return;
     }
     println!(
         "city: {:.0} vehicles alive on average, {:.2} µs per vehicle-step, {:.2}× real time \
-         ({steps} steps measured)",
-        vehicle_steps as f64 / steps as f64,
-        spent.as_secs_f64() * 1e6 / vehicle_steps as f64,
-        steps as f64 / 120.0 / spent.as_secs_f64(),
+         ({} steps measured)",
+        timed.mean_alive(),
+        timed.us_per_vehicle_step(),
+        timed.real_time_factor(),
+        timed.steps,
     );
 }
 
