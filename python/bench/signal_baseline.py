@@ -4,6 +4,10 @@ time (the mean over decisions of the vehicles' mean waiting on every junction's 
 
     python python/bench/signal_baseline.py --seeds 1 2 3            # fixed-time vs max-pressure
     python python/bench/signal_baseline.py --seeds 1 2 3 --ppo 20000 # and PPO (stable-baselines3)
+    python python/bench/signal_baseline.py --seeds 1 2 3 --policies random  # a stress test
+
+``random`` picks every junction's phase at random at each decision (a generator seeded by the
+episode's seed): a controller no driver should crash under.
 """
 
 from __future__ import annotations
@@ -23,8 +27,11 @@ def episode(policy: str, seed: int, level: str, episode_s: float, model=None) ->
                               episode_s=episode_s)
     obs, infos = env.reset(seed=seed)
     waiting, halting = [], []
+    rng = np.random.default_rng(seed)
     while env.agents:
-        if policy == "max-pressure":
+        if policy == "random":
+            actions = {a: int(rng.integers(env.action_space(a).n)) for a in env.agents}
+        elif policy == "max-pressure":
             actions = {a: max_pressure(env.controlled[a], env.sim) for a in env.agents}
         elif policy == "ppo":
             actions = {a: int(model.predict(obs[a], deterministic=True)[0]) for a in env.agents}
@@ -62,8 +69,10 @@ def main() -> None:
     ap.add_argument("--level", default="signal_grid")
     ap.add_argument("--episode-s", type=float, default=600.0)
     ap.add_argument("--ppo", type=int, default=0, help="PPO training steps (0: no PPO)")
+    ap.add_argument("--policies", nargs="+", default=["fixed-time", "max-pressure"],
+                    choices=["fixed-time", "max-pressure", "random"])
     args = ap.parse_args()
-    policies = ["fixed-time", "max-pressure"]
+    policies = list(args.policies)
     model = None
     if args.ppo:
         t = time.perf_counter()

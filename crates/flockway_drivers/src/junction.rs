@@ -706,6 +706,12 @@ fn committed(speed_mps: f32, left_m: f64) -> bool {
     speed_mps > COMMITTED_MPS && left_m > 0.0 && need > f64::from(AMBER_DECEL_MPS2)
 }
 
+/// Whether a vehicle at `speed_mps` can stop within `left_m` braking no harder than for a
+/// stop line.
+fn can_stop(speed_mps: f32, left_m: f64) -> bool {
+    left_m >= 0.0 && f64::from(speed_mps).powi(2) <= 2.0 * f64::from(STOP_LINE_DECEL_MPS2) * left_m
+}
+
 /// The nobody-waits-forever rule: since when it has been held here with nothing in its way
 /// moving, and whether that is long enough, with no signal to wait for, to go anyway.
 fn deadlock_rule(
@@ -766,7 +772,41 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
     if stop.is_finite() && !a.held && committed(a.speed_mps, stop - front) {
         stop = f64::INFINITY;
     }
-    (stop.min(occupied_stop), by_moving)
+    (
+        keep_clear(
+            a,
+            &junction.paths[a.path].conflicts,
+            stop.min(occupied_stop),
+        ),
+        by_moving,
+    )
+}
+
+/// Where a vehicle that must stop at `stop` (front bumper, m) stops instead so that it does not
+/// stand in or at the edge of an earlier conflict area: short of that conflict, while it can
+/// still stop there. A body at the very start of an area is where a car passing a little off
+/// its centre line touches it, and one standing in it blocks that stream for as long as it
+/// waits for another.
+fn keep_clear(a: &Approach, conflicts: &[Conflict], mut stop: f64) -> f64 {
+    if !stop.is_finite() {
+        return stop;
+    }
+    let front = -a.to_line_m;
+    for _ in 0..conflicts.len() {
+        let centre = stop - a.half_m;
+        let earlier = conflicts
+            .iter()
+            .filter(|c| still_short_of(a, c))
+            .filter(|c| centre > c.at_m - WAIT_TOLERANCE_M && centre < c.clear_m)
+            .map(|c| waiting_place(a, c))
+            .filter(|&place| place < stop && can_stop(a.speed_mps, place - front))
+            .fold(f64::INFINITY, f64::min);
+        if !earlier.is_finite() {
+            break;
+        }
+        stop = earlier;
+    }
+    stop
 }
 
 /// The decision for a vehicle on its junction path: where it must stop, short of the next
@@ -986,6 +1026,71 @@ fn decide_at_line(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn approach_at(centre_m: f64, speed_mps: f32) -> Approach {
+        let half_m = 2.3;
+        Approach {
+            entity: Entity::PLACEHOLDER,
+            junction: 0,
+            path: 0,
+            to_line_m: -(centre_m + half_m),
+            half_m,
+            speed_mps,
+            held: true,
+            inside: true,
+            stopped_tick: None,
+            blocked: false,
+        }
+    }
+
+    fn conflict(at_m: f64, clear_m: f64) -> Conflict {
+        Conflict {
+            other: 1,
+            merge: false,
+            at_m,
+            other_at_m: 0.0,
+            clear_m,
+            other_clear_m: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_car_waiting_inside_keeps_clear_of_an_earlier_conflict_area_while_it_can() {
+        // It waits for the conflict at 3.6 m, 1.5 m short of it (centre at 2.1 m): at the very
+        // edge of the one at 2.24 m, so it waits short of that one instead (centre 0.74 m).
+        let earlier = conflict(2.24, 11.7);
+        let later = conflict(3.6, 9.0);
+        let conflicts = [earlier, later];
+        let a = approach_at(-1.0, 0.0);
+        let wait_later = waiting_place(&a, &later);
+        let kept = keep_clear(&a, &conflicts, wait_later);
+        assert!((kept - waiting_place(&a, &earlier)).abs() < 1e-12);
+        assert!(kept - a.half_m < earlier.at_m - WAIT_TOLERANCE_M);
+        // Too fast to stop short of it comfortably: it keeps the stop it had.
+        let fast = approach_at(-1.0, 6.0);
+        assert_eq!(keep_clear(&fast, &conflicts, wait_later), wait_later);
+        // Already past where it would wait short of it: likewise.
+        let past = approach_at(1.2, 0.0);
+        assert_eq!(keep_clear(&past, &conflicts, wait_later), wait_later);
+        // Waiting well clear of the earlier area (short of it, or past its end): no change.
+        let clear = [conflict(6.0, 11.7), later];
+        assert_eq!(keep_clear(&a, &clear, wait_later), wait_later);
+        let behind = [conflict(-3.0, 1.0), later];
+        assert_eq!(keep_clear(&a, &behind, wait_later), wait_later);
+        // Free to go: nothing to move.
+        assert_eq!(keep_clear(&a, &conflicts, f64::INFINITY), f64::INFINITY);
+    }
+
+    #[test]
+    fn keeping_clear_steps_back_past_every_area_its_wait_would_reach() {
+        // The place short of the second area is at the edge of the first: back past both.
+        let first = conflict(0.9, 8.0);
+        let second = conflict(2.24, 11.7);
+        let later = conflict(3.6, 9.0);
+        let a = approach_at(-3.0, 0.0);
+        let kept = keep_clear(&a, &[later, second, first], waiting_place(&a, &later));
+        assert!((kept - waiting_place(&a, &first)).abs() < 1e-12);
+    }
 
     #[test]
     fn a_foe_is_expected_to_take_its_path_at_the_speed_the_path_allows() {
