@@ -98,6 +98,58 @@ impl RoadLanes {
 /// Most roads a leader or follower search crosses (short roads in a row).
 const MAX_HOPS: usize = 8;
 
+/// Lanes with fewer vehicles than this are searched by plain bisection (they fit in a few
+/// cache lines).
+const GALLOP_FROM: usize = 64;
+
+/// `entries.partition_point(pred)` for a lane's vehicles (sorted by arc position) and a
+/// predicate that holds short of about `s_m`: the search starts where `s_m` would fall were the
+/// vehicles spread evenly over the `length_m` lane, and gallops out from there. On a long, busy
+/// lane the answer is a cache line or two from that guess, where bisection misses the cache a
+/// dozen times; the answer is the same either way.
+fn partition_near(
+    entries: &[LaneEntry],
+    s_m: f64,
+    length_m: f64,
+    pred: impl Fn(&LaneEntry) -> bool,
+) -> usize {
+    let n = entries.len();
+    if n < GALLOP_FROM || length_m <= 0.0 {
+        return entries.partition_point(&pred);
+    }
+    // The conversion saturates: short of the lane (or NaN) is 0, past it is clamped below.
+    let guess = ((s_m / length_m * n as f64) as usize).min(n - 1);
+    let mut step = 1;
+    if pred(&entries[guess]) {
+        // The answer is past the guess: gallop forwards.
+        let mut lo = guess + 1;
+        loop {
+            let probe = guess + step;
+            if probe >= n {
+                return lo + entries[lo..].partition_point(&pred);
+            }
+            if !pred(&entries[probe]) {
+                return lo + entries[lo..probe].partition_point(&pred);
+            }
+            lo = probe + 1;
+            step *= 2;
+        }
+    }
+    // The answer is at the guess or before it: gallop backwards.
+    let mut hi = guess;
+    loop {
+        if step > hi {
+            return entries[..hi].partition_point(&pred);
+        }
+        let probe = hi - step;
+        if pred(&entries[probe]) {
+            return probe + 1 + entries[probe + 1..hi].partition_point(&pred);
+        }
+        hi = probe;
+        step *= 2;
+    }
+}
+
 /// Every vehicle on the roads, per road and lane, sorted by arc position (ties by entity), as of
 /// the start of this tick. Queries cost O(log n + k) for k vehicles returned.
 #[derive(Resource, Debug, Clone, Default)]
@@ -293,7 +345,7 @@ impl LaneIndex {
             return;
         }
         let range = |from: f64, to: f64| {
-            let a = entries.partition_point(|e| e.s_m < from);
+            let a = partition_near(entries, from, r.length_m, |e| e.s_m < from);
             // A window holds a few vehicles: walking to its end beats a second binary search
             // (which misses the cache on long lanes).
             let b = a + entries[a..].iter().take_while(|e| e.s_m <= to).count();
@@ -387,7 +439,7 @@ impl LaneIndex {
                 entry: *e,
             })
         };
-        let i = entries.partition_point(|e| !ahead(e));
+        let i = partition_near(entries, s_m, r.length_m, |e| !ahead(e));
         // Inside a junction a car on a path from the same lane is still in front while the
         // two paths overlap, and one merging into the same lane once they meet.
         let sibling = self.beside_ahead(r, s_m, me).map(|e| Seen {
@@ -496,7 +548,7 @@ impl LaneIndex {
         let r = self.road(road)?;
         let entries = r.lanes.get(lane as usize)?;
         let behind = |e: &LaneEntry| e.s_m < s_m || (e.s_m == s_m && e.entity < me);
-        let i = entries.partition_point(behind);
+        let i = partition_near(entries, s_m, r.length_m, behind);
         if i > 0 {
             let e = &entries[i - 1];
             return (s_m - e.s_m <= range_m).then_some(Seen {
@@ -753,6 +805,56 @@ mod tests {
             gaps.push(len0 - from.1 + to.1);
         }
         gaps
+    }
+
+    #[test]
+    fn the_galloping_search_finds_what_bisection_finds() {
+        let mut world = World::new();
+        let mut rng = Lcg(7);
+        let length = 1000.0;
+        for n in [0, 1, 63, 64, 65, 300, 2500] {
+            // Spread evenly, bunched at one end, in a few clumps, all level.
+            for shape in 0..4 {
+                let mut lane: Vec<LaneEntry> = (0..n)
+                    .map(|i| {
+                        let u = rng.next();
+                        let s_m = match shape {
+                            0 => u * length,
+                            1 => u * u * u * length,
+                            2 => f64::from(i as u32 % 5) * 200.0 + u * 3.0,
+                            _ => 500.0,
+                        };
+                        LaneEntry {
+                            entity: world.spawn_empty().id(),
+                            s_m,
+                            lateral_m: 0.0,
+                            speed_mps: 0.0,
+                            length_m: 4.6,
+                            signal: 0,
+                        }
+                    })
+                    .collect();
+                lane.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
+                let mut queries: Vec<f64> = (0..200).map(|_| rng.next() * 1200.0 - 100.0).collect();
+                queries.extend(lane.iter().step_by(7).map(|e| e.s_m));
+                queries.extend([f64::NEG_INFINITY, -1.0, 0.0, 500.0, length, 2.0e6, f64::NAN]);
+                for s in queries {
+                    let before = |e: &LaneEntry| e.s_m < s;
+                    assert_eq!(
+                        partition_near(&lane, s, length, before),
+                        lane.partition_point(before),
+                        "n {n} shape {shape} s {s}"
+                    );
+                    let me = lane.get(n / 2).map_or(Entity::PLACEHOLDER, |e| e.entity);
+                    let not_ahead = |e: &LaneEntry| !(e.s_m > s || (e.s_m == s && e.entity > me));
+                    assert_eq!(
+                        partition_near(&lane, s, length, not_ahead),
+                        lane.partition_point(not_ahead),
+                        "n {n} shape {shape} s {s}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
