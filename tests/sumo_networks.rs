@@ -415,3 +415,70 @@ fn an_opendrive_road_through_netconvert_imports_and_runs() {
     assert!(m["vehicles_destroyed"] > 10.0, "{m:#?}");
     assert_eq!(m["collisions_vehicle"], 0.0, "{m:#?}");
 }
+
+/// On a real town's network with more cars than the step splits over its threads from (the
+/// junction rule's passes and the conflict measures included), 1 and 3 threads give the same
+/// bytes: telemetry and conflicts.
+#[test]
+fn the_thread_count_changes_no_byte_of_a_busy_town() {
+    let Some(tools) = sumo_tools() else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let level = dir.path().join("a10.ron");
+    let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .arg("import")
+        .arg(tools.join("game/A10KW/osm.net.xml"))
+        .arg("-o")
+        .arg(&level)
+        .output()
+        .expect("the flockway binary runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut outputs: Vec<(Vec<u8>, Vec<u8>, String)> = Vec::new();
+    for threads in ["1", "3"] {
+        let csv = dir.path().join(format!("run_{threads}.csv"));
+        let conflicts = dir.path().join(format!("conflicts_{threads}.csv"));
+        let summary = dir.path().join(format!("summary_{threads}.json"));
+        let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
+            .env("FLOCKWAY_THREADS", threads)
+            .arg("run")
+            .arg(&level)
+            .args(["--seconds", "120", "--seed", "7", "--csv"])
+            .arg(&csv)
+            .arg("--conflicts")
+            .arg(&conflicts)
+            .arg("--summary")
+            .arg(&summary)
+            .output()
+            .expect("the flockway binary runs");
+        // Its known contacts fail the level's expectation: exit 1.
+        assert!(
+            matches!(out.status.code(), Some(0 | 1)),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        outputs.push((
+            std::fs::read(&csv).expect("telemetry"),
+            std::fs::read(&conflicts).expect("conflicts"),
+            std::fs::read_to_string(&summary).expect("summary"),
+        ));
+    }
+    let summary: serde_json::Value = serde_json::from_str(&outputs[0].2).expect("JSON");
+    let alive = summary["metrics"]["vehicles_alive_mean"]
+        .as_f64()
+        .expect("a figure");
+    assert!(alive > 100.0, "busy enough to split over threads: {alive}");
+    assert!(outputs[0].1.len() > 1_000, "conflicts were recorded");
+    assert!(
+        outputs[0].0 == outputs[1].0,
+        "the same telemetry on 1 and 3 threads"
+    );
+    assert!(
+        outputs[0].1 == outputs[1].1,
+        "the same conflicts on 1 and 3 threads"
+    );
+}

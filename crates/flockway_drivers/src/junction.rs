@@ -7,9 +7,9 @@
 use crate::perception::{LaneIndex, Seen};
 use crate::route::Route;
 use bevy_ecs::prelude::*;
-use flockway_core::{DT_S, SimClock};
+use flockway_core::{DT_S, SimClock, map_in_order};
 use flockway_road::{CONFLICT_CLEARANCE_M, Conflict, RoadId, RoadNetwork, SignalState};
-use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
 /// Braking a held vehicle plans to stop at the line with, m/s².
@@ -347,6 +347,15 @@ const PASSED_MARGIN_S: f64 = 1.0;
 /// Time a car going through a gap wants between clearing a conflict and a foe reaching it, s.
 const CLEARING_MARGIN_S: f64 = 1.5;
 
+/// One vehicle as the junction rule reads it.
+type GateItem<'w> = (
+    Entity,
+    &'w RoadTrack,
+    &'w Motion,
+    &'w VehicleModel,
+    &'w JunctionGate,
+);
+
 /// Decides every approaching vehicle's [`JunctionGate`].
 ///
 /// At the line: the signal, a stop sign, room on the exit lane, and the streams it gives way
@@ -386,80 +395,24 @@ pub fn gate_junctions(
         .collect();
     // Who approaches which path (in the query's order, which the world fixes): by its route's
     // next road, or where its lane leads for a car that follows the links; and who is on one.
+    // Each car's answer reads only shared state: found over the task pool, kept in order.
+    let items: Vec<_> = vehicles.iter().collect();
+    let found = map_in_order(
+        &items,
+        PARALLEL_MIN_VEHICLES,
+        || (),
+        |_, item| approach_of(&network, &index, &routes, item),
+    );
     let mut approaches: Vec<Approach> = Vec::new();
+    // The item each deciding approach belongs to.
+    let mut owners: Vec<usize> = Vec::new();
     // Vehicles bound for a junction beyond the next one on their routes (foes only).
     let mut far: Vec<Approach> = Vec::new();
-    for (entity, track, motion, model, gate) in &vehicles {
-        let half = 0.5 * f64::from(model.0.params.chassis.length_m);
-        let v = motion.forward_mps.max(0.0);
-        let held = gate.stop_at_m.is_some();
-        // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
-        // for.
-        let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
-            .max(f64::from(v) * FOE_HORIZON_S);
-        // Junctions further along its route within that distance (round a roundabout, the
-        // next entry's drivers see it coming): foes there, held if it is held before.
-        if let Ok(route) = routes.get(entity) {
-            let mut to_m = network.get(track.road).map_or(0.0, |g| g.length_m()) - track.s_m - half;
-            // The first path ahead of a car not yet in a junction is the one it approaches,
-            // decided below; the others are foes' information only.
-            let mut skip = network.junction_path(track.road).is_none();
-            for &road in route.ahead().iter().skip(1) {
-                if to_m > horizon {
-                    break;
-                }
-                if let Some((j, k)) = network.junction_path(road)
-                    && !std::mem::take(&mut skip)
-                {
-                    far.push(Approach {
-                        entity,
-                        junction: j,
-                        path: k,
-                        to_line_m: to_m,
-                        half_m: half,
-                        speed_mps: v,
-                        held: false,
-                        inside: false,
-                        stopped_tick: None,
-                        blocked: held,
-                    });
-                }
-                to_m += network.get(road).map_or(f64::INFINITY, |g| g.length_m());
-            }
-        }
-        if let Some((j, k)) = network.junction_path(track.road) {
-            approaches.push(Approach {
-                entity,
-                junction: j,
-                path: k,
-                to_line_m: -(track.s_m + half),
-                half_m: half,
-                speed_mps: v,
-                held,
-                inside: true,
-                stopped_tick: None,
-                blocked: false,
-            });
-            continue;
-        }
-        let Some(ahead) =
-            network.junction_ahead(track.road, track.lane, track.s_m, track.next_road, half)
-        else {
-            continue;
-        };
-        if ahead.to_line_m < horizon {
-            approaches.push(Approach {
-                entity,
-                junction: ahead.junction,
-                path: ahead.path,
-                to_line_m: ahead.to_line_m,
-                half_m: half,
-                speed_mps: v,
-                held,
-                inside: false,
-                stopped_tick: gate.stopped_tick,
-                blocked: queued_behind(&network, &index, entity, track),
-            });
+    for (i, (approach, beyond)) in found.into_iter().enumerate() {
+        far.extend(beyond);
+        if let Some(a) = approach {
+            approaches.push(a);
+            owners.push(i);
         }
     }
     let deciding = approaches.len();
@@ -485,29 +438,39 @@ pub fn gate_junctions(
         signals: &signals,
         through: through.as_slice(),
     };
-    let mut seen: Vec<Seen> = Vec::new();
+    // Each car's decision reads the shared scene and its own state only: made over the task
+    // pool, kept in order. What one car's decision does to the next's (one deadlock broken at
+    // a time) is applied after, in order.
+    let deciders: Vec<(&Approach, usize)> = approaches[..deciding].iter().zip(owners).collect();
+    let stats_now: &JunctionStats = &stats;
+    let made = map_in_order(
+        &deciders,
+        PARALLEL_MIN_VEHICLES,
+        Vec::new,
+        |seen, &(a, i)| {
+            let (_, track, _, _, gate) = items[i];
+            let (critical_gap_s, follow_up_s) = GapAcceptance::seconds(gaps.get(a.entity).ok());
+            if a.inside {
+                decide_inside(&scene, a, gate, critical_gap_s, tick)
+            } else {
+                decide_at_line(
+                    &scene,
+                    a,
+                    track,
+                    gate,
+                    (critical_gap_s, follow_up_s),
+                    stats_now,
+                    tick,
+                    seen,
+                )
+            }
+        },
+    );
     let mut decided: Vec<(Entity, JunctionGate, Option<usize>)> =
         Vec::with_capacity(approaches.len());
     let mut broken: Vec<usize> = Vec::new();
-    for a in &approaches[..deciding] {
-        let Ok((_, track, _, _, gate)) = vehicles.get(a.entity) else {
-            continue;
-        };
-        let (critical_gap_s, follow_up_s) = GapAcceptance::seconds(gaps.get(a.entity).ok());
-        let (mut new, mut deadlock) = if a.inside {
-            decide_inside(&scene, a, gate, critical_gap_s, tick)
-        } else {
-            decide_at_line(
-                &scene,
-                a,
-                track,
-                gate,
-                (critical_gap_s, follow_up_s),
-                &stats,
-                tick,
-                &mut seen,
-            )
-        };
+    for (&(a, i), (mut new, mut deadlock)) in deciders.iter().zip(made) {
+        let (_, track, _, _, gate) = items[i];
         // One vehicle let go at a time: the others wait for it, and the rule lets the next go
         // no sooner than its wait later.
         let recent = stats
@@ -568,6 +531,86 @@ pub fn gate_junctions(
             stats.last_break.insert(j, tick);
         }
     }
+}
+
+/// One vehicle's approach this tick (the junction path it is on, or the one ahead of it within
+/// its horizon), and the junctions further along its route within that horizon, where it is a
+/// foe only.
+fn approach_of(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    routes: &Query<&Route>,
+    &(entity, track, motion, model, gate): &GateItem,
+) -> (Option<Approach>, Vec<Approach>) {
+    let mut far = Vec::new();
+    let half = 0.5 * f64::from(model.0.params.chassis.length_m);
+    let v = motion.forward_mps.max(0.0);
+    let held = gate.stop_at_m.is_some();
+    // Near enough to be stopped at the line, or to be in the gap a yielding driver looks
+    // for.
+    let horizon = (APPROACH_M + f64::from(v * v / (2.0 * STOP_LINE_DECEL_MPS2)))
+        .max(f64::from(v) * FOE_HORIZON_S);
+    // Junctions further along its route within that distance (round a roundabout, the
+    // next entry's drivers see it coming): foes there, held if it is held before.
+    if let Ok(route) = routes.get(entity) {
+        let mut to_m = network.get(track.road).map_or(0.0, |g| g.length_m()) - track.s_m - half;
+        // The first path ahead of a car not yet in a junction is the one it approaches,
+        // decided below; the others are foes' information only.
+        let mut skip = network.junction_path(track.road).is_none();
+        for &road in route.ahead().iter().skip(1) {
+            if to_m > horizon {
+                break;
+            }
+            if let Some((j, k)) = network.junction_path(road)
+                && !std::mem::take(&mut skip)
+            {
+                far.push(Approach {
+                    entity,
+                    junction: j,
+                    path: k,
+                    to_line_m: to_m,
+                    half_m: half,
+                    speed_mps: v,
+                    held: false,
+                    inside: false,
+                    stopped_tick: None,
+                    blocked: held,
+                });
+            }
+            to_m += network.get(road).map_or(f64::INFINITY, |g| g.length_m());
+        }
+    }
+    if let Some((j, k)) = network.junction_path(track.road) {
+        let on_path = Approach {
+            entity,
+            junction: j,
+            path: k,
+            to_line_m: -(track.s_m + half),
+            half_m: half,
+            speed_mps: v,
+            held,
+            inside: true,
+            stopped_tick: None,
+            blocked: false,
+        };
+        return (Some(on_path), far);
+    }
+    let approach = network
+        .junction_ahead(track.road, track.lane, track.s_m, track.next_road, half)
+        .filter(|ahead| ahead.to_line_m < horizon)
+        .map(|ahead| Approach {
+            entity,
+            junction: ahead.junction,
+            path: ahead.path,
+            to_line_m: ahead.to_line_m,
+            half_m: half,
+            speed_mps: v,
+            held,
+            inside: false,
+            stopped_tick: gate.stopped_tick,
+            blocked: queued_behind(network, index, entity, track),
+        });
+    (approach, far)
 }
 
 /// Below this speed a car at the start of an exit lane that closes on a standing one is about

@@ -22,10 +22,10 @@
 
 use crate::VehicleId;
 use bevy_ecs::prelude::*;
-use flockway_core::SimClock;
+use flockway_core::{SimClock, map_in_order};
 use flockway_drivers::{DriverLabel, LaneIndex, LaneSignal, SafetyView, Seen, nearest_ahead};
 use flockway_road::{RoadId, RoadNetwork};
-use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
+use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -446,6 +446,17 @@ type Measured = (
     Option<&'static LaneSignal>,
 );
 
+/// One vehicle of the [`Measured`] query.
+type MeasuredItem<'w> = (
+    Entity,
+    &'w VehicleId,
+    &'w RoadTrack,
+    &'w Motion,
+    &'w VehicleModel,
+    Option<&'w DriverLabel>,
+    Option<&'w LaneSignal>,
+);
+
 /// Measures every vehicle's TTC and DRAC behind the vehicle ahead of its body and its passes
 /// through junction conflict areas, each tick.
 pub fn measure_conflicts(
@@ -460,17 +471,26 @@ pub fn measure_conflicts(
     let t = thresholds.map(|t| *t).unwrap_or_default();
     let time_s = clock.seconds();
     let h = clock.dt_s();
-    let mut scratch: Vec<Seen> = Vec::new();
     let none: Arc<str> = Arc::from("none");
     let label = |l: Option<&DriverLabel>| l.map_or_else(|| none.clone(), |l| l.profile.clone());
-    for (me, id, track, motion, model, driver, signal) in &vehicles {
+    let items: Vec<_> = vehicles.iter().collect();
+    // The search for the vehicle ahead of each body reads only the shared index and network:
+    // split over the task pool, its answers kept in the query's order, so the records are the
+    // same whichever thread found them.
+    let find = |scratch: &mut Vec<Seen>,
+                &(me, _, track, motion, model, _, signal): &MeasuredItem| {
         let v = f64::from(motion.forward_mps);
-        conflicts.add_distance(driver.map_or("none", |l| &l.profile), v.abs() * h);
-        let junction = network.junction_path(track.road);
         let view = SafetyView::new(me, track, motion, model, signal);
         // Far enough to see every pair the thresholds can flag.
         let reach = (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0;
-        if let Some(ahead) = nearest_ahead(&network, &index, &view, reach, &mut scratch)
+        nearest_ahead(&network, &index, &view, reach, scratch)
+    };
+    let aheads = map_in_order(&items, PARALLEL_MIN_VEHICLES, Vec::new, find);
+    for (&(me, id, track, motion, _, driver, _), ahead) in items.iter().zip(aheads) {
+        let v = f64::from(motion.forward_mps);
+        conflicts.add_distance(driver.map_or("none", |l| &l.profile), v.abs() * h);
+        let junction = network.junction_path(track.road);
+        if let Some(ahead) = ahead
             && ahead.entity != me
             && v > f64::from(ahead.speed_mps)
             && let Ok((other_id, other_label)) = ids.get(ahead.entity)
