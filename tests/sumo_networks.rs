@@ -196,6 +196,17 @@ fn networks_under(dir: &Path, base: &Path, found: &mut Vec<String>) {
     }
 }
 
+/// `flockway import NETWORK -o LEVEL`, as a user runs it.
+fn import(network: &Path, level: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_flockway"))
+        .arg("import")
+        .arg(network)
+        .arg("-o")
+        .arg(level)
+        .output()
+        .expect("the flockway binary runs")
+}
+
 /// Imports the network at `rel` under SUMO's tools with `flockway import`, then does what
 /// [`NETWORKS`] says it does.
 fn imports_and_runs(rel: &str) {
@@ -210,13 +221,7 @@ fn imports_and_runs(rel: &str) {
     std::fs::create_dir_all(&dir).expect("a scratch directory");
     let level = dir.join(format!("{}.ron", rel.replace(['/', '.'], "_")));
     let _ = std::fs::remove_file(&level);
-    let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
-        .arg("import")
-        .arg(tools.join(rel))
-        .arg("-o")
-        .arg(&level)
-        .output()
-        .expect("the flockway binary runs");
+    let out = import(&tools.join(rel), &level);
     let stderr = String::from_utf8_lossy(&out.stderr);
     match outcome {
         Refused(words) => {
@@ -426,13 +431,7 @@ fn the_thread_count_changes_no_byte_of_a_busy_town() {
     };
     let dir = tempfile::tempdir().expect("tempdir");
     let level = dir.path().join("a10.ron");
-    let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
-        .arg("import")
-        .arg(tools.join("game/A10KW/osm.net.xml"))
-        .arg("-o")
-        .arg(&level)
-        .output()
-        .expect("the flockway binary runs");
+    let out = import(&tools.join("game/A10KW/osm.net.xml"), &level);
     assert!(
         out.status.success(),
         "{}",

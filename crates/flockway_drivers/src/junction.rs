@@ -7,6 +7,7 @@
 use crate::perception::{LaneIndex, Seen};
 use crate::route::Route;
 use bevy_ecs::prelude::*;
+use bevy_ecs::query::ROQueryItem;
 use flockway_core::{DT_S, SimClock, map_in_order};
 use flockway_road::{CONFLICT_CLEARANCE_M, Conflict, RoadId, RoadNetwork, SignalState};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
@@ -347,14 +348,17 @@ const PASSED_MARGIN_S: f64 = 1.0;
 /// Time a car going through a gap wants between clearing a conflict and a foe reaching it, s.
 const CLEARING_MARGIN_S: f64 = 1.5;
 
-/// One vehicle as the junction rule reads it.
-type GateItem<'w> = (
+/// The vehicles the junction rule decides for.
+type Gated = (
     Entity,
-    &'w RoadTrack,
-    &'w Motion,
-    &'w VehicleModel,
-    &'w JunctionGate,
+    &'static RoadTrack,
+    &'static Motion,
+    &'static VehicleModel,
+    &'static mut JunctionGate,
 );
+
+/// One vehicle as the junction rule reads it.
+type GateItem<'w> = ROQueryItem<'w, 'w, Gated>;
 
 /// Decides every approaching vehicle's [`JunctionGate`].
 ///
@@ -375,13 +379,7 @@ pub fn gate_junctions(
     clock: Res<SimClock>,
     signals: Res<crate::Signals>,
     mut stats: ResMut<JunctionStats>,
-    mut vehicles: Query<(
-        Entity,
-        &RoadTrack,
-        &Motion,
-        &VehicleModel,
-        &mut JunctionGate,
-    )>,
+    mut vehicles: Query<Gated>,
     gaps: Query<&GapAcceptance>,
     routes: Query<&Route>,
     mut through: Local<Vec<Vec<f64>>>,

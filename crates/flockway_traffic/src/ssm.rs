@@ -22,6 +22,7 @@
 
 use crate::VehicleId;
 use bevy_ecs::prelude::*;
+use bevy_ecs::query::QueryItem;
 use flockway_core::{SimClock, map_in_order};
 use flockway_drivers::{DriverLabel, LaneIndex, LaneSignal, SafetyView, Seen, nearest_ahead};
 use flockway_road::{RoadId, RoadNetwork};
@@ -447,15 +448,7 @@ type Measured = (
 );
 
 /// One vehicle of the [`Measured`] query.
-type MeasuredItem<'w> = (
-    Entity,
-    &'w VehicleId,
-    &'w RoadTrack,
-    &'w Motion,
-    &'w VehicleModel,
-    Option<&'w DriverLabel>,
-    Option<&'w LaneSignal>,
-);
+type MeasuredItem<'w> = QueryItem<'w, 'w, Measured>;
 
 /// Measures every vehicle's TTC and DRAC behind the vehicle ahead of its body and its passes
 /// through junction conflict areas, each tick.
