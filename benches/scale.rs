@@ -42,6 +42,8 @@ fn city() -> Runner {
     let network = world.resource::<RoadNetwork>().clone();
     let model = Arc::new(VehicleType::default());
     let driver = DriverSpec::default_for(BuiltinModel::FlockLanes);
+    // One name shared by every car, as a level's spawners share their profile's.
+    let profile: Arc<str> = Arc::from("autonomous");
     for (id, g) in network.iter() {
         if network.junction_path(id).is_some() {
             continue;
@@ -52,7 +54,7 @@ fn city() -> Runner {
                 let at = VehicleSpawn::new(model.clone(), id, s)
                     .lateral(g.lane_offset_m(lane, s))
                     .speed(8.0);
-                spawn_driven(world, at, &driver, lane, Arc::from("autonomous"))
+                spawn_driven(world, at, &driver, lane, profile.clone())
                     .unwrap_or_else(|e| panic!("{e}"));
             }
             s += CITY_SPACING_M;

@@ -32,6 +32,8 @@ pub fn ring(cars: usize, ticks: u64) -> Sim {
         .clone();
     let model = Arc::new(VehicleType::default());
     let driver = DriverSpec::default_for(BuiltinModel::FlockLanes);
+    // One name shared by every car, as a level's spawners share their profile's.
+    let profile: Arc<str> = Arc::from("autonomous");
     for i in 0..cars {
         let lane = (i % 4) as u32;
         let s = (i / 4) as f64 * 40.0 + f64::from(lane) * 10.0;
@@ -39,7 +41,7 @@ pub fn ring(cars: usize, ticks: u64) -> Sim {
         let at = VehicleSpawn::new(model.clone(), RoadId(0), s)
             .lateral(lateral)
             .speed(16.7);
-        spawn_driven(sim.world_mut(), at, &driver, lane, Arc::from("autonomous"))
+        spawn_driven(sim.world_mut(), at, &driver, lane, profile.clone())
             .unwrap_or_else(|e| panic!("{e}"));
     }
     sim.run_ticks(ticks);

@@ -3,6 +3,11 @@
 
 use bevy_tasks::ComputeTaskPool;
 
+/// How many threads the task pool has (1 before it is started).
+pub fn task_threads() -> usize {
+    ComputeTaskPool::try_get().map_or(1, |pool| pool.thread_num())
+}
+
 /// `f` over `items` (each call with the scratch space its thread made by `scratch`), the
 /// answers in the items' order: over the task pool from `min_parallel` items on, in this
 /// thread below that (where handing the work out would cost more than it saves).
@@ -16,7 +21,7 @@ where
     T: Sync,
     R: Send + 'static,
 {
-    let threads = ComputeTaskPool::try_get().map_or(1, |pool| pool.thread_num());
+    let threads = task_threads();
     if items.len() < min_parallel.max(1) || threads < 2 {
         let mut s = scratch();
         return items.iter().map(|item| f(&mut s, item)).collect();

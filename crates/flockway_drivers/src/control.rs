@@ -1,12 +1,14 @@
 //! The shared controller: PID loops that turn a target speed and heading into `Controls`.
 
-use crate::perception::{LaneIndex, LaneSignal};
+use crate::perception::{LaneIndex, LaneSignal, Seen};
 use crate::safety::{OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
 use bevy_ecs::prelude::*;
+use bevy_ecs::query::QueryItem;
 use flockway_core::DT_S;
 use flockway_road::RoadNetwork;
 use flockway_vehicle::{
-    Controls, LongitudinalModel, Motion, STANDSTILL_MPS, VehicleModel, VehicleState, VehicleType,
+    Controls, LongitudinalModel, Motion, PARALLEL_MIN_VEHICLES, STANDSTILL_MPS, VehicleModel,
+    VehicleState, VehicleType,
 };
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
@@ -239,60 +241,80 @@ type HeldAt = (
     &'static flockway_vehicle::RoadTrack,
 );
 
+/// What [`follow_targets`] reads and writes on one vehicle.
+type Followed = (
+    Entity,
+    &'static DriveTarget,
+    &'static Motion,
+    &'static VehicleModel,
+    &'static VehicleState,
+    &'static mut TargetController,
+    &'static mut Controls,
+    Option<HeldAt>,
+    (Option<&'static SafetyParams>, Option<&'static LaneSignal>),
+);
+
 /// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`],
 /// within what a junction holding it allows and within its braking envelope
 /// ([`SafetyParams`]; the defaults for a vehicle without one): whatever its driver asked for,
 /// it never goes faster than lets it stop behind the vehicle ahead of it.
-#[allow(clippy::type_complexity)]
 pub fn follow_targets(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
-    mut vehicles: Query<(
-        Entity,
-        &DriveTarget,
-        &Motion,
-        &VehicleModel,
-        &VehicleState,
-        &mut TargetController,
-        &mut Controls,
-        Option<HeldAt>,
-        (Option<&SafetyParams>, Option<&LaneSignal>),
-    )>,
+    mut vehicles: Query<Followed>,
 ) {
-    let mut scratch = Vec::new();
-    for (me, target, motion, model, state, mut controller, mut controls, gate, (safety, signal)) in
-        &mut vehicles
-    {
-        let chassis = &model.0.params.chassis;
-        // A junction holding the vehicle: no faster than stops it at the line, whoever drives.
-        let held = gate.map_or(f32::INFINITY, |(g, track)| {
-            g.cap_mps(track.s_m, chassis.length_m)
-        });
-        let safe = gate.map_or(f32::INFINITY, |(_, track)| {
-            let view = SafetyView::new(me, track, motion, model, signal);
-            let params = safety.copied().unwrap_or_default();
-            safe_speed_mps(&network, &index, &params, &view, &mut scratch)
-        });
-        let cap = held.min(safe);
-        if cap < target.speed_mps {
-            let capped = DriveTarget {
-                speed_mps: cap,
-                accel_mps2: target
-                    .accel_mps2
-                    .map(|a| a.min((cap - motion.forward_mps) / CAP_RESPONSE_S)),
-                ..*target
-            };
-            *controls = controller.control(&capped, motion, &model.0, state);
-        } else {
-            *controls = controller.control(target, motion, &model.0, state);
-        }
-        // Over the safe speed: brake at least in proportion, whatever the speed loop's
-        // integral remembers of cruising.
-        let over = motion.forward_mps - safe;
-        if over > 0.0 && motion.forward_mps > STANDSTILL_MPS {
-            let least = -(over * OVER_SAFE_BRAKE_PER_MPS).min(1.0);
-            controls.throttle = controls.throttle.min(least);
-        }
+    let run = |scratch: &mut Vec<Seen>, item: QueryItem<'_, '_, Followed>| {
+        follow_one(&network, &index, scratch, item);
+    };
+    // Each car reads the shared index and road network and writes only its own controller and
+    // controls, so the answers are the same whichever thread finds them.
+    if vehicles.iter().len() < PARALLEL_MIN_VEHICLES {
+        let mut scratch = Vec::new();
+        vehicles.iter_mut().for_each(|item| run(&mut scratch, item));
+    } else {
+        vehicles.par_iter_mut().for_each_init(Vec::new, run);
+    }
+}
+
+/// One vehicle's controls for its target, capped as [`follow_targets`] says; `scratch` is
+/// space for the safety layer's search.
+fn follow_one(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    scratch: &mut Vec<Seen>,
+    item: QueryItem<'_, '_, Followed>,
+) {
+    let (me, target, motion, model, state, mut controller, mut controls, gate, (safety, signal)) =
+        item;
+    let chassis = &model.0.params.chassis;
+    // A junction holding the vehicle: no faster than stops it at the line, whoever drives.
+    let held = gate.map_or(f32::INFINITY, |(g, track)| {
+        g.cap_mps(track.s_m, chassis.length_m)
+    });
+    let safe = gate.map_or(f32::INFINITY, |(_, track)| {
+        let view = SafetyView::new(me, track, motion, model, signal);
+        let params = safety.copied().unwrap_or_default();
+        safe_speed_mps(network, index, &params, &view, scratch)
+    });
+    let cap = held.min(safe);
+    if cap < target.speed_mps {
+        let capped = DriveTarget {
+            speed_mps: cap,
+            accel_mps2: target
+                .accel_mps2
+                .map(|a| a.min((cap - motion.forward_mps) / CAP_RESPONSE_S)),
+            ..*target
+        };
+        *controls = controller.control(&capped, motion, &model.0, state);
+    } else {
+        *controls = controller.control(target, motion, &model.0, state);
+    }
+    // Over the safe speed: brake at least in proportion, whatever the speed loop's integral
+    // remembers of cruising.
+    let over = motion.forward_mps - safe;
+    if over > 0.0 && motion.forward_mps > STANDSTILL_MPS {
+        let least = -(over * OVER_SAFE_BRAKE_PER_MPS).min(1.0);
+        controls.throttle = controls.throttle.min(least);
     }
 }
 

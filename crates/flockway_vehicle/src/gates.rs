@@ -7,8 +7,9 @@ use crate::components::{
     RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
 };
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
+use crate::systems::PARALLEL_MIN_VEHICLES;
 use bevy_ecs::prelude::*;
-use flockway_core::DT_S;
+use flockway_core::{DT_S, map_in_order, task_threads};
 use flockway_road::RoadNetwork;
 use glam::{Mat3, Vec2, Vec3};
 use rapier3d::prelude::*;
@@ -137,13 +138,31 @@ pub struct CloseCars {
     boxes: Vec<BoxNow>,
     /// `(grid cell, index into boxes)`, sorted.
     cells: Vec<(u64, u32)>,
+    /// Each run of `cells` in one grid cell: its start and end.
+    runs: Vec<(u32, u32)>,
     near: Vec<bool>,
+}
+
+/// A grid cell's key: ordered by column, then row, so a column's neighbouring rows are adjacent
+/// keys.
+fn cell_key(x: i32, y: i32) -> u64 {
+    (u64::from(x as u32 ^ 1 << 31) << 32) | u64::from(y as u32 ^ 1 << 31)
+}
+
+/// The column and row of a [`cell_key`].
+fn cell_of_key(k: u64) -> (i32, i32) {
+    (
+        ((k >> 32) as u32 ^ 1 << 31) as i32,
+        (k as u32 ^ 1 << 31) as i32,
+    )
 }
 
 impl CloseCars {
     /// Marks in `near` every box with another box within reach. Each box goes into the grid
     /// cell of its centre, cells as wide as the farthest two boxes can interact, so only
-    /// neighbouring cells are compared: O(n log n), never every pair.
+    /// neighbouring cells are compared: O(n log n), never every pair. The cells' comparisons
+    /// are split over the task pool from [`PARALLEL_MIN_VEHICLES`] boxes; what each part finds
+    /// is only ever added to `near`, so the answer does not depend on the split.
     fn search(&mut self) {
         let n = self.boxes.len();
         self.near.clear();
@@ -157,15 +176,6 @@ impl CloseCars {
             .map(|b| b.half.length() + b.reach_m)
             .fold(0.0_f32, f32::max);
         let side = 2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M;
-        // Cells ordered by column, then row: a column's neighbouring rows are adjacent keys.
-        let key =
-            |x: i32, y: i32| (u64::from(x as u32 ^ 1 << 31) << 32) | u64::from(y as u32 ^ 1 << 31);
-        let unkey = |k: u64| {
-            (
-                ((k >> 32) as u32 ^ 1 << 31) as i32,
-                (k as u32 ^ 1 << 31) as i32,
-            )
-        };
         // Rounded down by a plain conversion, not the C library's `floorf`, so the cells never
         // depend on the maths library.
         let per_side = 1.0 / side;
@@ -174,49 +184,115 @@ impl CloseCars {
             let i = q as i32;
             i - i32::from(q < i as f32)
         };
-        self.cells.clear();
-        self.cells.extend(
-            self.boxes
-                .iter()
-                .enumerate()
-                .map(|(i, b)| (key(cell(b.centre.x), cell(b.centre.y)), i as u32)),
-        );
-        self.cells.sort_unstable();
-        let (cells, boxes, near) = (&self.cells, &self.boxes, &mut self.near);
-        let mut pair = |i: u32, j: u32| {
-            if within_reach(&boxes[i as usize], &boxes[j as usize]) {
-                near[i as usize] = true;
-                near[j as usize] = true;
+        let key_of = |b: &BoxNow| cell_key(cell(b.centre.x), cell(b.centre.y));
+        if self.cells.len() == n {
+            // The same number of cars as last step: their last order, keys renewed, is nearly
+            // sorted still (a car changes cell every few dozen steps). Every `(cell, index)` is
+            // distinct, so the sorted order is one whatever order the sort starts from.
+            for c in &mut self.cells {
+                c.0 = key_of(&self.boxes[c.1 as usize]);
             }
-        };
+            sort_nearly_sorted(&mut self.cells);
+        } else {
+            self.cells.clear();
+            self.cells.extend(
+                self.boxes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| (key_of(b), i as u32)),
+            );
+            self.cells.sort_unstable();
+        }
+        self.runs.clear();
         let mut start = 0;
-        while start < cells.len() {
-            let k = cells[start].0;
-            let len = cells[start..].iter().take_while(|c| c.0 == k).count();
-            let here = &cells[start..start + len];
+        while start < self.cells.len() {
+            let k = self.cells[start].0;
+            let len = self.cells[start..].iter().take_while(|c| c.0 == k).count();
+            self.runs.push((start as u32, (start + len) as u32));
             start += len;
-            for (m, &(_, i)) in here.iter().enumerate() {
-                for &(_, j) in &here[m + 1..] {
-                    pair(i, j);
+        }
+        let (cells, boxes) = (&self.cells, &self.boxes);
+        // About eight parts per thread; each part's hits, in pairs.
+        let threads = task_threads();
+        let per_part = self.runs.len().div_ceil(8 * threads).max(1);
+        let parts: Vec<&[(u32, u32)]> = self.runs.chunks(per_part).collect();
+        let hits = map_in_order(
+            &parts,
+            if n < PARALLEL_MIN_VEHICLES {
+                usize::MAX
+            } else {
+                2
+            },
+            || (),
+            |(), runs| {
+                let mut hits = Vec::new();
+                for &run in *runs {
+                    pairs_from(cells, boxes, run, &mut hits);
                 }
-            }
-            // Each pair of neighbouring cells once: the one above this one, and the three
-            // of the next column (adjacent keys).
-            let (x, y) = unkey(k);
-            let above = key(x, y.wrapping_add(1));
-            for &(_, j) in cells[start..].iter().take_while(|c| c.0 == above) {
-                for &(_, i) in here {
-                    pair(i, j);
-                }
-            }
-            let x1 = x.wrapping_add(1);
-            let (lo, hi) = (key(x1, y.wrapping_sub(1)), key(x1, y.wrapping_add(1)));
-            let from = start + cells[start..].partition_point(|c| c.0 < lo);
-            for &(_, j) in cells[from..].iter().take_while(|c| c.0 <= hi) {
-                for &(_, i) in here {
-                    pair(i, j);
-                }
-            }
+                hits
+            },
+        );
+        for i in hits.into_iter().flatten() {
+            self.near[i as usize] = true;
+        }
+    }
+}
+
+/// Sorts `v` by insertion, which takes one pass over a nearly sorted slice; past a few moves per
+/// element on average it sorts the rest of the way with the general sort.
+fn sort_nearly_sorted<T: Ord + Copy>(v: &mut [T]) {
+    let mut budget = 8 * v.len();
+    for i in 1..v.len() {
+        let x = v[i];
+        let mut j = i;
+        while j > 0 && v[j - 1] > x {
+            v[j] = v[j - 1];
+            j -= 1;
+        }
+        v[j] = x;
+        budget = budget.saturating_sub(i - j);
+        if budget == 0 {
+            v.sort_unstable();
+            return;
+        }
+    }
+}
+
+/// The boxes within reach of one another among one run of `cells` (one grid cell) and the
+/// cells after it that neighbour it: the one above it, and the three of the next column
+/// (adjacent keys). Each pair of neighbouring cells is compared once over all runs. Pushes
+/// both boxes of each pair found.
+fn pairs_from(cells: &[(u64, u32)], boxes: &[BoxNow], run: (u32, u32), hits: &mut Vec<u32>) {
+    let (start, end) = (run.0 as usize, run.1 as usize);
+    let here = &cells[start..end];
+    let k = here[0].0;
+    let mut pair = |i: u32, j: u32| {
+        if within_reach(&boxes[i as usize], &boxes[j as usize]) {
+            hits.push(i);
+            hits.push(j);
+        }
+    };
+    for (m, &(_, i)) in here.iter().enumerate() {
+        for &(_, j) in &here[m + 1..] {
+            pair(i, j);
+        }
+    }
+    let (x, y) = cell_of_key(k);
+    let above = cell_key(x, y.wrapping_add(1));
+    for &(_, j) in cells[end..].iter().take_while(|c| c.0 == above) {
+        for &(_, i) in here {
+            pair(i, j);
+        }
+    }
+    let x1 = x.wrapping_add(1);
+    let (lo, hi) = (
+        cell_key(x1, y.wrapping_sub(1)),
+        cell_key(x1, y.wrapping_add(1)),
+    );
+    let from = end + cells[end..].partition_point(|c| c.0 < lo);
+    for &(_, j) in cells[from..].iter().take_while(|c| c.0 <= hi) {
+        for &(_, i) in here {
+            pair(i, j);
         }
     }
 }
@@ -382,6 +458,8 @@ mod tests {
 
     #[test]
     fn the_grid_finds_the_same_close_cars_as_every_pair() {
+        // Two threads, so the 400 cars' cells are compared in parts over the pool.
+        flockway_core::init_task_pool(Some(2));
         // Cars scattered over a few cells, some on cell borders, some in negative coordinates.
         let mut boxes = Vec::new();
         let mut seed = 7_u32;
@@ -411,7 +489,64 @@ mod tests {
             "the scene has close cars"
         );
         assert!(brute.iter().filter(|&&n| !n).count() > 20, "and lone ones");
-        assert_eq!(near_of(boxes), brute);
+        assert_eq!(near_of(boxes.clone()), brute);
+        // Below the parallel threshold, on this thread: the pairs among the first 100.
+        let few: Vec<BoxNow> = boxes[..100].to_vec();
+        let mut brute = vec![false; few.len()];
+        for i in 0..few.len() {
+            for j in i + 1..few.len() {
+                if within_reach(&few[i], &few[j]) {
+                    brute[i] = true;
+                    brute[j] = true;
+                }
+            }
+        }
+        assert!(brute.contains(&true));
+        assert_eq!(near_of(few), brute);
+        // A second search over the same number of cars, moved: it starts from the first's
+        // order of cells.
+        let mut search = CloseCars {
+            boxes: boxes.clone(),
+            ..CloseCars::default()
+        };
+        search.search();
+        for b in &mut search.boxes {
+            b.centre += Vec2::new(next() * 12.0 - 6.0, next() * 12.0 - 6.0);
+        }
+        let moved = search.boxes.clone();
+        search.search();
+        assert_eq!(search.near, near_of(moved.clone()));
+        let pairs =
+            |i: usize| (0..moved.len()).any(|j| j != i && within_reach(&moved[i], &moved[j]));
+        assert_eq!(search.near, (0..moved.len()).map(pairs).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_nearly_sorted_sort_sorts_anything() {
+        let mut seed = 11_u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            seed >> 8
+        };
+        // Sorted with a few moved, reversed (past the budget), random, empty, one.
+        let mut cases: Vec<Vec<(u64, u32)>> = Vec::new();
+        let mut nearly: Vec<(u64, u32)> = (0..2000).map(|i| (u64::from(i / 3), i)).collect();
+        for _ in 0..40 {
+            let (a, b) = (next() as usize % 2000, next() as usize % 2000);
+            nearly[a].0 = nearly[b].0 + 1;
+        }
+        cases.push(nearly);
+        cases.push((0..2000).rev().map(|i| (u64::from(i), i)).collect());
+        cases.push((0..2000).map(|i| (u64::from(next() % 50), i)).collect());
+        cases.push(Vec::new());
+        cases.push(vec![(3, 1)]);
+        for case in cases {
+            let mut want = case.clone();
+            want.sort_unstable();
+            let mut got = case;
+            sort_nearly_sorted(&mut got);
+            assert_eq!(got, want);
+        }
     }
 
     #[test]
