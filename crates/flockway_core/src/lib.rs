@@ -13,6 +13,7 @@ mod sim;
 mod stats;
 mod stepper;
 mod units;
+pub mod wrap;
 
 pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};

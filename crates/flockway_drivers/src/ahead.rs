@@ -176,7 +176,7 @@ impl RoadAhead {
             return f32::INFINITY;
         };
         let s_m = match self.loops.get(road.0 as usize) {
-            Some(Some(length)) if *length > 0.0 => s_m.rem_euclid(*length),
+            Some(Some(length)) if *length > 0.0 => flockway_core::wrap::rem_euclid(s_m, *length),
             _ => s_m,
         };
         let bin = ((s_m.max(0.0) / CURVATURE_BIN_M) as usize).min(env.len().saturating_sub(1));

@@ -55,7 +55,7 @@ impl Pid {
 
 /// Wraps an angle difference into (−π, π]: from −175° to 175° is a turn of −10°, not 350°.
 pub fn wrap_angle(rad: f32) -> f32 {
-    let w = (rad + PI).rem_euclid(TAU) - PI;
+    let w = flockway_core::wrap::rem_euclid_f32(rad + PI, TAU) - PI;
     if w <= -PI { w + TAU } else { w }
 }
 

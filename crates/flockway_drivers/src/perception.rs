@@ -336,7 +336,7 @@ impl LaneIndex {
         if r.closed && (behind_m + ahead_m) >= r.length_m {
             // The window covers the whole loop: every vehicle once, at its nearest signed gap.
             for e in entries {
-                let mut gap = (e.s_m - s_m).rem_euclid(r.length_m);
+                let mut gap = flockway_core::wrap::rem_euclid(e.s_m - s_m, r.length_m);
                 if gap > ahead_m {
                     gap -= r.length_m;
                 }
