@@ -262,6 +262,7 @@ impl RoadGeometry {
 
     /// Brings an arc position into range: wrapped into [0, length) on a closed loop, clamped to
     /// [0, length] on an open road.
+    #[inline]
     pub fn normalize_s(&self, s_m: f64) -> f64 {
         if self.spec.closed {
             let w = flockway_core::wrap::rem_euclid(s_m, self.length_m);
@@ -274,6 +275,7 @@ impl RoadGeometry {
 
     /// Signed arc distance from `from_m` to `to_m` along the direction of travel; on a closed loop
     /// the shorter way round (in (−L/2, L/2]).
+    #[inline]
     pub fn delta_s(&self, from_m: f64, to_m: f64) -> f64 {
         let d = to_m - from_m;
         if self.spec.closed {
@@ -458,43 +460,15 @@ impl RoadGeometry {
     /// a few metres. Its `s_m` is `cursor_s_m + ds_m`, wrapped. `None` past either end of an open
     /// road.
     pub fn frame_near(&self, cursor: &RoadCursor, cursor_s_m: f64, ds_m: f64) -> Option<RoadFrame> {
-        let speed = self.cursor_speed(cursor)?;
-        self.frame_near_at_speed(cursor, speed, cursor_s_m, ds_m)
-    }
-
-    /// [`frame_near`](Self::frame_near) for several distances from one cursor (a vehicle's
-    /// axles), the same frames to the bit, with the spline's speed at the cursor found once.
-    pub fn frames_near<const N: usize>(
-        &self,
-        cursor: &RoadCursor,
-        cursor_s_m: f64,
-        ds_m: [f64; N],
-    ) -> [Option<RoadFrame>; N] {
-        let speed = self.cursor_speed(cursor);
-        ds_m.map(|ds| speed.and_then(|v| self.frame_near_at_speed(cursor, v, cursor_s_m, ds)))
-    }
-
-    /// |dP/du| at a cursor, as [`frame_near`](Self::frame_near) steps from it; `None` for a
-    /// cursor not of this road.
-    fn cursor_speed(&self, cursor: &RoadCursor) -> Option<f64> {
-        let g = self.segments.get(cursor.param.seg)?;
-        Some(g.cubic.d1(cursor.param.u).length().max(1e-9))
-    }
-
-    /// [`frame_near`](Self::frame_near) given the spline's speed at the cursor.
-    fn frame_near_at_speed(
-        &self,
-        cursor: &RoadCursor,
-        cursor_speed: f64,
-        cursor_s_m: f64,
-        ds_m: f64,
-    ) -> Option<RoadFrame> {
         let nseg = self.segments.len();
         let mut p = cursor.param;
-        let mut speed = cursor_speed;
+        if p.seg >= nseg {
+            return None;
+        }
         let mut left = ds_m;
         for _ in 0..4 {
             let c = &self.segments[p.seg].cubic;
+            let speed = c.d1(p.u).length().max(1e-9);
             let mut u = p.u + left / speed;
             let mut seg = p.seg;
             if u > 1.0 {
@@ -507,7 +481,6 @@ impl RoadGeometry {
                     return None;
                 }
                 p = SplineParam { seg, u: 0.0 };
-                speed = self.segments[seg].cubic.d1(0.0).length().max(1e-9);
                 continue;
             }
             if u < 0.0 {
@@ -520,7 +493,6 @@ impl RoadGeometry {
                     return None;
                 }
                 p = SplineParam { seg, u: 1.0 };
-                speed = self.segments[seg].cubic.d1(1.0).length().max(1e-9);
                 continue;
             }
             // A second step with the speed at the midpoint brings the arc error to second order.

@@ -557,29 +557,6 @@ fn frame_near_a_cursor_matches_frame_at_and_crosses_joins() {
 }
 
 #[test]
-fn frames_near_one_cursor_are_the_frames_near_it_one_at_a_time() {
-    let ring =
-        RoadGeometry::new(&RoadSpec::ring("r", 1, 30.0, DVec3::ZERO, 50.0, 8)).expect("valid ring");
-    let mut rng = Lcg(5);
-    for g in [curved_road(3), ring] {
-        for _ in 0..300 {
-            let s = rng.next() * g.length_m();
-            // Axles a car apart, and distances that cross several segments or an end.
-            let ds = [
-                (rng.next() - 0.5) * 6.0,
-                (rng.next() - 0.5) * 6.0,
-                (rng.next() - 0.5) * 200.0,
-            ];
-            let cursor = g.cursor_at(s);
-            let together = g.frames_near(&cursor, s, ds);
-            for (k, &d) in ds.iter().enumerate() {
-                assert_eq!(together[k], g.frame_near(&cursor, s, d), "{s} {d}");
-            }
-        }
-    }
-}
-
-#[test]
 fn project_tracked_frame_returns_the_frame_at_the_projection() {
     let g = curved_road(2);
     let s = 123.0;

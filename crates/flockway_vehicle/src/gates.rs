@@ -120,6 +120,7 @@ fn gap_lower_bound(a: &BoxNow, b: &BoxNow) -> f32 {
 }
 
 /// Whether two boxes are close enough that their colliders must be in rapier.
+#[inline]
 fn within_reach(a: &BoxNow, b: &BoxNow) -> bool {
     let hysteresis = if a.was_near || b.was_near {
         CONTACT_GATE_HYSTERESIS_M
@@ -262,6 +263,7 @@ fn sort_nearly_sorted<T: Ord + Copy>(v: &mut [T]) {
 /// cells after it that neighbour it: the one above it, and the three of the next column
 /// (adjacent keys). Each pair of neighbouring cells is compared once over all runs. Pushes
 /// both boxes of each pair found.
+#[inline(always)]
 fn pairs_from(cells: &[(u64, u32)], boxes: &[BoxNow], run: (u32, u32), hits: &mut Vec<u32>) {
     let (start, end) = (run.0 as usize, run.1 as usize);
     let here = &cells[start..end];
