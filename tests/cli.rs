@@ -983,6 +983,67 @@ fn edit_apply_changes_a_level_headless_all_or_none_and_names_the_refused_edit() 
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
+/// A ring of 52.5 km with 2 100 cars, autonomous and human-like: enough that every per-car
+/// pass of the step runs over the task pool (the controls from 512 cars, the close-car search
+/// from 2 048); 1 and 3 threads give the same bytes.
+#[test]
+fn the_thread_count_changes_no_byte_of_two_thousand_cars() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let radius = 52_500.0 / std::f64::consts::TAU;
+    let points: Vec<String> = (0..40)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 40.0;
+            format!(
+                "(pos: ({:.3}, {:.3}, 0.0))",
+                radius * a.cos(),
+                radius * a.sin()
+            )
+        })
+        .collect();
+    let level = format!(
+        r#"(
+    version: 1,
+    name: "big_ring",
+    seed: 5,
+    duration_s: 3.0,
+    roads: [(name: "ring", closed: true, lanes: 2, lane_width_m: 3.5, speed_limit_kmh: 90.0,
+        points: [{points}])],
+    vehicle_types: [
+        (name: "sedan", path: "vehicles/sedan.ron"),
+        (name: "sedan_human", path: "vehicles/sedan_human.ron"),
+    ],
+    driver_profiles: [
+        (name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron"),
+        (name: "human", model: Human, vehicle: "sedan_human", params: "drivers/human.ron"),
+    ],
+    vehicles: [
+        (road: "ring", count: 1400, profile: "autonomous", from_m: 0.0, to_m: 35000.0, speed_kmh: 70.0, jitter_m: 2.0),
+        (road: "ring", count: 700, profile: "human", from_m: 35000.0, to_m: 52400.0, speed_kmh: 70.0, jitter_m: 2.0),
+    ],
+)"#,
+        points = points.join(", ")
+    );
+    let path = dir.path().join("big_ring.ron");
+    std::fs::write(&path, level).expect("write");
+    let mut outputs: Vec<Vec<u8>> = Vec::new();
+    for threads in ["1", "3"] {
+        let csv = dir.path().join(format!("run_{threads}.csv"));
+        let env = [("FLOCKWAY_THREADS", threads)];
+        outputs.push(csv_of_run(
+            path.to_str().expect("a UTF-8 path"),
+            "3",
+            &csv,
+            &env,
+        ));
+    }
+    let rows = outputs[0].iter().filter(|&&b| b == b'\n').count();
+    assert!(rows > 2_100, "every car in the telemetry: {rows} rows");
+    assert!(
+        outputs[0] == outputs[1],
+        "the same bytes on 1 and 3 threads"
+    );
+}
+
 #[test]
 fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -7,8 +7,7 @@ use bevy_ecs::query::QueryItem;
 use flockway_core::DT_S;
 use flockway_road::RoadNetwork;
 use flockway_vehicle::{
-    Controls, LongitudinalModel, Motion, PARALLEL_MIN_VEHICLES, STANDSTILL_MPS, VehicleModel,
-    VehicleState, VehicleType,
+    Controls, LongitudinalModel, Motion, STANDSTILL_MPS, VehicleModel, VehicleState, VehicleType,
 };
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
@@ -241,6 +240,10 @@ type HeldAt = (
     &'static flockway_vehicle::RoadTrack,
 );
 
+/// From this many vehicles [`follow_targets`] runs over the task pool: a car's share is one
+/// search for the vehicle ahead and a PID update, lighter than the decisions' or the forces'.
+const FOLLOW_PARALLEL_MIN: usize = 512;
+
 /// What [`follow_targets`] reads and writes on one vehicle.
 type Followed = (
     Entity,
@@ -268,7 +271,7 @@ pub fn follow_targets(
     };
     // Each car reads the shared index and road network and writes only its own controller and
     // controls, so the answers are the same whichever thread finds them.
-    if vehicles.iter().len() < PARALLEL_MIN_VEHICLES {
+    if vehicles.iter().len() < FOLLOW_PARALLEL_MIN {
         let mut scratch = Vec::new();
         vehicles.iter_mut().for_each(|item| run(&mut scratch, item));
     } else {

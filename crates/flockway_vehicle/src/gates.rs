@@ -7,7 +7,6 @@ use crate::components::{
     RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
 };
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
-use crate::systems::PARALLEL_MIN_VEHICLES;
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, map_in_order, task_threads};
 use flockway_road::RoadNetwork;
@@ -133,6 +132,11 @@ fn within_reach(a: &BoxNow, b: &BoxNow) -> bool {
     (b.centre - a.centre).length_squared() < circles * circles && gap_lower_bound(a, b) < threshold
 }
 
+/// From this many cars the close-car search compares its cells over the task pool: a car's
+/// share is a few box tests, so handing parts out costs more than it saves below a few thousand
+/// (`dense_road`'s 167 cars ran slower split).
+const CLOSE_CARS_PARALLEL_MIN: usize = 2048;
+
 /// The close-car search's buffers, kept from step to step.
 #[derive(Default)]
 pub struct CloseCars {
@@ -162,7 +166,7 @@ impl CloseCars {
     /// Marks in `near` every box with another box within reach. Each box goes into the grid
     /// cell of its centre, cells as wide as the farthest two boxes can interact, so only
     /// neighbouring cells are compared: O(n log n), never every pair. The cells' comparisons
-    /// are split over the task pool from [`PARALLEL_MIN_VEHICLES`] boxes; what each part finds
+    /// are split over the task pool from [`CLOSE_CARS_PARALLEL_MIN`] boxes; what each part finds
     /// is only ever added to `near`, so the answer does not depend on the split.
     fn search(&mut self) {
         let n = self.boxes.len();
@@ -219,7 +223,7 @@ impl CloseCars {
         let parts: Vec<&[(u32, u32)]> = self.runs.chunks(per_part).collect();
         let hits = map_in_order(
             &parts,
-            if n < PARALLEL_MIN_VEHICLES {
+            if n < CLOSE_CARS_PARALLEL_MIN {
                 usize::MAX
             } else {
                 2
@@ -460,23 +464,24 @@ mod tests {
 
     #[test]
     fn the_grid_finds_the_same_close_cars_as_every_pair() {
-        // Two threads, so the 400 cars' cells are compared in parts over the pool.
+        // Two threads, so the 2 500 cars' cells are compared in parts over the pool.
         flockway_core::init_task_pool(Some(2));
-        // Cars scattered over a few cells, some on cell borders, some in negative coordinates.
+        // Cars scattered over many cells, some on cell borders, some in negative coordinates.
         let mut boxes = Vec::new();
         let mut seed = 7_u32;
         let mut next = || {
             seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (seed >> 8) as f32 / (1 << 24) as f32
         };
-        for _ in 0..400 {
+        for _ in 0..2_500 {
             boxes.push(boxed(
-                next() * 200.0 - 100.0,
-                next() * 60.0 - 30.0,
+                next() * 500.0 - 250.0,
+                next() * 150.0 - 75.0,
                 next() * 6.3,
                 next() * 40.0,
             ));
         }
+        assert!(boxes.len() >= CLOSE_CARS_PARALLEL_MIN, "searched in parts");
         let mut brute = vec![false; boxes.len()];
         for i in 0..boxes.len() {
             for j in i + 1..boxes.len() {
