@@ -281,8 +281,8 @@ pub fn follow_targets(
 
 /// One vehicle's controls for its target, capped as [`follow_targets`] says; `scratch` is
 /// space for the safety layer's search.
-// Inlined into both loops of `follow_targets`: called, passing the item's references cost more
-// instructions per car than the call saves in code (callgrind, `dense_road`).
+// Inlined into both loops of `follow_targets`: as a call per car, passing the item's many
+// references cost more instructions than the loop's work saved (callgrind, `dense_road`).
 #[inline(always)]
 fn follow_one(
     network: &RoadNetwork,

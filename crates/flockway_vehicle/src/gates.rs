@@ -133,8 +133,8 @@ fn within_reach(a: &BoxNow, b: &BoxNow) -> bool {
 }
 
 /// From this many cars the close-car search compares its cells over the task pool: a car's
-/// share is a few box tests, so handing parts out costs more than it saves below a few thousand
-/// (`dense_road`'s 167 cars ran slower split).
+/// share is a few box tests, so below a few thousand cars handing the parts out costs about
+/// what it saves.
 const CLOSE_CARS_PARALLEL_MIN: usize = 2048;
 
 /// The close-car search's buffers, kept from step to step.
