@@ -3,36 +3,38 @@
 //! library's `fmod` whatever the value (a loop in software, not one instruction); these answer
 //! those within a period by one addition or subtraction and are equal to it bit for bit.
 
-/// `x.rem_euclid(m)` for a period `m > 0`, to the bit.
-#[inline]
-pub fn rem_euclid(x: f64, m: f64) -> f64 {
-    // fmod is exact: within (−m, 2m) the remainder is x, x + m or x − m, and the last is exact
-    // in floating point too (Sterbenz: m ≤ x ≤ 2m). −m itself goes to the library, whose
-    // answer is −0.
-    if (0.0..m).contains(&x) {
-        x
-    } else if x < 0.0 && x > -m {
-        x + m
-    } else if x >= m && x < 2.0 * m {
-        x - m
-    } else {
-        x.rem_euclid(m)
-    }
+/// Defines `$name(x, m)`, `x.rem_euclid(m)` in `$t` for a period `m > 0`, to the bit.
+macro_rules! rem_euclid_for {
+    ($name:ident, $t:ty, $doc:literal) => {
+        #[doc = $doc]
+        #[inline]
+        pub fn $name(x: $t, m: $t) -> $t {
+            // fmod is exact: within (−m, 2m) the remainder is x, x + m or x − m, and the last
+            // is exact in floating point too (Sterbenz: m ≤ x ≤ 2m). −m itself goes to the
+            // library, whose answer is −0.
+            if (0.0..m).contains(&x) {
+                x
+            } else if x < 0.0 && x > -m {
+                x + m
+            } else if x >= m && x < 2.0 * m {
+                x - m
+            } else {
+                x.rem_euclid(m)
+            }
+        }
+    };
 }
 
-/// `x.rem_euclid(m)` for a period `m > 0` in single precision, to the bit.
-#[inline]
-pub fn rem_euclid_f32(x: f32, m: f32) -> f32 {
-    if (0.0..m).contains(&x) {
-        x
-    } else if x < 0.0 && x > -m {
-        x + m
-    } else if x >= m && x < 2.0 * m {
-        x - m
-    } else {
-        x.rem_euclid(m)
-    }
-}
+rem_euclid_for!(
+    rem_euclid,
+    f64,
+    "`x.rem_euclid(m)` for a period `m > 0`, to the bit."
+);
+rem_euclid_for!(
+    rem_euclid_f32,
+    f32,
+    "`x.rem_euclid(m)` for a period `m > 0` in single precision, to the bit."
+);
 
 #[cfg(test)]
 mod tests {

@@ -453,6 +453,20 @@ mod tests {
         assert!(within_reach(&a, &b));
     }
 
+    /// Whether each box has another within reach, by testing every pair.
+    fn every_pair(boxes: &[BoxNow]) -> Vec<bool> {
+        let mut near = vec![false; boxes.len()];
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                if within_reach(&boxes[i], &boxes[j]) {
+                    near[i] = true;
+                    near[j] = true;
+                }
+            }
+        }
+        near
+    }
+
     fn near_of(boxes: Vec<BoxNow>) -> Vec<bool> {
         let mut search = CloseCars {
             boxes,
@@ -482,15 +496,7 @@ mod tests {
             ));
         }
         assert!(boxes.len() >= CLOSE_CARS_PARALLEL_MIN, "searched in parts");
-        let mut brute = vec![false; boxes.len()];
-        for i in 0..boxes.len() {
-            for j in i + 1..boxes.len() {
-                if within_reach(&boxes[i], &boxes[j]) {
-                    brute[i] = true;
-                    brute[j] = true;
-                }
-            }
-        }
+        let brute = every_pair(&boxes);
         assert!(
             brute.iter().filter(|&&n| n).count() > 20,
             "the scene has close cars"
@@ -499,15 +505,7 @@ mod tests {
         assert_eq!(near_of(boxes.clone()), brute);
         // Below the parallel threshold, on this thread: the pairs among the first 100.
         let few: Vec<BoxNow> = boxes[..100].to_vec();
-        let mut brute = vec![false; few.len()];
-        for i in 0..few.len() {
-            for j in i + 1..few.len() {
-                if within_reach(&few[i], &few[j]) {
-                    brute[i] = true;
-                    brute[j] = true;
-                }
-            }
-        }
+        let brute = every_pair(&few);
         assert!(brute.contains(&true));
         assert_eq!(near_of(few), brute);
         // A second search over the same number of cars, moved: it starts from the first's
@@ -522,10 +520,7 @@ mod tests {
         }
         let moved = search.boxes.clone();
         search.search();
-        assert_eq!(search.near, near_of(moved.clone()));
-        let pairs =
-            |i: usize| (0..moved.len()).any(|j| j != i && within_reach(&moved[i], &moved[j]));
-        assert_eq!(search.near, (0..moved.len()).map(pairs).collect::<Vec<_>>());
+        assert_eq!(search.near, every_pair(&moved));
     }
 
     #[test]
