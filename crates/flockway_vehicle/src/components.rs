@@ -124,8 +124,9 @@ pub struct Chassis {
 /// car's body is within reach and it is clearly away from its road's edges, and leaves the
 /// guardrails out of its filter while clear of them; each comes back before anything can
 /// reach the box, with room for the distance the two can close in two steps and a margin.
-/// Contacts are the same as without gates, bit for bit (a car moved by hand onto another
-/// while its collider is out touches it a step later).
+/// While its collider is out, its body is out of rapier too and integrated in its
+/// [`FreeBody`](crate::FreeBody), which then holds the body's state. Contacts and motion are
+/// the same as without gates, bit for bit.
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
 pub struct ContactGate {
     pub(crate) collider: ColliderHandle,

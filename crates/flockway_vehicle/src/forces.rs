@@ -7,8 +7,7 @@
 //! Every stage is a function of what the stages before it found, so each is tested on its own.
 
 use crate::components::{
-    Chassis, Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState,
-    VehicleType,
+    Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType,
 };
 use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput, apply_brake};
 use crate::params::VehicleParams;
@@ -21,7 +20,7 @@ use glam::{Quat, Vec3};
 /// Stiffness of the bump stop relative to the spring.
 const BUMP_STOP_FACTOR: f32 = 10.0;
 
-/// The body's pose and velocity this tick, as rapier has them.
+/// The body's pose and velocity this tick (from rapier, or its [`FreeBody`](crate::FreeBody)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Kinematics {
     /// Centre of mass, m.
@@ -555,26 +554,19 @@ pub(crate) fn drag(p: &VehicleParams, v: Vec3) -> Vec3 {
 
 /// The force and torque on one vehicle's body this tick (suspension, tyres, drag), advancing
 /// its wheels, engine, gearbox and steering: the stages above, in order. Reads the physics world
-/// only, so vehicles can be computed in parallel; `None` if its body is gone.
+/// only, so vehicles can be computed in parallel.
 pub(crate) fn vehicle_forces(
     physics: &Physics,
     network: &RoadNetwork,
     controls: &Controls,
     model: &VehicleModel,
-    chassis: &Chassis,
+    kin: &Kinematics,
     track: &RoadTrack,
     state: &mut VehicleState,
-) -> Option<(Vec3, Vec3)> {
+) -> (Vec3, Vec3) {
     let h = DT_S as f32;
-    let body = physics.world.bodies.get(chassis.body)?;
     let t: &VehicleType = &model.0;
-    let pose = *body.position();
-    let kin = Kinematics {
-        com: pose.translation,
-        rot: pose.rotation,
-        v: body.linvel(),
-        w: body.angvel(),
-    };
+    let kin = *kin;
     let forward_mps = kin.v.dot(kin.forward());
     let transmission = gearbox_and_clutch(t, controls, state, forward_mps, h);
     let steer = steer_wheels(&t.params, controls, state, forward_mps, h);
@@ -602,7 +594,7 @@ pub(crate) fn vehicle_forces(
     };
     let (mut force, torque) = contact_forces(t, state, &patches, &spin, &brake_nm, &hold, h);
     force += drag(&t.params, kin.v);
-    Some((force, torque))
+    (force, torque)
 }
 
 /// Clamps a tyre force to lie between zero and the force that would stop the slip.

@@ -3,9 +3,10 @@
 //! car's box finds the cars another can reach, and [`gate_colliders`] applies both.
 
 use crate::components::{
-    CONTACT_GATE_HYSTERESIS_M, CONTACT_GATE_MARGIN_M, ContactGate, Motion, RAIL_GATE_END_M,
-    RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
+    CONTACT_GATE_HYSTERESIS_M, CONTACT_GATE_MARGIN_M, Chassis, ContactGate, Motion,
+    RAIL_GATE_END_M, RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
 };
+use crate::free_body::FreeBody;
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
 use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, map_in_order, task_threads};
@@ -327,14 +328,16 @@ pub fn find_close_cars(
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
 /// filter, as its [`ContactGate`] decided; and notes each car's road where roads cross without
-/// meeting.
+/// meeting. A body whose collider is out leaves rapier too, its state kept and integrated in
+/// its [`FreeBody`] until the collider comes back.
 pub fn gate_colliders(
     mut physics: ResMut<Physics>,
-    mut gates: Query<(&mut ContactGate, &RoadTrack)>,
+    mut gates: Query<(&mut ContactGate, &RoadTrack, &Chassis, &mut FreeBody)>,
 ) {
+    let physics = &mut *physics;
     let gating = physics.gates;
     let crossings = physics.has_crossings();
-    for (mut gate, track) in &mut gates {
+    for (mut gate, track, chassis, mut free) in &mut gates {
         if crossings {
             physics.note_vehicle_road(gate.collider, track.road);
         }
@@ -358,6 +361,13 @@ pub fn gate_colliders(
             }
             if enabled != gate.enabled {
                 collider.set_enabled(enabled);
+                if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
+                    if enabled {
+                        free.enter(body);
+                    } else {
+                        free.leave(body);
+                    }
+                }
             }
         }
         gate.rails_open = rails;

@@ -1,19 +1,20 @@
 //! Flockway's sedan: a rapier3d rigid body driven by our own suspension, Pacejka tyres,
 //! drivetrain and steering.
 //!
-//! rapier integrates the chassis and resolves body contacts (guardrails, other cars); everything
-//! between the chassis and the road is ours. Each tick, in [`StepSet::Actuate`],
-//! [`drive_vehicles`] finds every wheel's contact by an exact query of the road spline (a rapier
-//! ray cast only where no road is under a wheel), computes spring–damper loads, combined-slip
-//! tyre forces, drag and the implicit engine–clutch–wheel spin update, and replaces the body's
-//! forces. In [`StepSet::Physics`] rapier steps once at 1/120 s, contacts become
-//! [`VehicleContact`] messages and [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back.
-//! Drivers write only [`Controls`].
+//! rapier integrates the chassis and resolves body contacts (guardrails, other cars) while
+//! anything is within reach of it; a chassis with nothing to touch is integrated here with
+//! rapier's own operations ([`FreeBody`]). Everything between the chassis and the road is
+//! ours. Each tick, in [`StepSet::Actuate`], [`drive_vehicles`] finds every wheel's contact by
+//! an exact query of the road spline (a rapier ray cast only where no road is under a wheel),
+//! computes spring–damper loads, combined-slip tyre forces, drag and the implicit
+//! engine–clutch–wheel spin update, and replaces the body's forces. In [`StepSet::Physics`]
+//! rapier steps once at 1/120 s, contacts become [`VehicleContact`] messages and
+//! [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back. Drivers write only [`Controls`].
 //!
 //! Modules: `components` (what a vehicle is made of), `spawn` (putting one into the world),
 //! `forces` (one tick's forces in named stages), `systems` (the per-tick systems), `gates`
-//! (which colliders rapier sees), and the models they use: `tyre`, `drivetrain`, `steering`,
-//! `params`, `physics`, and the `dyno`.
+//! (which colliders rapier sees), `free_body` (bodies integrated here while out of rapier), and
+//! the models they use: `tyre`, `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
 //!
 //! Conventions: world x east, y north, z up; body x forward, y left, z up; wheels in the order
 //! front left, front right, rear left, rear right.
@@ -22,6 +23,7 @@ mod components;
 mod drivetrain;
 mod dyno;
 mod forces;
+mod free_body;
 mod gates;
 mod longitudinal;
 mod params;
@@ -40,6 +42,7 @@ pub use drivetrain::{
     Driveline, Gearbox, Pedals, RPM_TO_RAD_S, STANDSTILL_MPS, SpinInput, SpinOutput, apply_brake,
 };
 pub use dyno::{DynoReport, DynoSettings, run_dyno};
+pub use free_body::FreeBody;
 pub use gates::{CloseCars, find_close_cars, gate_colliders};
 pub use longitudinal::LongitudinalModel;
 pub use params::{

@@ -6,6 +6,7 @@ use crate::components::{
     VehicleType, WheelState,
 };
 use crate::drivetrain::{Gearbox, Pedals};
+use crate::free_body::FreeBody;
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP, vehicle_tag};
 use bevy_ecs::prelude::*;
 use flockway_core::Vehicle;
@@ -170,6 +171,7 @@ pub fn spawn_vehicle(world: &mut World, spawn: VehicleSpawn) -> Result<Entity, S
     let (handle, collider) = physics.world.insert(body, collider);
     world.entity_mut(entity).insert((
         Chassis { body: handle },
+        FreeBody::default(),
         ContactGate::new(
             collider,
             Vec3::new(c.length_m / 2.0, c.width_m / 2.0, box_half_h),

@@ -4,7 +4,8 @@
 use crate::components::{
     BodyForces, Chassis, ContactGate, Controls, Motion, RoadTrack, VehicleModel, VehicleState,
 };
-use crate::forces::vehicle_forces;
+use crate::forces::{Kinematics, vehicle_forces};
+use crate::free_body::{FreeBody, StepSettings};
 use crate::physics::Physics;
 use bevy_ecs::prelude::*;
 use flockway_core::DT_S;
@@ -16,8 +17,9 @@ use glam::{DVec3, Vec3};
 pub const PARALLEL_MIN_VEHICLES: usize = 128;
 
 /// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
-/// spin, engine and gearbox. Each vehicle reads only the physics world and writes only its own
-/// components, so they run in parallel on the task pool with results independent of threads.
+/// spin, engine and gearbox; a body out of rapier ([`FreeBody`]) is integrated under them right
+/// away. Each vehicle reads only the physics world and writes only its own components, so they
+/// run in parallel on the task pool with results independent of threads.
 pub fn drive_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
@@ -28,23 +30,38 @@ pub fn drive_vehicles(
         &RoadTrack,
         &mut VehicleState,
         &mut BodyForces,
+        &mut FreeBody,
     )>,
 ) {
     let physics: &Physics = &physics;
     let network: &RoadNetwork = &network;
-    let run = |(controls, model, chassis, track, mut state, mut out): (
-        &Controls,
-        &VehicleModel,
-        &Chassis,
-        &RoadTrack,
-        Mut<VehicleState>,
-        Mut<BodyForces>,
-    )| {
-        let (force, torque) = vehicle_forces(
-            physics, network, controls, model, chassis, track, &mut state,
-        )
-        .unwrap_or_default();
+    let settings = StepSettings::of(physics);
+    type Item<'a> = (
+        &'a Controls,
+        &'a VehicleModel,
+        &'a Chassis,
+        &'a RoadTrack,
+        Mut<'a, VehicleState>,
+        Mut<'a, BodyForces>,
+        Mut<'a, FreeBody>,
+    );
+    let run = |(controls, model, chassis, track, mut state, mut out, mut body): Item| {
+        let Some((pose, v, w)) = body.state(physics, chassis) else {
+            *out = BodyForces::default();
+            return;
+        };
+        let kin = Kinematics {
+            com: pose.translation,
+            rot: pose.rotation,
+            v,
+            w,
+        };
+        let (force, torque) =
+            vehicle_forces(physics, network, controls, model, &kin, track, &mut state);
         *out = BodyForces { force, torque };
+        if body.free {
+            body.step(force, torque, &settings);
+        }
     };
     if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
         vehicles.iter_mut().for_each(run);
@@ -53,10 +70,16 @@ pub fn drive_vehicles(
     }
 }
 
-/// Replaces every vehicle body's forces with this tick's (rapier keeps user forces until they
-/// are reset, so adding them each tick would accumulate).
-pub fn apply_body_forces(mut physics: ResMut<Physics>, vehicles: Query<(&Chassis, &BodyForces)>) {
-    for (chassis, f) in &vehicles {
+/// Replaces the forces of every vehicle body in rapier with this tick's (rapier keeps user forces
+/// until they are reset, so adding them each tick would accumulate).
+pub fn apply_body_forces(
+    mut physics: ResMut<Physics>,
+    vehicles: Query<(&Chassis, &BodyForces, &FreeBody)>,
+) {
+    for (chassis, f, free) in &vehicles {
+        if free.free {
+            continue;
+        }
         if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
             body.reset_forces(false);
             body.reset_torques(false);
@@ -66,13 +89,14 @@ pub fn apply_body_forces(mut physics: ResMut<Physics>, vehicles: Query<(&Chassis
     }
 }
 
-/// Reads every vehicle's pose and velocity back from rapier and tracks it along the roads (in
-/// parallel: each vehicle writes only its own components).
+/// Reads every vehicle's pose and velocity back (from rapier, or its [`FreeBody`]) and tracks
+/// it along the roads (in parallel: each vehicle writes only its own components).
 pub fn sync_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
     mut vehicles: Query<(
         &Chassis,
+        &FreeBody,
         &mut Motion,
         &mut RoadTrack,
         Option<&mut ContactGate>,
@@ -82,24 +106,23 @@ pub fn sync_vehicles(
     let network: &RoadNetwork = &network;
     type Item<'a> = (
         &'a Chassis,
+        &'a FreeBody,
         Mut<'a, Motion>,
         Mut<'a, RoadTrack>,
         Option<Mut<'a, ContactGate>>,
     );
-    let run = |(chassis, mut motion, mut track, gate): Item| {
-        let Some(body) = physics.world.bodies.get(chassis.body) else {
+    let run = |(chassis, free, mut motion, mut track, gate): Item| {
+        let Some((pose, linvel, angvel)) = free.state(physics, chassis) else {
             return;
         };
         let h = DT_S as f32;
-        let pose = *body.position();
         let rot = pose.rotation;
-        let linvel = body.linvel();
         let forward_mps = linvel.dot(rot * Vec3::X);
         *motion = Motion {
             position: pose.translation,
             rotation: rot,
             linvel,
-            angvel: body.angvel(),
+            angvel,
             forward_mps,
             accel_mps2: (forward_mps - motion.forward_mps) / h,
         };

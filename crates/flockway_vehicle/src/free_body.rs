@@ -1,0 +1,290 @@
+//! Vehicle bodies integrated here while rapier has nothing for them to touch.
+//!
+//! A car whose collider is out of rapier (see [`ContactGate`](crate::ContactGate)) has no
+//! contact to resolve, yet rapier would still carry its body through every stage of its step —
+//! one thread reaching thousands of bodies scattered in memory, the largest serial part of a
+//! step with 10 000 cars. So its rapier body is disabled as well and [`FreeBody`] integrates it
+//! in the parallel force pass, with rapier's own operations in rapier's order: the same bits as
+//! if rapier had stepped it.
+
+use crate::components::Chassis;
+use crate::physics::Physics;
+use bevy_ecs::prelude::*;
+use glam::{Quat, Vec3};
+use rapier3d::prelude::*;
+
+/// A vehicle's rigid-body state while its body is out of rapier and integrated here; while the
+/// body is in rapier, rapier holds the state and this only waits.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+pub struct FreeBody {
+    /// Whether the body is out of rapier and this is its state.
+    pub(crate) free: bool,
+    /// The body's pose (its origin is its centre of mass).
+    pub(crate) pose: Pose,
+    /// Linear velocity, m/s.
+    pub(crate) linvel: Vec3,
+    /// Angular velocity, rad/s.
+    pub(crate) angvel: Vec3,
+    /// The body's local mass properties, as rapier computed them.
+    pub(crate) mass: MassProperties,
+}
+
+/// What one step of integration needs from rapier's settings.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepSettings {
+    dt: f32,
+    gravity: Vec3,
+    max_linvel: f32,
+    max_angvel: f32,
+}
+
+/// Largest rotation rapier lets a body make in one step, rad (its solver's own cap).
+const MAX_ROTATION: f32 = std::f32::consts::FRAC_PI_4;
+
+impl StepSettings {
+    /// The settings of `physics`'s world.
+    pub(crate) fn of(physics: &Physics) -> StepSettings {
+        let params = &physics.world.integration_parameters;
+        StepSettings {
+            dt: params.dt,
+            gravity: physics.world.gravity,
+            max_linvel: params.max_linear_velocity(),
+            max_angvel: MAX_ROTATION * params.inv_dt(),
+        }
+    }
+}
+
+impl FreeBody {
+    /// Whether the body is out of rapier and integrated here.
+    pub fn is_free(&self) -> bool {
+        self.free
+    }
+
+    /// The body's pose, linear and angular velocity now: its own while free, else rapier's;
+    /// `None` if rapier has no such body.
+    pub(crate) fn state(&self, physics: &Physics, chassis: &Chassis) -> Option<(Pose, Vec3, Vec3)> {
+        if self.free {
+            return Some((self.pose, self.linvel, self.angvel));
+        }
+        let body = physics.world.bodies.get(chassis.body)?;
+        Some((*body.position(), body.linvel(), body.angvel()))
+    }
+
+    /// Takes the body out of rapier: its state moves here and rapier's body is disabled.
+    pub(crate) fn leave(&mut self, body: &mut RigidBody) {
+        self.pose = *body.position();
+        self.linvel = body.linvel();
+        self.angvel = body.angvel();
+        self.mass = body.mass_properties().local_mprops;
+        self.free = true;
+        body.set_enabled(false);
+    }
+
+    /// Puts the body back into rapier with the state integrated here.
+    pub(crate) fn enter(&mut self, body: &mut RigidBody) {
+        body.set_position(self.pose, false);
+        body.set_linvel(self.linvel, false);
+        body.set_angvel(self.angvel, false);
+        body.set_enabled(true);
+        self.free = false;
+    }
+
+    /// Advances the body by one step under `force` and `torque` (at its centre of mass) and
+    /// gravity, exactly as rapier's solver advances a dynamic body with no contacts and one
+    /// substep: forces into velocities, rapier's gyroscopic correction, its speed caps, then
+    /// the linearised rotation and the translation.
+    pub(crate) fn step(&mut self, force: Vec3, torque: Vec3, settings: &StepSettings) {
+        let m = &self.mass;
+        let dt = settings.dt;
+        // rapier's user forces accumulate from zero (which turns a -0 component into +0), and
+        // gravity acts on the mass its inverse gives back.
+        let inv_mass = Vec3::splat(m.inv_mass);
+        let mass = inv_mass.map(|x| if x != 0.0 { 1.0 / x } else { 0.0 });
+        let force = (Vec3::ZERO + force) + settings.gravity * mass;
+        let torque = Vec3::ZERO + torque;
+        let inv_inertia = m.world_inv_inertia(&self.pose.rotation);
+        // The solver works on the pose of the centre of mass.
+        let com = self.pose.prepend_translation(m.local_com);
+        let mut linvel = self.linvel + force * inv_mass * dt;
+        let mut angvel = self.angvel + inv_inertia * torque * dt;
+        angvel = gyroscopic_corrected_angvel(
+            angvel,
+            com.rotation * m.principal_inertia_local_frame,
+            m.principal_inertia(),
+            m.inv_principal_inertia,
+            dt,
+        );
+        if settings.max_linvel != f32::MAX {
+            let n = linvel.length();
+            if n > settings.max_linvel {
+                linvel *= settings.max_linvel / n;
+            }
+        }
+        let n = angvel.length();
+        if n > settings.max_angvel {
+            angvel *= settings.max_angvel / n;
+        }
+        let half = angvel * (dt * 0.5);
+        let rotation = (Quat::from_xyzw(half.x, half.y, half.z, 1.0) * com.rotation).normalize();
+        let translation = com.translation + linvel * dt;
+        let pose = Pose::from_parts(translation, rotation).prepend_translation(-m.local_com);
+        if pose.is_finite() {
+            self.pose = pose;
+            self.linvel = linvel;
+            self.angvel = angvel;
+        } else {
+            // As rapier does with a body whose pose went non-finite: it stays where it was, at
+            // rest.
+            self.linvel = Vec3::ZERO;
+            self.angvel = Vec3::ZERO;
+        }
+    }
+}
+
+/// rapier's explicit gyroscopic correction of a world-space angular velocity (angular momentum
+/// kept), in the world's principal-inertia frame `principal_axes`.
+fn gyroscopic_corrected_angvel(
+    angvel: Vec3,
+    principal_axes: Quat,
+    principal_inertia: Vec3,
+    inv_principal_inertia: Vec3,
+    dt: f32,
+) -> Vec3 {
+    let w = principal_axes.inverse() * angvel;
+    let momentum = principal_inertia * w;
+    let gyro_momentum = -w.cross(momentum) * dt;
+    let total = momentum + gyro_momentum;
+    let total_sq = total.length_squared();
+    if total_sq != 0.0 {
+        let capped = total * (momentum.length_squared() / total_sq).sqrt();
+        principal_axes * (inv_principal_inertia * capped)
+    } else {
+        angvel
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box-shaped body like a car's chassis, its centre of mass off the box's centre, turned
+    /// and moving; in a world with gravity stepped as the simulation steps it.
+    fn world_with_body() -> (Physics, RigidBodyHandle) {
+        let mut physics = Physics::default();
+        let massless_box = Cuboid::new(Vec3::new(2.3, 0.9, 0.6))
+            .mass_properties(0.0)
+            .transform_by(&Pose::from_translation(Vec3::new(0.1, 0.0, 0.2)));
+        let mass = massless_box
+            + MassProperties::new(Vec3::ZERO, 1500.0, Vec3::new(600.0, 2400.0, 2700.0));
+        let body = RigidBodyBuilder::dynamic()
+            .pose(Pose::from_parts(
+                Vec3::new(10.0, -4.0, 0.7),
+                Quat::from_rotation_z(0.6) * Quat::from_rotation_x(0.03),
+            ))
+            .linvel(Vec3::new(20.0, 3.0, 0.1))
+            .angvel(Vec3::new(0.05, -0.02, 0.3))
+            .additional_mass_properties(mass)
+            .can_sleep(false)
+            .build();
+        let collider = ColliderBuilder::cuboid(2.3, 0.9, 0.6)
+            .translation(Vec3::new(0.1, 0.0, 0.2))
+            .mass_properties(MassProperties::new(Vec3::ZERO, 0.0, Vec3::ZERO))
+            .build();
+        let (handle, _) = physics.world.insert(body, collider);
+        (physics, handle)
+    }
+
+    /// Forces and torques that change every step, as a car's suspension and tyres give.
+    fn load(step: u32) -> (Vec3, Vec3) {
+        let t = step as f32 * 0.37;
+        (
+            Vec3::new(
+                800.0 * t.sin(),
+                -300.0 * (1.3 * t).cos(),
+                14_700.0 + 90.0 * t.sin(),
+            ),
+            Vec3::new(
+                40.0 * (0.7 * t).cos(),
+                -25.0 * t.sin(),
+                120.0 * (0.2 * t).sin(),
+            ),
+        )
+    }
+
+    fn bits(pose: &Pose, linvel: Vec3, angvel: Vec3) -> [u32; 13] {
+        [
+            pose.translation.x,
+            pose.translation.y,
+            pose.translation.z,
+            pose.rotation.x,
+            pose.rotation.y,
+            pose.rotation.z,
+            pose.rotation.w,
+            linvel.x,
+            linvel.y,
+            linvel.z,
+            angvel.x,
+            angvel.y,
+            angvel.z,
+        ]
+        .map(f32::to_bits)
+    }
+
+    #[test]
+    fn a_free_body_moves_as_rapier_would_move_it_bit_for_bit() {
+        // Two identical worlds: in one rapier steps the body throughout; in the other the body
+        // is integrated here for 400 steps, between spells in rapier.
+        let (mut rapier_only, a) = world_with_body();
+        let (mut ours, b) = world_with_body();
+        let settings = StepSettings::of(&ours);
+        let mut free = FreeBody::default();
+        let chassis = Chassis { body: b };
+        for step in 0..1000 {
+            let (force, torque) = load(step);
+            let body = rapier_only.world.bodies.get_mut(a).expect("body a");
+            body.reset_forces(false);
+            body.reset_torques(false);
+            body.add_force(force, false);
+            body.add_torque(torque, false);
+            rapier_only.step();
+            let spell = step % 500;
+            if spell == 100 {
+                free.leave(ours.world.bodies.get_mut(b).expect("body b"));
+            } else if spell == 0 && free.is_free() {
+                free.enter(ours.world.bodies.get_mut(b).expect("body b"));
+            }
+            if free.is_free() {
+                free.step(force, torque, &settings);
+            } else {
+                let body = ours.world.bodies.get_mut(b).expect("body b");
+                body.reset_forces(false);
+                body.reset_torques(false);
+                body.add_force(force, false);
+                body.add_torque(torque, false);
+            }
+            ours.step();
+            let there = rapier_only.world.bodies.get(a).expect("body a");
+            let (pose, linvel, angvel) = free.state(&ours, &chassis).expect("state");
+            assert_eq!(
+                bits(&pose, linvel, angvel),
+                bits(there.position(), there.linvel(), there.angvel()),
+                "step {step} (free: {})",
+                free.is_free()
+            );
+        }
+        assert!(free.is_free(), "the run ends with the body integrated here");
+    }
+
+    #[test]
+    fn a_non_finite_step_leaves_the_body_where_it_was_at_rest() {
+        let (mut physics, handle) = world_with_body();
+        physics.step();
+        let settings = StepSettings::of(&physics);
+        let mut free = FreeBody::default();
+        free.leave(physics.world.bodies.get_mut(handle).expect("body"));
+        let before = free.pose;
+        free.step(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ZERO, &settings);
+        assert_eq!(free.pose, before);
+        assert_eq!((free.linvel, free.angvel), (Vec3::ZERO, Vec3::ZERO));
+    }
+}
