@@ -166,6 +166,7 @@ fn gyroscopic_corrected_angvel(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::systems::replace_forces;
 
     /// A box-shaped body like a car's chassis, its centre of mass off the box's centre, turned
     /// and moving; in a world with gravity stepped as the simulation steps it.
@@ -233,7 +234,7 @@ mod tests {
     #[test]
     fn a_free_body_moves_as_rapier_would_move_it_bit_for_bit() {
         // Two identical worlds: in one rapier steps the body throughout; in the other the body
-        // is integrated here for 400 steps, between spells in rapier.
+        // is integrated here twice for 400 steps, between spells in rapier.
         let (mut rapier_only, a) = world_with_body();
         let (mut ours, b) = world_with_body();
         let settings = StepSettings::of(&ours);
@@ -242,10 +243,7 @@ mod tests {
         for step in 0..1000 {
             let (force, torque) = load(step);
             let body = rapier_only.world.bodies.get_mut(a).expect("body a");
-            body.reset_forces(false);
-            body.reset_torques(false);
-            body.add_force(force, false);
-            body.add_torque(torque, false);
+            replace_forces(body, force, torque);
             rapier_only.step();
             let spell = step % 500;
             if spell == 100 {
@@ -256,11 +254,7 @@ mod tests {
             if free.is_free() {
                 free.step(force, torque, &settings);
             } else {
-                let body = ours.world.bodies.get_mut(b).expect("body b");
-                body.reset_forces(false);
-                body.reset_torques(false);
-                body.add_force(force, false);
-                body.add_torque(torque, false);
+                replace_forces(ours.world.bodies.get_mut(b).expect("body b"), force, torque);
             }
             ours.step();
             let there = rapier_only.world.bodies.get(a).expect("body a");

@@ -11,6 +11,7 @@ use bevy_ecs::prelude::*;
 use flockway_core::DT_S;
 use flockway_road::RoadNetwork;
 use glam::{DVec3, Vec3};
+use rapier3d::prelude::RigidBody;
 
 /// Below this many vehicles the force computation runs on one thread: spreading a handful of
 /// cars over the task pool costs more than it saves.
@@ -81,12 +82,17 @@ pub fn apply_body_forces(
             continue;
         }
         if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
-            body.reset_forces(false);
-            body.reset_torques(false);
-            body.add_force(f.force, false);
-            body.add_torque(f.torque, false);
+            replace_forces(body, f.force, f.torque);
         }
     }
+}
+
+/// Sets a rapier body's force and torque for the next step in place of the last ones.
+pub(crate) fn replace_forces(body: &mut RigidBody, force: Vec3, torque: Vec3) {
+    body.reset_forces(false);
+    body.reset_torques(false);
+    body.add_force(force, false);
+    body.add_torque(torque, false);
 }
 
 /// Reads every vehicle's pose and velocity back (from rapier, or its [`FreeBody`]) and tracks
