@@ -1048,15 +1048,23 @@ fn the_thread_count_changes_no_byte_of_two_thousand_cars() {
 fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut outputs: Vec<Vec<u8>> = Vec::new();
+    // Every per-car pass over the pool from one car: dense_road's hundred-odd cars are below
+    // the passes' own thresholds.
     for threads in ["1", "2", "3"] {
         let csv = dir.path().join(format!("run_{threads}.csv"));
-        let env = [("FLOCKWAY_THREADS", threads)];
+        let env = [
+            ("FLOCKWAY_THREADS", threads),
+            ("FLOCKWAY_PARALLEL_MIN", "1"),
+        ];
         outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &env));
     }
+    // And with the passes' own thresholds.
+    let csv = dir.path().join("run_default.csv");
+    outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &[]));
     assert!(outputs[0].len() > 10_000);
     assert!(
         outputs.iter().all(|o| *o == outputs[0]),
-        "the same bytes on 1, 2 and 3 threads"
+        "the same bytes on 1, 2 and 3 threads, every pass split or each its own way"
     );
     let out = flockway_with(
         &["check", "levels/dense_road.ron"],
@@ -1064,4 +1072,10 @@ fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
     );
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("FLOCKWAY_THREADS=\"many\""));
+    let out = flockway_with(
+        &["check", "levels/dense_road.ron"],
+        &[("FLOCKWAY_PARALLEL_MIN", "0")],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("FLOCKWAY_PARALLEL_MIN=\"0\""));
 }

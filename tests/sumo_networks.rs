@@ -421,9 +421,9 @@ fn an_opendrive_road_through_netconvert_imports_and_runs() {
     assert_eq!(m["collisions_vehicle"], 0.0, "{m:#?}");
 }
 
-/// On a real town's network with more cars than the step splits over its threads from (the
-/// junction rule's passes and the conflict measures included), 1 and 3 threads give the same
-/// bytes: telemetry and conflicts.
+/// On a real town's network, every per-car pass split over the threads from one car
+/// (`FLOCKWAY_PARALLEL_MIN=1`: the junction rule's passes and the conflict measures included),
+/// 1 and 3 threads give the same bytes: telemetry and conflicts.
 #[test]
 fn the_thread_count_changes_no_byte_of_a_busy_town() {
     let Some(tools) = sumo_tools() else {
@@ -444,6 +444,7 @@ fn the_thread_count_changes_no_byte_of_a_busy_town() {
         let summary = dir.path().join(format!("summary_{threads}.json"));
         let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
             .env("FLOCKWAY_THREADS", threads)
+            .env("FLOCKWAY_PARALLEL_MIN", "1")
             .arg("run")
             .arg(&level)
             .args(["--seconds", "120", "--seed", "7", "--csv"])

@@ -2,6 +2,38 @@
 //! system does with them is the same whichever thread found each.
 
 use bevy_tasks::ComputeTaskPool;
+use std::sync::OnceLock;
+
+/// The environment variable that sets from how many vehicles every per-car pass of the step
+/// splits over the task pool, in place of each pass's own threshold. The results are the same
+/// bytes for any value: tests set 1 to send every pass over the pool on a small level.
+pub const PARALLEL_MIN_ENV: &str = "FLOCKWAY_PARALLEL_MIN";
+
+/// The count [`PARALLEL_MIN_ENV`] asks for: `Ok(None)` when it is not set, an error that says
+/// why when it is not a whole number from 1 up.
+pub fn parallel_min_from_env() -> Result<Option<usize>, String> {
+    let expected = |v: &dyn std::fmt::Debug| {
+        format!("{PARALLEL_MIN_ENV}={v:?}: expected a whole number of vehicles from 1 up")
+    };
+    match std::env::var(PARALLEL_MIN_ENV) {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(v)) => Err(expected(&v)),
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(Some(n)),
+            _ => Err(expected(&v)),
+        },
+    }
+}
+
+/// From how many items a pass whose own threshold is `default` splits over the task pool:
+/// `default`, or what [`PARALLEL_MIN_ENV`] says (read once; the command line refuses a bad
+/// value before anything runs, elsewhere it is ignored).
+pub fn parallel_min(default: usize) -> usize {
+    static FROM_ENV: OnceLock<Option<usize>> = OnceLock::new();
+    FROM_ENV
+        .get_or_init(|| parallel_min_from_env().ok().flatten())
+        .unwrap_or(default)
+}
 
 /// How many threads the task pool has (1 before it is started).
 pub fn task_threads() -> usize {

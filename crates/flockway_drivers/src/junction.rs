@@ -8,7 +8,7 @@ use crate::perception::{LaneIndex, Seen};
 use crate::route::Route;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::ROQueryItem;
-use flockway_core::{DT_S, SimClock, map_in_order};
+use flockway_core::{DT_S, SimClock, map_in_order, parallel_min};
 use flockway_road::{CONFLICT_CLEARANCE_M, Conflict, RoadId, RoadNetwork, SignalState};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
@@ -397,7 +397,7 @@ pub fn gate_junctions(
     let items: Vec<_> = vehicles.iter().collect();
     let found = map_in_order(
         &items,
-        PARALLEL_MIN_VEHICLES,
+        parallel_min(PARALLEL_MIN_VEHICLES),
         || (),
         |_, item| approach_of(&network, &index, &routes, item),
     );
@@ -443,7 +443,7 @@ pub fn gate_junctions(
     let stats_now: &JunctionStats = &stats;
     let made = map_in_order(
         &deciders,
-        PARALLEL_MIN_VEHICLES,
+        parallel_min(PARALLEL_MIN_VEHICLES),
         Vec::new,
         |seen, &(a, i)| {
             let (_, track, _, _, gate) = items[i];

@@ -23,7 +23,7 @@
 use crate::VehicleId;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
-use flockway_core::{SimClock, map_in_order};
+use flockway_core::{SimClock, map_in_order, parallel_min};
 use flockway_drivers::{DriverLabel, LaneIndex, LaneSignal, SafetyView, Seen, nearest_ahead};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
@@ -503,7 +503,7 @@ pub fn measure_conflicts(
         let reach = (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0;
         nearest_ahead(&network, &index, &view, reach, scratch)
     };
-    let aheads = map_in_order(&items, PARALLEL_MIN_VEHICLES, Vec::new, find);
+    let aheads = map_in_order(&items, parallel_min(PARALLEL_MIN_VEHICLES), Vec::new, find);
     conflicts.add_distances(items.iter().map(|&(_, _, _, motion, _, driver, _)| {
         let v = f64::from(motion.forward_mps);
         (driver.map_or("none", |l| &*l.profile), v.abs() * h)

@@ -9,7 +9,7 @@ use crate::components::{
 use crate::free_body::FreeBody;
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
 use bevy_ecs::prelude::*;
-use flockway_core::{DT_S, map_in_order, task_threads};
+use flockway_core::{DT_S, map_in_order, parallel_min, task_threads};
 use flockway_road::RoadNetwork;
 use glam::{Mat3, Vec2, Vec3};
 use rapier3d::prelude::*;
@@ -224,7 +224,7 @@ impl CloseCars {
         let parts: Vec<&[(u32, u32)]> = self.runs.chunks(per_part).collect();
         let hits = map_in_order(
             &parts,
-            if n < CLOSE_CARS_PARALLEL_MIN {
+            if n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
                 usize::MAX
             } else {
                 2

@@ -8,14 +8,17 @@ use crate::forces::{Kinematics, vehicle_forces};
 use crate::free_body::{FreeBody, StepSettings};
 use crate::physics::Physics;
 use bevy_ecs::prelude::*;
-use flockway_core::DT_S;
+use flockway_core::{DT_S, parallel_min};
 use flockway_road::RoadNetwork;
 use glam::{DVec3, Vec3};
 use rapier3d::prelude::RigidBody;
 
-/// Below this many vehicles the force computation runs on one thread: spreading a handful of
-/// cars over the task pool costs more than it saves.
-pub const PARALLEL_MIN_VEHICLES: usize = 128;
+/// Below this many vehicles the per-car passes (forces, read-back, decisions, the junction
+/// rule's and the conflict measures' searches) run on one thread: handing a pass out (waking
+/// the pool's threads, waiting for the last part) costs about what a few hundred cars' share
+/// saves (on a 2-core machine a ring of 250 cars steps faster on one thread, 500 about even,
+/// 1 000 faster over the pool: `cargo bench --bench scale -- ring_step`).
+pub const PARALLEL_MIN_VEHICLES: usize = 512;
 
 /// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
 /// spin, engine and gearbox; a body out of rapier ([`FreeBody`]) is integrated under them right
@@ -64,7 +67,7 @@ pub fn drive_vehicles(
             body.step(force, torque, &settings);
         }
     };
-    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+    if physics.world.bodies.len() < parallel_min(PARALLEL_MIN_VEHICLES) {
         vehicles.iter_mut().for_each(run);
     } else {
         vehicles.par_iter_mut().for_each(run);
@@ -143,7 +146,7 @@ pub fn sync_vehicles(
             gate.decide_rails(network, &track, &motion);
         }
     };
-    if physics.world.bodies.len() < PARALLEL_MIN_VEHICLES {
+    if physics.world.bodies.len() < parallel_min(PARALLEL_MIN_VEHICLES) {
         vehicles.iter_mut().for_each(run);
     } else {
         vehicles.par_iter_mut().for_each(run);
