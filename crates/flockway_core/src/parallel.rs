@@ -12,17 +12,11 @@ pub const PARALLEL_MIN_ENV: &str = "FLOCKWAY_PARALLEL_MIN";
 /// The count [`PARALLEL_MIN_ENV`] asks for: `Ok(None)` when it is not set, an error that says
 /// why when it is not a whole number from 1 up.
 pub fn parallel_min_from_env() -> Result<Option<usize>, String> {
-    let expected = |v: &dyn std::fmt::Debug| {
-        format!("{PARALLEL_MIN_ENV}={v:?}: expected a whole number of vehicles from 1 up")
-    };
-    match std::env::var(PARALLEL_MIN_ENV) {
-        Err(std::env::VarError::NotPresent) => Ok(None),
-        Err(std::env::VarError::NotUnicode(v)) => Err(expected(&v)),
-        Ok(v) => match v.trim().parse::<usize>() {
-            Ok(n) if n >= 1 => Ok(Some(n)),
-            _ => Err(expected(&v)),
-        },
-    }
+    crate::sim::count_from_env(
+        PARALLEL_MIN_ENV,
+        1..=usize::MAX,
+        "a whole number of vehicles from 1 up",
+    )
 }
 
 /// From how many items a pass whose own threshold is `default` splits over the task pool:

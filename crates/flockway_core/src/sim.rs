@@ -79,16 +79,22 @@ pub const THREADS_ENV: &str = "FLOCKWAY_THREADS";
 /// The thread count [`THREADS_ENV`] asks for: `Ok(None)` when it is not set, an error that says
 /// why when it is not a whole number from 1 to 1024.
 pub fn threads_from_env() -> Result<Option<usize>, String> {
-    match std::env::var(THREADS_ENV) {
+    count_from_env(THREADS_ENV, 1..=1024, "a whole number from 1 to 1024")
+}
+
+/// The whole number in environment variable `var`: `Ok(None)` when it is not set, an error
+/// naming the variable, its value and `expected` when it is not a number within `range`.
+pub(crate) fn count_from_env(
+    var: &str,
+    range: std::ops::RangeInclusive<usize>,
+    expected: &str,
+) -> Result<Option<usize>, String> {
+    match std::env::var(var) {
         Err(std::env::VarError::NotPresent) => Ok(None),
-        Err(std::env::VarError::NotUnicode(v)) => Err(format!(
-            "{THREADS_ENV}={v:?}: expected a whole number from 1 to 1024"
-        )),
+        Err(std::env::VarError::NotUnicode(v)) => Err(format!("{var}={v:?}: expected {expected}")),
         Ok(v) => match v.trim().parse::<usize>() {
-            Ok(n) if (1..=1024).contains(&n) => Ok(Some(n)),
-            _ => Err(format!(
-                "{THREADS_ENV}={v:?}: expected a whole number from 1 to 1024"
-            )),
+            Ok(n) if range.contains(&n) => Ok(Some(n)),
+            _ => Err(format!("{var}={v:?}: expected {expected}")),
         },
     }
 }
