@@ -1,10 +1,12 @@
 //! The shared controller: PID loops that turn a target speed and heading into `Controls`.
 
 use crate::perception::{LaneIndex, LaneSignal, Seen};
-use crate::safety::{OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
+use crate::safety::{
+    AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead_memo,
+};
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
-use flockway_core::{DT_S, parallel_min};
+use flockway_core::{DT_S, SimClock, Tick, parallel_min};
 use flockway_road::RoadNetwork;
 use flockway_vehicle::{
     Controls, LongitudinalModel, Motion, STANDSTILL_MPS, VehicleModel, VehicleState, VehicleType,
@@ -77,7 +79,7 @@ pub const CAP_RESPONSE_S: f32 = 0.5;
 
 /// What a driver wants: the speed along its heading and the heading, for the shared controller.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
-#[require(crate::JunctionGate)]
+#[require(crate::JunctionGate, crate::AheadMemo)]
 pub struct DriveTarget {
     /// Target speed, m/s (never negative: drivers brake to a stop, they do not reverse).
     pub speed_mps: f32,
@@ -254,7 +256,11 @@ type Followed = (
     &'static mut TargetController,
     &'static mut Controls,
     Option<HeldAt>,
-    (Option<&'static SafetyParams>, Option<&'static LaneSignal>),
+    (
+        Option<&'static SafetyParams>,
+        Option<&'static LaneSignal>,
+        Option<&'static AheadMemo>,
+    ),
 );
 
 /// Turns every vehicle's [`DriveTarget`] into [`Controls`] through its [`TargetController`],
@@ -264,10 +270,12 @@ type Followed = (
 pub fn follow_targets(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
+    clock: Res<SimClock>,
     mut vehicles: Query<Followed>,
 ) {
+    let tick = clock.tick();
     let run = |scratch: &mut Vec<Seen>, item: QueryItem<'_, '_, Followed>| {
-        follow_one(&network, &index, scratch, item);
+        follow_one(&network, &index, tick, scratch, item);
     };
     // Each car reads the shared index and road network and writes only its own controller and
     // controls, so the answers are the same whichever thread finds them.
@@ -280,18 +288,29 @@ pub fn follow_targets(
 }
 
 /// One vehicle's controls for its target, capped as [`follow_targets`] says; `scratch` is
-/// space for the safety layer's search.
+/// space for the safety layer's search, which reads the vehicle's [`AheadMemo`] of tick `tick`
+/// where it gives the answer (the conflict measures leave one).
 // Inlined into both loops of `follow_targets`: as a call per car, passing the item's many
 // references cost more instructions than the loop's work saved (callgrind, `dense_road`).
 #[inline(always)]
 fn follow_one(
     network: &RoadNetwork,
     index: &LaneIndex,
+    tick: Tick,
     scratch: &mut Vec<Seen>,
     item: QueryItem<'_, '_, Followed>,
 ) {
-    let (me, target, motion, model, state, mut controller, mut controls, gate, (safety, signal)) =
-        item;
+    let (
+        me,
+        target,
+        motion,
+        model,
+        state,
+        mut controller,
+        mut controls,
+        gate,
+        (safety, signal, memo),
+    ) = item;
     let chassis = &model.0.params.chassis;
     // A junction holding the vehicle: no faster than stops it at the line, whoever drives.
     let held = gate.map_or(f32::INFINITY, |(g, track)| {
@@ -300,7 +319,11 @@ fn follow_one(
     let safe = gate.map_or(f32::INFINITY, |(_, track)| {
         let view = SafetyView::new(me, track, motion, model, signal);
         let params = safety.copied().unwrap_or_default();
-        safe_speed_mps(network, index, &params, &view, scratch)
+        let reach = params.reach_m(view.speed_mps);
+        let memo = memo.map(|m| (m, tick));
+        nearest_ahead_memo(network, index, &view, reach, memo, scratch).map_or(f32::INFINITY, |a| {
+            params.safe_speed_mps(a.gap_m, a.speed_mps)
+        })
     });
     let cap = held.min(safe);
     if cap < target.speed_mps {

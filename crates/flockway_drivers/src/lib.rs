@@ -58,7 +58,8 @@ pub use route::{
     Route, RouteStats, follow_routes,
 };
 pub use safety::{
-    Ahead, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead, safe_speed_mps,
+    Ahead, AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead,
+    nearest_ahead_memo, safe_speed_mps,
 };
 pub use signals::{SignalController, SignalError, SignalMode, Signals, update_signals};
 pub use wave_damper::{WaveDamper, WaveDamperParams};
@@ -96,6 +97,12 @@ pub struct DriversPlugin;
 impl SimPlugin for DriversPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(VehiclePlugin);
+        // Every vehicle keeps its last search for the vehicle ahead of its body (the conflict
+        // measures make it, the safety layer reads it). Registration fails only once a
+        // vehicle exists; without a memo the searches simply run twice.
+        let _ = sim
+            .world_mut()
+            .try_register_required_components::<flockway_vehicle::Motion, AheadMemo>();
         sim.world_mut().init_resource::<LaneIndex>();
         sim.world_mut().init_resource::<RoadSurface>();
         sim.world_mut().init_resource::<RoadAhead>();

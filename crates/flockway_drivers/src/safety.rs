@@ -161,16 +161,60 @@ pub fn nearest_ahead(
     reach_m: f32,
     scratch: &mut Vec<Seen>,
 ) -> Option<Ahead> {
+    search(network, index, view, search_range(view, reach_m), scratch)
+        .best
+        .map(|(a, _)| a)
+}
+
+/// The centre-to-centre distance within which [`nearest_ahead`] counts a vehicle for a reach
+/// (bumper gap) of `reach_m`, m: the reach, this car's length and a margin for the other's.
+fn search_range(view: &SafetyView, reach_m: f32) -> f64 {
+    f64::from(reach_m + view.length_m + 6.0)
+}
+
+/// What one search for the vehicle ahead found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Found {
+    /// The nearest vehicle ahead of the body, with its centre distance, m.
+    best: Option<(Ahead, f64)>,
+    /// The smallest centre distance of any vehicle the search counted (`INFINITY` for none), m.
+    nearest_m: f64,
+    /// Whether a window on a closed road went round the whole loop (then its gaps are measured
+    /// another way, and the search cannot be narrowed to a shorter range).
+    whole_loop: bool,
+}
+
+/// [`nearest_ahead`] within `range` m (centre to centre), with what a shorter range needs to
+/// be answered from it ([`AheadMemo::answer`]).
+fn search(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    view: &SafetyView,
+    range: f64,
+    scratch: &mut Vec<Seen>,
+) -> Found {
     let t = view.track;
     let ahead_of = |s: &Seen| Ahead {
         entity: s.entry.entity,
         gap_m: s.gap_m as f32 - 0.5 * (view.length_m + s.entry.length_m),
         speed_mps: s.entry.speed_mps,
     };
-    let range = f64::from(reach_m + view.length_m + 6.0);
-    let mut best = index
-        .leader(t.road, t.lane, t.s_m, view.me, range, t.next_road)
-        .map(|l| ahead_of(&l));
+    let mut found = Found {
+        best: None,
+        nearest_m: f64::INFINITY,
+        whole_loop: false,
+    };
+    // Every vehicle counted, in order: the first with the smallest bumper gap is the answer.
+    let count = |found: &mut Found, s: &Seen| {
+        let candidate = ahead_of(s);
+        found.nearest_m = found.nearest_m.min(s.gap_m);
+        if found.best.is_none_or(|(b, _)| candidate.gap_m < b.gap_m) {
+            found.best = Some((candidate, s.gap_m));
+        }
+    };
+    if let Some(l) = index.leader(t.road, t.lane, t.s_m, view.me, range, t.next_road) {
+        count(&mut found, &l);
+    }
     // Moving across: the lane it enters is its own already, whatever the sideways overlap.
     let entering = match view.signal {
         2 => Some(i64::from(t.lane) + 1),
@@ -179,16 +223,15 @@ pub fn nearest_ahead(
     };
     if let Some(lane) = entering.and_then(|l| u32::try_from(l).ok())
         && let Some(l) = index.leader(t.road, lane, t.s_m, view.me, range, t.next_road)
-        && best.is_none_or(|b| ahead_of(&l).gap_m < b.gap_m)
     {
-        best = Some(ahead_of(&l));
+        count(&mut found, &l);
     }
     let Some(geometry) = network.get(t.road) else {
-        return best;
+        return found;
     };
     let lanes = geometry.lanes();
     if lanes < 2 {
-        return best;
+        return found;
     }
     // Lateral positions compare only on this road: a car beyond its end is the leader's to see.
     let left_on_road = if geometry.is_closed() {
@@ -198,6 +241,9 @@ pub fn nearest_ahead(
     };
     scratch.clear();
     let ahead = range.min(left_on_road);
+    // Half the loop, not all of it: flagged whenever the lane index's window could have taken
+    // the whole loop, whatever rounding its length carries.
+    found.whole_loop = geometry.is_closed() && ahead >= 0.5 * geometry.length_m();
     if t.lane > 0 {
         index.within(
             t.road,
@@ -225,12 +271,130 @@ pub fn nearest_ahead(
         if s.gap_m <= 0.0 || (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap {
             continue;
         }
-        let found = ahead_of(s);
-        if best.is_none_or(|b| found.gap_m < b.gap_m) {
-            best = Some(found);
+        count(&mut found, s);
+    }
+    found
+}
+
+/// How far inside a range a centre distance must be for a narrower search's answer to be read
+/// off a wider one, m: far more than the rounding of an arc position, far less than a car.
+const NARROW_MARGIN_M: f64 = 1.0e-6;
+
+/// Everything [`nearest_ahead`] reads of a car, to tell the same question asked twice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ViewKey {
+    road: flockway_road::RoadId,
+    lane: u32,
+    s_m: f64,
+    lateral_m: f64,
+    next_road: Option<flockway_road::RoadId>,
+    speed_mps: f32,
+    length_m: f32,
+    width_m: f32,
+    signal: i8,
+}
+
+impl ViewKey {
+    fn of(view: &SafetyView) -> ViewKey {
+        let t = view.track;
+        ViewKey {
+            road: t.road,
+            lane: t.lane,
+            s_m: t.s_m,
+            lateral_m: t.lateral_m,
+            next_road: t.next_road,
+            speed_mps: view.speed_mps,
+            length_m: view.length_m,
+            width_m: view.width_m,
+            signal: view.signal,
         }
     }
-    best
+}
+
+/// A car's last search for the vehicle ahead of its body, kept so that a second search in the
+/// same tick (the safety layer's after the conflict measures') with the same view and a reach
+/// no farther is read off it instead of made again: with a shorter range the answer is the same
+/// vehicle when it lies well inside that range, none when every vehicle counted lies well
+/// beyond it, and otherwise the search runs again — so the answer is always, to the bit, the
+/// one [`nearest_ahead`] gives.
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
+pub struct AheadMemo {
+    /// The tick it was made in and the view it was made for.
+    made: Option<(flockway_core::Tick, ViewKey)>,
+    /// Its range, centre to centre, m.
+    range_m: f64,
+    /// What it found.
+    found: Option<Found>,
+}
+
+impl AheadMemo {
+    /// [`nearest_ahead`] for `view` with reach `reach_m`, kept as made in tick `tick`.
+    pub fn search(
+        &mut self,
+        network: &RoadNetwork,
+        index: &LaneIndex,
+        view: &SafetyView,
+        reach_m: f32,
+        tick: flockway_core::Tick,
+        scratch: &mut Vec<Seen>,
+    ) -> Option<Ahead> {
+        let range_m = search_range(view, reach_m);
+        let found = search(network, index, view, range_m, scratch);
+        *self = AheadMemo {
+            made: Some((tick, ViewKey::of(view))),
+            range_m,
+            found: Some(found),
+        };
+        found.best.map(|(a, _)| a)
+    }
+
+    /// [`nearest_ahead`]'s answer for `view` with reach `reach_m` in tick `tick`, if this memo
+    /// gives it for certain (made in that tick for the same view, with a range no shorter);
+    /// `None` if the search has to run.
+    pub fn answer(
+        &self,
+        view: &SafetyView,
+        reach_m: f32,
+        tick: flockway_core::Tick,
+    ) -> Option<Option<Ahead>> {
+        if self.made != Some((tick, ViewKey::of(view))) {
+            return None;
+        }
+        self.narrowed(view, reach_m)
+    }
+
+    /// [`answer`](Self::answer) for the view this memo was just made for (by its caller, in
+    /// the same tick): the same without checking that the view and tick are the same.
+    pub fn narrowed(&self, view: &SafetyView, reach_m: f32) -> Option<Option<Ahead>> {
+        let found = self.found?;
+        let range_m = search_range(view, reach_m);
+        if range_m == self.range_m {
+            return Some(found.best.map(|(a, _)| a));
+        }
+        if range_m > self.range_m || found.whole_loop {
+            return None;
+        }
+        match found.best {
+            Some((a, centre_m)) if centre_m <= range_m - NARROW_MARGIN_M => Some(Some(a)),
+            _ if found.nearest_m > range_m + NARROW_MARGIN_M => Some(None),
+            _ => None,
+        }
+    }
+}
+
+/// [`nearest_ahead`], read off `memo` where it gives the answer (see [`AheadMemo`]).
+pub fn nearest_ahead_memo(
+    network: &RoadNetwork,
+    index: &LaneIndex,
+    view: &SafetyView,
+    reach_m: f32,
+    memo: Option<(&AheadMemo, flockway_core::Tick)>,
+    scratch: &mut Vec<Seen>,
+) -> Option<Ahead> {
+    match memo.and_then(|(m, tick)| m.answer(view, reach_m, tick)) {
+        Some(answer) => answer,
+        None => nearest_ahead(network, index, view, reach_m, scratch),
+    }
 }
 
 /// The fastest the car in `view` may go now, m/s: [`SafetyParams::safe_speed_mps`] behind the
@@ -255,6 +419,103 @@ pub const OVER_SAFE_BRAKE_PER_MPS: f32 = 0.5;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use flockway_core::Tick;
+    use flockway_road::{RoadId, RoadSpec};
+    use glam::DVec3;
+
+    /// A tiny deterministic generator for test placements.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// A memo made with a wider reach answers a narrower one exactly as a fresh search does,
+    /// whenever it answers at all, and it answers most of the time: cars of mixed lengths (so
+    /// the nearest centre is not always the nearest bumper), anywhere across their lanes,
+    /// some moving across, on a short ring (where a wide window takes the whole loop) and on a
+    /// road leading onto another.
+    #[test]
+    fn a_memo_answers_a_shorter_reach_as_a_search_does() {
+        let ring = vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 40.0, 12)];
+        let mut a = RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
+        a.next = Some("b".into());
+        let b = RoadSpec::through(
+            "b",
+            3,
+            50.0,
+            &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
+        );
+        let (mut answered, mut asked) = (0usize, 0usize);
+        for (specs, seed) in [
+            (ring, 1u64),
+            (vec![a.clone(), b.clone()], 2),
+            (vec![a, b], 3),
+        ] {
+            let network = RoadNetwork::build(&specs).expect("valid roads");
+            let mut rng = Lcg(seed);
+            let mut world = World::new();
+            let cars: Vec<(Entity, RoadTrack, f32, i8)> = (0..120)
+                .map(|_| {
+                    let road = RoadId(u32::from(specs.len() > 1 && rng.next() < 0.3));
+                    let g = network.get(road).expect("road");
+                    let s = rng.next() * g.length_m();
+                    let half = 0.5 * g.frame_at(s).width_m;
+                    let lateral = (rng.next() * 2.0 - 1.0) * (half - 0.3);
+                    let mut track = RoadTrack::new(road, g, s, lateral);
+                    track.speed_along_mps = (rng.next() * 30.0) as f32;
+                    let length = [4.6f32, 4.6, 7.5, 12.0][(rng.next() * 4.0) as usize];
+                    let signal = [0i8, 0, 2, -2, 1][(rng.next() * 5.0) as usize];
+                    (world.spawn_empty().id(), track, length, signal)
+                })
+                .collect();
+            let mut index = LaneIndex::default();
+            index.rebuild(&network, cars.iter().map(|(e, t, l, s)| (*e, t, *l, *s)));
+            let mut scratch = Vec::new();
+            for (me, track, length, signal) in &cars {
+                let view = SafetyView {
+                    me: *me,
+                    track,
+                    speed_mps: track.speed_along_mps,
+                    length_m: *length,
+                    width_m: 1.8,
+                    signal: *signal,
+                };
+                for wide in [10.0f32, 40.0, 90.0, 250.0] {
+                    let mut memo = AheadMemo::default();
+                    let tick = Tick(7);
+                    let got = memo.search(&network, &index, &view, wide, tick, &mut scratch);
+                    assert_eq!(
+                        got,
+                        nearest_ahead(&network, &index, &view, wide, &mut scratch)
+                    );
+                    for narrow in [0.0f32, 5.0, 10.0, 25.0, 40.0, 60.0, 90.0, 250.0] {
+                        let fresh = nearest_ahead(&network, &index, &view, narrow, &mut scratch);
+                        let read = memo.answer(&view, narrow, tick);
+                        asked += usize::from(narrow <= wide);
+                        if let Some(read) = read {
+                            answered += 1;
+                            assert_eq!(read, fresh, "reach {narrow} read off {wide}");
+                            assert!(narrow <= wide);
+                        }
+                    }
+                    // Another tick or another view: no answer.
+                    assert_eq!(memo.answer(&view, wide, Tick(8)), None);
+                    let moved = SafetyView {
+                        speed_mps: view.speed_mps + 1.0,
+                        ..view
+                    };
+                    assert_eq!(memo.answer(&moved, wide, tick), None);
+                }
+            }
+        }
+        assert!(answered * 5 >= asked * 4, "{answered} of {asked}");
+    }
 
     #[test]
     fn the_safe_speed_stops_the_car_behind_a_leader_that_brakes_as_hard() {

@@ -50,6 +50,10 @@ pub struct TrafficPlugin;
 impl SimPlugin for TrafficPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(DriversPlugin);
+        // Registration fails only once a vehicle exists; such vehicles are measured all the same.
+        let _ = sim
+            .world_mut()
+            .try_register_required_components::<flockway_vehicle::Motion, ssm::ConflictAhead>();
         let world = sim.world_mut();
         world.init_resource::<VehicleIds>();
         world.init_resource::<TrafficStats>();

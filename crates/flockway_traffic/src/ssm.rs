@@ -23,8 +23,11 @@
 use crate::VehicleId;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
-use flockway_core::{SimClock, map_in_order, parallel_min};
-use flockway_drivers::{DriverLabel, LaneIndex, LaneSignal, SafetyView, Seen, nearest_ahead};
+use flockway_core::{SimClock, parallel_min};
+use flockway_drivers::{
+    Ahead, AheadMemo, DriverLabel, LaneIndex, LaneSignal, SafetyParams, SafetyView, Seen,
+    nearest_ahead,
+};
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use glam::Vec3;
@@ -470,7 +473,17 @@ type Measured = (
     &'static VehicleModel,
     Option<&'static DriverLabel>,
     Option<&'static LaneSignal>,
+    (
+        Option<&'static mut AheadMemo>,
+        Option<&'static SafetyParams>,
+        Option<&'static mut ConflictAhead>,
+    ),
 );
+
+/// The vehicle ahead of a car's body as the conflict measures found it this tick (every
+/// vehicle has one: each finds its own in parallel, then the measures read them in order).
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
+pub struct ConflictAhead(Option<Ahead>);
 
 /// One vehicle of the [`Measured`] query.
 type MeasuredItem<'w> = QueryItem<'w, 'w, Measured>;
@@ -483,32 +496,63 @@ pub fn measure_conflicts(
     clock: Res<SimClock>,
     thresholds: Option<Res<SsmThresholds>>,
     mut conflicts: ResMut<Conflicts>,
-    vehicles: Query<Measured>,
+    mut vehicles: Query<Measured>,
     ids: Query<(&VehicleId, Option<&DriverLabel>)>,
 ) {
     let t = thresholds.map(|t| *t).unwrap_or_default();
     let time_s = clock.seconds();
+    let tick = clock.tick();
     let h = clock.dt_s();
     let none: Arc<str> = Arc::from("none");
     let label = |l: Option<&DriverLabel>| l.map_or_else(|| none.clone(), |l| l.profile.clone());
-    let items: Vec<_> = vehicles.iter().collect();
-    // The search for the vehicle ahead of each body reads only the shared index and network:
-    // split over the task pool, its answers kept in the query's order, so the records are the
-    // same whichever thread found them.
-    let find = |scratch: &mut Vec<Seen>,
-                &(me, _, track, motion, model, _, signal): &MeasuredItem| {
+    // Far enough to see every pair the thresholds can flag.
+    let reach_of = |motion: &Motion| {
         let v = f64::from(motion.forward_mps);
-        let view = SafetyView::new(me, track, motion, model, signal);
-        // Far enough to see every pair the thresholds can flag.
-        let reach = (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0;
-        nearest_ahead(&network, &index, &view, reach, scratch)
+        (t.ttc_s * v).max(v * v / (2.0 * t.drac_mps2.max(0.1))) as f32 + 5.0
     };
-    let aheads = map_in_order(&items, parallel_min(PARALLEL_MIN_VEHICLES), Vec::new, find);
-    conflicts.add_distances(items.iter().map(|&(_, _, _, motion, _, driver, _)| {
+    // The search for the vehicle ahead of each body reads only the shared index and network,
+    // and each car keeps its own answer: over the task pool from a threshold. It reaches as
+    // far as the car's safety layer will look too and is kept in the car's memo, which the
+    // safety layer then reads its answer off instead of searching again.
+    let search = |scratch: &mut Vec<Seen>, item: MeasuredItem| {
+        let (me, _, track, motion, model, _, signal, (memo, safety, found)) = item;
+        let Some(mut found) = found else {
+            return;
+        };
+        let view = SafetyView::new(me, track, motion, model, signal);
+        let reach = reach_of(motion);
+        let narrowed = memo.and_then(|mut memo| {
+            let safety_reach = safety.copied().unwrap_or_default().reach_m(view.speed_mps);
+            let wide = reach.max(safety_reach);
+            memo.search(&network, &index, &view, wide, tick, scratch);
+            memo.narrowed(&view, reach)
+        });
+        found.0 =
+            narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach, scratch));
+    };
+    if vehicles.iter().len() < parallel_min(PARALLEL_MIN_VEHICLES) {
+        let mut scratch = Vec::new();
+        vehicles
+            .iter_mut()
+            .for_each(|item| search(&mut scratch, item));
+    } else {
+        vehicles.par_iter_mut().for_each_init(Vec::new, search);
+    }
+    conflicts.add_distances(vehicles.iter().map(|(_, _, _, motion, _, driver, _, _)| {
         let v = f64::from(motion.forward_mps);
         (driver.map_or("none", |l| &*l.profile), v.abs() * h)
     }));
-    for (&(me, id, track, motion, _, driver, _), ahead) in items.iter().zip(aheads) {
+    let mut scratch = Vec::new();
+    for (me, id, track, motion, model, driver, signal, (_, _, found)) in vehicles.iter() {
+        // A vehicle without its own answer (spawned before the measures were added) is
+        // searched for here.
+        let ahead = found.map_or_else(
+            || {
+                let view = SafetyView::new(me, track, motion, model, signal);
+                nearest_ahead(&network, &index, &view, reach_of(motion), &mut scratch)
+            },
+            |f| f.0,
+        );
         let v = f64::from(motion.forward_mps);
         let junction = network.junction_path(track.road);
         if let Some(ahead) = ahead
