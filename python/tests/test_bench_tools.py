@@ -1,0 +1,79 @@
+"""The profiling helpers of ``python/bench``: a thread profile attributes samples as the
+performance page says, and the alternating runner reads criterion's estimate in any unit."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "python" / "bench"
+
+
+def load(name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+# Four samples as `perf script -F tid,ip,sym` prints them: the main thread (100) in a parallel
+# pass it took part in, in a serial system, and in rapier; a pool thread (104) in a parallel pass.
+PERF = """\
+     100 
+\t          1a2b flockway_vehicle::forces::vehicle_forces
+\t          1a2c async_task::raw::RawTask<F,T,S,M>::run
+\t          1a2d flockway_vehicle::systems::drive_vehicles
+\t          1a2e flockway_core::sim::Sim::step
+
+     100 
+\t          2a2b core::slice::sort::unstable::quicksort::quicksort
+\t          2a2c flockway_drivers::perception::rebuild_lane_index
+\t          2a2d flockway_core::sim::Sim::step
+
+     100 
+\t          3a2b rapier3d::dynamics::solver::solve
+\t          3a2c rapier3d::pipeline::physics_world::PhysicsWorld::step
+\t          3a2d flockway_vehicle::physics::step_physics
+\t          3a2e flockway_core::sim::Sim::step
+
+     104 
+\t          4a2b flockway_drivers::models::flock_law
+\t          4a2c flockway_drivers::pipeline::decide_one<flockway_drivers::models::FlockDriver>
+\t          4a2d bevy_ecs::query::state::QueryState<D,F>::par_fold_init_unchecked_manual
+"""
+
+
+def test_samples_go_under_the_outermost_system_and_the_pool_marks_parallel_work() -> None:
+    tp = load("thread_profile")
+    by_thread = tp.attribute(tp.samples(PERF.splitlines(keepends=True)))
+    assert set(by_thread) == {100, 104}
+    main = by_thread[100]
+    assert main[("flockway_vehicle::systems::drive_vehicles", True)] == 1
+    assert main[("flockway_drivers::perception::rebuild_lane_index", False)] == 1
+    # The outermost Flockway system wins over rapier's frames beneath it.
+    assert main[("flockway_vehicle::physics::step_physics", False)] == 1
+    assert by_thread[104] == {("flockway_drivers::pipeline::decide_one", True): 1}
+    text = tp.report(by_thread, min_share=0.0)
+    assert text.splitlines()[0] == "main thread 100: 3 samples, 66.7 % outside parallel work"
+    assert "thread 104: 1 samples, 0.0 % outside parallel work" in text
+
+
+@pytest.mark.parametrize(("line", "micros"), [
+    ("scale/ring_step/10000   time:   [8.3318 ms 8.6066 ms 8.9618 ms]", 8606.6),
+    ("dense   time:   [412.05 µs 414.20 µs 418.00 µs]", 414.2),
+    ("step    time:   [1.6412 ns 1.7000 ns 1.7512 ns]", 0.0017),
+])
+def test_the_alternating_runner_reads_criterion_s_estimate_in_microseconds(
+        line: str, micros: float) -> None:
+    low, mid, high = load("alternate").estimate_us(f"Benchmarking...\n{line}\n")
+    assert low < mid < high
+    assert mid == pytest.approx(micros)
+
+
+def test_the_alternating_runner_says_when_there_is_no_estimate() -> None:
+    with pytest.raises(ValueError, match="no `time"):
+        load("alternate").estimate_us("error: no benchmark matched\n")
