@@ -1,9 +1,7 @@
 //! The shared controller: PID loops that turn a target speed and heading into `Controls`.
 
 use crate::perception::{LaneIndex, LaneSignal, Seen};
-use crate::safety::{
-    AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, nearest_ahead_memo,
-};
+use crate::safety::{AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
 use flockway_core::{DT_S, SimClock, Tick, parallel_min};
@@ -319,11 +317,8 @@ fn follow_one(
     let safe = gate.map_or(f32::INFINITY, |(_, track)| {
         let view = SafetyView::new(me, track, motion, model, signal);
         let params = safety.copied().unwrap_or_default();
-        let reach = params.reach_m(view.speed_mps);
         let memo = memo.map(|m| (m, tick));
-        nearest_ahead_memo(network, index, &view, reach, memo, scratch).map_or(f32::INFINITY, |a| {
-            params.safe_speed_mps(a.gap_m, a.speed_mps)
-        })
+        safe_speed_mps(network, index, &params, &view, memo, scratch)
     });
     let cap = held.min(safe);
     if cap < target.speed_mps {

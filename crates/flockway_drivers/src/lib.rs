@@ -97,12 +97,6 @@ pub struct DriversPlugin;
 impl SimPlugin for DriversPlugin {
     fn build(&self, sim: &mut Sim) {
         sim.add_plugin(VehiclePlugin);
-        // Every vehicle keeps its last search for the vehicle ahead of its body (the conflict
-        // measures make it, the safety layer reads it). Registration fails only once a
-        // vehicle exists; without a memo the searches simply run twice.
-        let _ = sim
-            .world_mut()
-            .try_register_required_components::<flockway_vehicle::Motion, AheadMemo>();
         sim.world_mut().init_resource::<LaneIndex>();
         sim.world_mut().init_resource::<RoadSurface>();
         sim.world_mut().init_resource::<RoadAhead>();

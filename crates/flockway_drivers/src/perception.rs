@@ -646,6 +646,19 @@ pub(crate) mod fixtures {
     use flockway_road::RoadSpec;
     use glam::DVec3;
 
+    /// A tiny deterministic generator for test placements.
+    pub(crate) struct Lcg(pub(crate) u64);
+    impl Lcg {
+        /// The next number, uniform in [0, 1).
+        pub(crate) fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// A three-lane `approach` (900 m) splitting into `south` (from lane 0) and the two-lane
     /// `north` (from lanes 1 and 2), and an index over 4.6 m vehicles at
     /// `(road, lane, s, speed along the road)`.
@@ -713,22 +726,10 @@ pub(crate) mod fixtures {
 
 #[cfg(test)]
 mod tests {
-    use super::fixtures::split_with;
+    use super::fixtures::{Lcg, split_with};
     use super::*;
     use flockway_road::RoadSpec;
     use glam::DVec3;
-
-    /// A tiny deterministic generator for test placements.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
 
     /// An index over `n` random placements on road 0 (a ring or an open road) and road 1 (its
     /// connected successor when open), built directly from entries.

@@ -398,16 +398,18 @@ pub fn nearest_ahead_memo(
 }
 
 /// The fastest the car in `view` may go now, m/s: [`SafetyParams::safe_speed_mps`] behind the
-/// nearest vehicle ahead of its body ([`nearest_ahead`]); `INFINITY` with nothing within reach.
+/// nearest vehicle ahead of its body ([`nearest_ahead`], read off `memo` where it gives the
+/// answer); `INFINITY` with nothing within reach.
 pub fn safe_speed_mps(
     network: &RoadNetwork,
     index: &LaneIndex,
     params: &SafetyParams,
     view: &SafetyView,
+    memo: Option<(&AheadMemo, flockway_core::Tick)>,
     scratch: &mut Vec<Seen>,
 ) -> f32 {
     let reach = params.reach_m(view.speed_mps);
-    nearest_ahead(network, index, view, reach, scratch).map_or(f32::INFINITY, |a| {
+    nearest_ahead_memo(network, index, view, reach, memo, scratch).map_or(f32::INFINITY, |a| {
         params.safe_speed_mps(a.gap_m, a.speed_mps)
     })
 }
@@ -419,21 +421,10 @@ pub const OVER_SAFE_BRAKE_PER_MPS: f32 = 0.5;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::perception::fixtures::Lcg;
     use flockway_core::Tick;
     use flockway_road::{RoadId, RoadSpec};
     use glam::DVec3;
-
-    /// A tiny deterministic generator for test placements.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
 
     /// A memo made with a wider reach answers a narrower one exactly as a fresh search does,
     /// whenever it answers at all, and it answers most of the time: cars of mixed lengths (so
