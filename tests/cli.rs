@@ -1058,13 +1058,21 @@ fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
         ];
         outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &env));
     }
-    // And with the passes' own thresholds.
+    // And with the passes' own thresholds, which split its hundred-odd cars over the join pool
+    // (in two parts, and in three on three threads).
     let csv = dir.path().join("run_default.csv");
     outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &[]));
+    let csv = dir.path().join("run_default_3.csv");
+    outputs.push(csv_of_run(
+        "levels/dense_road.ron",
+        "30",
+        &csv,
+        &[("FLOCKWAY_THREADS", "3")],
+    ));
     assert!(outputs[0].len() > 10_000);
     assert!(
         outputs.iter().all(|o| *o == outputs[0]),
-        "the same bytes on 1, 2 and 3 threads, every pass split or each its own way"
+        "the same bytes on 1, 2 and 3 threads, every pass over the pool or each its own way"
     );
     let out = flockway_with(
         &["check", "levels/dense_road.ron"],

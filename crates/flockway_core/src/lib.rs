@@ -18,7 +18,8 @@ pub mod wrap;
 pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use parallel::{
-    PARALLEL_MIN_ENV, map_in_order, parallel_min, parallel_min_from_env, task_threads,
+    JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, for_each_car, map_in_order, parallel_min,
+    parallel_min_from_env, task_threads,
 };
 pub use rng::{EntityRng, RngStreams};
 pub use sim::{FixedStep, Sim, SimPlugin, StepSet, THREADS_ENV, init_task_pool, threads_from_env};

@@ -1,6 +1,8 @@
 //! Per-item work split over the task pool with its answers in the items' order, so what a
 //! system does with them is the same whichever thread found each.
 
+use bevy_ecs::query::{ArchetypeFilter, ArchetypeQueryData, IterQueryData, QueryData, QueryItem};
+use bevy_ecs::system::Query;
 use bevy_tasks::ComputeTaskPool;
 use std::sync::OnceLock;
 
@@ -71,6 +73,61 @@ where
     .collect()
 }
 
+/// From how many vehicles a per-car pass below its task-pool threshold splits over the join
+/// pool instead of running on one thread. Not tuned finely: `dense_road` (about 130 cars) and
+/// a ring of 250 gain from the split (`docs/performance.md`); below a few dozen cars a pass is
+/// a few microseconds of work, about what a hand-over costs.
+pub const JOIN_MIN_ITEMS: usize = 64;
+
+/// `f` on every item of `query`, each part of the items with its own scratch space from
+/// `init`: over the task pool from `pool_min` items, split between the threads of the join pool
+/// from [`JOIN_MIN_ITEMS`] (a pool that spins briefly between jobs, so a small pass does not wait
+/// for a sleeping thread), on this thread below that or with one thread. Each call may touch only
+/// its own item's mutable data, so the results do not depend on the split.
+pub fn for_each_car<'a, 's, D, F, S>(
+    query: &'a mut Query<'_, 's, D, F>,
+    pool_min: usize,
+    init: impl Fn() -> S + Send + Sync + Clone,
+    f: impl Fn(&mut S, QueryItem<'a, 's, D>) + Send + Sync + Clone,
+) where
+    D: IterQueryData,
+    F: ArchetypeFilter,
+    <D as QueryData>::ReadOnly: ArchetypeQueryData,
+    QueryItem<'a, 's, D>: Send,
+{
+    let threads = task_threads();
+    let len = query.iter().len();
+    if threads >= 2 && len >= parallel_min(pool_min) {
+        query.par_iter_mut().for_each_init(init, f);
+    } else if threads >= 2 && len >= parallel_min(JOIN_MIN_ITEMS.min(pool_min)) {
+        let items: Vec<QueryItem<'a, 's, D>> = query.iter_mut().collect();
+        join_parts(items, threads, &init, &f);
+    } else {
+        let mut scratch = init();
+        query.iter_mut().for_each(|item| f(&mut scratch, item));
+    }
+}
+
+/// `f` on `items` split into `parts` nearly equal runs, halves joined on the join pool.
+fn join_parts<T: Send, S>(
+    mut items: Vec<T>,
+    parts: usize,
+    init: &(impl Fn() -> S + Sync),
+    f: &(impl Fn(&mut S, T) + Sync),
+) {
+    if parts < 2 || items.len() < 2 {
+        let mut scratch = init();
+        items.into_iter().for_each(|item| f(&mut scratch, item));
+        return;
+    }
+    let left_parts = parts / 2;
+    let right = items.split_off(items.len() * left_parts / parts);
+    micropool::join(
+        || join_parts(items, left_parts, init, f),
+        || join_parts(right, parts - left_parts, init, f),
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -92,5 +149,68 @@ mod tests {
             Vec::<u64>::new()
         );
         assert_eq!(map_in_order(&items[..3], 1, || 0u64, square), want[..3]);
+    }
+
+    #[derive(bevy_ecs::component::Component)]
+    struct Input(u64);
+
+    #[derive(bevy_ecs::component::Component)]
+    struct Output(u64);
+
+    /// Runs `for_each_car` over `n` cars with the task-pool threshold `pool_min`; returns each
+    /// car's output in spawn order and how many parts the cars were split into.
+    fn outputs(n: u64, pool_min: usize) -> (Vec<u64>, usize) {
+        use bevy_ecs::system::RunSystemOnce;
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        crate::init_task_pool(Some(2));
+        let mut world = bevy_ecs::world::World::new();
+        let cars: Vec<_> = (0..n)
+            .map(|i| world.spawn((Input(i), Output(0))).id())
+            .collect();
+        let parts = std::sync::Arc::new(AtomicUsize::new(0));
+        let counted = parts.clone();
+        world
+            .run_system_once(move |mut q: Query<(&Input, &mut Output)>| {
+                let counted = counted.clone();
+                for_each_car(
+                    &mut q,
+                    pool_min,
+                    move || {
+                        counted.fetch_add(1, Ordering::Relaxed);
+                        0u64
+                    },
+                    |calls: &mut u64, (input, mut output)| {
+                        *calls += 1;
+                        output.0 = input.0 * input.0 + 1;
+                    },
+                );
+            })
+            .expect("the system runs");
+        let got = cars
+            .iter()
+            .map(|&car| {
+                world
+                    .get::<Output>(car)
+                    .expect("every car keeps its output")
+                    .0
+            })
+            .collect();
+        (got, parts.load(Ordering::Relaxed))
+    }
+
+    #[test]
+    fn every_car_is_done_once_whether_split_joined_or_on_one_thread() {
+        // Below the join threshold (one part), from it (split over the join pool) and over
+        // the task pool: every car's output, none missed or done twice.
+        for (n, pool_min) in [(10, usize::MAX), (200, usize::MAX), (2_000, 1)] {
+            let (got, parts) = outputs(n, pool_min);
+            let want: Vec<u64> = (0..n).map(|i| i * i + 1).collect();
+            assert_eq!(got, want, "{n} cars, pool from {pool_min}");
+            if n < JOIN_MIN_ITEMS as u64 {
+                assert_eq!(parts, 1, "{n} cars stay on one thread");
+            } else if std::env::var_os(PARALLEL_MIN_ENV).is_none() {
+                assert!(parts >= 2, "{n} cars split into {parts} part(s)");
+            }
+        }
     }
 }

@@ -101,15 +101,24 @@ pub(crate) fn count_from_env(
 
 /// Starts the process's task pool (the threads systems split per-vehicle work over) with
 /// `threads` threads — or as [`THREADS_ENV`] says, or one per core — unless it is running
-/// already. Returns the pool's size. Results do not depend on it.
+/// already, and beside it the join pool small levels' passes are split over
+/// ([`for_each_car`](crate::for_each_car)). Returns the pool's size. Results do not depend on
+/// it.
 pub fn init_task_pool(threads: Option<usize>) -> usize {
     bevy_tasks::ComputeTaskPool::get_or_init(|| {
-        match threads.or_else(|| threads_from_env().ok().flatten()) {
+        let pool = match threads.or_else(|| threads_from_env().ok().flatten()) {
             Some(n) => bevy_tasks::TaskPoolBuilder::new()
                 .num_threads(n.max(1))
                 .build(),
             None => bevy_tasks::TaskPool::default(),
+        };
+        // The join pool's threads help the calling one: one fewer than the pool's.
+        if pool.thread_num() >= 2 {
+            micropool::ThreadPoolBuilder::default()
+                .num_threads(pool.thread_num() - 1)
+                .build_global();
         }
+        pool
     })
     .thread_num()
 }

@@ -4,7 +4,7 @@ use crate::perception::{LaneIndex, LaneSignal, Seen};
 use crate::safety::{AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
-use flockway_core::{DT_S, SimClock, Tick, parallel_min};
+use flockway_core::{DT_S, SimClock, Tick, for_each_car};
 use flockway_road::RoadNetwork;
 use flockway_vehicle::{
     Controls, LongitudinalModel, Motion, STANDSTILL_MPS, VehicleModel, VehicleState, VehicleType,
@@ -277,12 +277,7 @@ pub fn follow_targets(
     };
     // Each car reads the shared index and road network and writes only its own controller and
     // controls, so the answers are the same whichever thread finds them.
-    if vehicles.iter().len() < parallel_min(FOLLOW_PARALLEL_MIN) {
-        let mut scratch = Vec::new();
-        vehicles.iter_mut().for_each(|item| run(&mut scratch, item));
-    } else {
-        vehicles.par_iter_mut().for_each_init(Vec::new, run);
-    }
+    for_each_car(&mut vehicles, FOLLOW_PARALLEL_MIN, Vec::new, run);
 }
 
 /// One vehicle's controls for its target, capped as [`follow_targets`] says; `scratch` is

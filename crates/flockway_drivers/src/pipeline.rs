@@ -28,7 +28,7 @@ use bevy_ecs::component::Mutable;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleConfigs;
 use bevy_ecs::system::ScheduleSystem;
-use flockway_core::{Sim, parallel_min};
+use flockway_core::{Sim, for_each_car};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use glam::Vec3;
@@ -345,12 +345,7 @@ pub fn drive<M: DrivingModel>(
         |seen: &mut Vec<Seen>, item: Item<M>| decide_one(&network, &index, &ahead, seen, item);
     // Each car reads the shared index and road network and writes only its own components,
     // so the decisions are the same whichever thread makes them.
-    if vehicles.iter().len() < parallel_min(PARALLEL_MIN_VEHICLES) {
-        let mut seen = Vec::new();
-        vehicles.iter_mut().for_each(|item| run(&mut seen, item));
-    } else {
-        vehicles.par_iter_mut().for_each_init(Vec::new, run);
-    }
+    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, Vec::new, run);
 }
 
 /// One vehicle through the pipeline; `seen` is scratch space for its neighbours.

@@ -23,7 +23,7 @@
 use crate::VehicleId;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
-use flockway_core::{SimClock, parallel_min};
+use flockway_core::{SimClock, for_each_car};
 use flockway_drivers::{
     Ahead, AheadMemo, DriverLabel, LaneIndex, LaneSignal, SafetyParams, SafetyView, Seen,
     nearest_ahead,
@@ -530,14 +530,7 @@ pub fn measure_conflicts(
         found.0 =
             narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach, scratch));
     };
-    if vehicles.iter().len() < parallel_min(PARALLEL_MIN_VEHICLES) {
-        let mut scratch = Vec::new();
-        vehicles
-            .iter_mut()
-            .for_each(|item| search(&mut scratch, item));
-    } else {
-        vehicles.par_iter_mut().for_each_init(Vec::new, search);
-    }
+    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, Vec::new, search);
     conflicts.add_distances(vehicles.iter().map(|(_, _, _, motion, _, driver, _, _)| {
         let v = f64::from(motion.forward_mps);
         (driver.map_or("none", |l| &*l.profile), v.abs() * h)

@@ -8,16 +8,18 @@ use crate::forces::{Kinematics, vehicle_forces};
 use crate::free_body::{FreeBody, StepSettings};
 use crate::physics::Physics;
 use bevy_ecs::prelude::*;
-use flockway_core::{DT_S, parallel_min};
+use flockway_core::{DT_S, for_each_car};
 use flockway_road::RoadNetwork;
 use glam::{DVec3, Vec3};
 use rapier3d::prelude::RigidBody;
 
-/// Below this many vehicles the per-car passes (forces, read-back, decisions, the junction
-/// rule's and the conflict measures' searches) run on one thread: handing a pass out (waking
-/// the pool's threads, waiting for the last part) costs about what a few hundred cars' share
-/// saves (on a 2-core machine a ring of 250 cars steps faster on one thread, 500 about even,
-/// 1 000 faster over the pool: `cargo bench --bench scale -- ring_step`).
+/// From this many vehicles the per-car passes (forces, read-back, decisions, the junction
+/// rule's and the conflict measures' searches) go over the task pool. Handing a pass to it
+/// (waking the pool's threads, waiting for the last part) costs about what a few hundred cars'
+/// share saves (on a 2-core machine a ring of 250 cars stepped faster on one thread, 500 about
+/// even, 1 000 faster over the pool: `cargo bench --bench scale -- ring_step`), so below it the
+/// passes [`for_each_car`] runs are split by the join pool instead (from
+/// [`flockway_core::JOIN_MIN_ITEMS`]) and the others run on one thread.
 pub const PARALLEL_MIN_VEHICLES: usize = 512;
 
 /// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
@@ -67,11 +69,12 @@ pub fn drive_vehicles(
             body.step(force, torque, &settings);
         }
     };
-    if physics.world.bodies.len() < parallel_min(PARALLEL_MIN_VEHICLES) {
-        vehicles.iter_mut().for_each(run);
-    } else {
-        vehicles.par_iter_mut().for_each(run);
-    }
+    for_each_car(
+        &mut vehicles,
+        PARALLEL_MIN_VEHICLES,
+        || (),
+        move |_, item| run(item),
+    );
 }
 
 /// Replaces the forces of every vehicle body in rapier with this tick's (rapier keeps user forces
@@ -146,11 +149,12 @@ pub fn sync_vehicles(
             gate.decide_rails(network, &track, &motion);
         }
     };
-    if physics.world.bodies.len() < parallel_min(PARALLEL_MIN_VEHICLES) {
-        vehicles.iter_mut().for_each(run);
-    } else {
-        vehicles.par_iter_mut().for_each(run);
-    }
+    for_each_car(
+        &mut vehicles,
+        PARALLEL_MIN_VEHICLES,
+        || (),
+        move |_, item| run(item),
+    );
 }
 
 /// How far from its junction path's centre line a car still counts as on that path, m.
