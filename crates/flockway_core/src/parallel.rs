@@ -1,5 +1,6 @@
-//! Per-item work split over the task pool with its answers in the items' order, so what a
-//! system does with them is the same whichever thread found each.
+//! Per-item work split over the task pool with its answers in the items' order, and per-car
+//! passes split over the task pool or, on small levels, the join pool — so what a system does
+//! with them is the same whichever thread found each.
 
 use bevy_ecs::query::{ArchetypeFilter, ArchetypeQueryData, IterQueryData, QueryData, QueryItem};
 use bevy_ecs::system::Query;
