@@ -27,10 +27,15 @@ use std::time::Duration;
 const CITY_SIDE: usize = 12;
 /// Spacing of the cars the city starts with along every street lane, m.
 const CITY_SPACING_M: f64 = 30.0;
+/// Junctions per side of the town.
+const TOWN_SIDE: usize = 5;
+/// Spacing of the cars the town starts with along every street lane, m.
+const TOWN_SPACING_M: f64 = 60.0;
 
-/// The city run, its streets filled, after 10 simulated seconds.
-fn city() -> Runner {
-    let net = grid::grid_net(CITY_SIDE, true);
+/// A grid of `side` × `side` signalised junctions, every street lane started with a car every
+/// `spacing_m`, after 10 simulated seconds.
+fn city(side: usize, spacing_m: f64) -> Runner {
+    let net = grid::grid_net(side, true);
     let level =
         import_sumo_net(&net, Path::new("city.net.xml"), "city").unwrap_or_else(|e| panic!("{e}"));
     let options = RunOptions {
@@ -57,7 +62,7 @@ fn city() -> Runner {
                 spawn_driven(world, at, &driver, lane, profile.clone())
                     .unwrap_or_else(|e| panic!("{e}"));
             }
-            s += CITY_SPACING_M;
+            s += spacing_m;
         }
     }
     runner.step(10 * 120).unwrap_or_else(|e| panic!("{e}"));
@@ -74,14 +79,22 @@ fn bench(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("ring_step", n), |b| b.iter(|| sim.step()));
     }
     group.finish();
-    let mut group = c.benchmark_group("city");
+    grid_step(c, "city", CITY_SIDE, CITY_SPACING_M);
+    grid_step(c, "town", TOWN_SIDE, TOWN_SPACING_M);
+}
+
+/// Benchmark group `name`: one step of the grid [`city`] of `side` junctions a side with cars
+/// every `spacing_m`, then its vehicles alive on average, µs per vehicle-step and real-time
+/// factor.
+fn grid_step(c: &mut Criterion, name: &str, side: usize, spacing_m: f64) {
+    let mut group = c.benchmark_group(name);
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(10));
-    // Set up only when the filter selects it (filling the city takes a while).
+    // Set up only when the filter selects it (filling the streets takes a while).
     let mut runner: Option<Runner> = None;
     let mut timed = timed::Timed::default();
     group.bench_function("step", |b| {
-        let runner = runner.get_or_insert_with(city);
+        let runner = runner.get_or_insert_with(|| city(side, spacing_m));
         b.iter_custom(|iters| (0..iters).map(|_| timed.step(runner)).sum::<Duration>())
     });
     group.finish();
@@ -89,7 +102,7 @@ fn bench(c: &mut Criterion) {
         return;
     }
     println!(
-        "city: {:.0} vehicles alive on average, {:.2} µs per vehicle-step, {:.2}× real time \
+        "{name}: {:.0} vehicles alive on average, {:.2} µs per vehicle-step, {:.2}× real time \
          ({} steps measured)",
         timed.mean_alive(),
         timed.us_per_vehicle_step(),

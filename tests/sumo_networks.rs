@@ -423,7 +423,8 @@ fn an_opendrive_road_through_netconvert_imports_and_runs() {
 
 /// On a real town's network, every per-car pass split over the threads from one car
 /// (`FLOCKWAY_PARALLEL_MIN=1`: the junction rule's passes and the conflict measures included),
-/// 1 and 3 threads give the same bytes: telemetry and conflicts.
+/// 1 and 3 threads give the same bytes: telemetry and conflicts; and so do 3 threads with the
+/// passes' own thresholds, which split the town's hundred-odd cars over the join pool.
 #[test]
 fn the_thread_count_changes_no_byte_of_a_busy_town() {
     let Some(tools) = sumo_tools() else {
@@ -438,13 +439,18 @@ fn the_thread_count_changes_no_byte_of_a_busy_town() {
         String::from_utf8_lossy(&out.stderr)
     );
     let mut outputs: Vec<(Vec<u8>, Vec<u8>, String)> = Vec::new();
-    for threads in ["1", "3"] {
-        let csv = dir.path().join(format!("run_{threads}.csv"));
-        let conflicts = dir.path().join(format!("conflicts_{threads}.csv"));
-        let summary = dir.path().join(format!("summary_{threads}.json"));
-        let out = Command::new(env!("CARGO_BIN_EXE_flockway"))
-            .env("FLOCKWAY_THREADS", threads)
-            .env("FLOCKWAY_PARALLEL_MIN", "1")
+    for (threads, parallel_min) in [("1", Some("1")), ("3", Some("1")), ("3", None)] {
+        let name = format!("{threads}_{}", parallel_min.unwrap_or("own"));
+        let csv = dir.path().join(format!("run_{name}.csv"));
+        let conflicts = dir.path().join(format!("conflicts_{name}.csv"));
+        let summary = dir.path().join(format!("summary_{name}.json"));
+        let mut command = Command::new(env!("CARGO_BIN_EXE_flockway"));
+        command.env("FLOCKWAY_THREADS", threads);
+        match parallel_min {
+            Some(min) => command.env("FLOCKWAY_PARALLEL_MIN", min),
+            None => command.env_remove("FLOCKWAY_PARALLEL_MIN"),
+        };
+        let out = command
             .arg("run")
             .arg(&level)
             .args(["--seconds", "120", "--seed", "7", "--csv"])
@@ -480,5 +486,9 @@ fn the_thread_count_changes_no_byte_of_a_busy_town() {
     assert!(
         outputs[0].1 == outputs[1].1,
         "the same conflicts on 1 and 3 threads"
+    );
+    assert!(
+        outputs[0].0 == outputs[2].0 && outputs[0].1 == outputs[2].1,
+        "the same telemetry and conflicts with the join pool's split"
     );
 }

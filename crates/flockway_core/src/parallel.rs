@@ -1,6 +1,6 @@
-//! Per-item work split over the task pool with its answers in the items' order, and per-car
-//! passes split over the task pool or, on small levels, the join pool — so what a system does
-//! with them is the same whichever thread found each.
+//! Per-item work (its answers in the items' order) and per-car passes split over the task pool
+//! or, on small levels, the join pool — so what a system does with them is the same whichever
+//! thread found each.
 
 use bevy_ecs::query::{ArchetypeFilter, ArchetypeQueryData, IterQueryData, QueryData, QueryItem};
 use bevy_ecs::system::Query;
@@ -38,8 +38,9 @@ pub fn task_threads() -> usize {
 }
 
 /// `f` over `items` (each call with the scratch space its thread made by `scratch`), the
-/// answers in the items' order: over the task pool from `min_parallel` items on, in this
-/// thread below that (where handing the work out would cost more than it saves).
+/// answers in the items' order: over the task pool from `min_parallel` items on, split between
+/// the threads of the join pool from [`JOIN_MIN_ITEMS`] below that (as
+/// [`for_each_car`] does), in this thread below both or with one thread.
 pub fn map_in_order<T, R, S>(
     items: &[T],
     min_parallel: usize,
@@ -51,6 +52,12 @@ where
     R: Send + 'static,
 {
     let threads = task_threads();
+    if threads >= 2
+        && items.len() < min_parallel.max(1)
+        && items.len() >= parallel_min(JOIN_MIN_ITEMS.min(min_parallel))
+    {
+        return join_map(items, threads, &scratch, &f);
+    }
     if items.len() < min_parallel.max(1) || threads < 2 {
         let mut s = scratch();
         return items.iter().map(|item| f(&mut s, item)).collect();
@@ -74,10 +81,11 @@ where
     .collect()
 }
 
-/// From how many vehicles a per-car pass below its task-pool threshold splits over the join
-/// pool instead of running on one thread. Not tuned finely: `dense_road` (about 130 cars) and
-/// a ring of 250 gain from the split (`docs/performance.md`); below a few dozen cars a pass is
-/// a few microseconds of work, about what a hand-over costs.
+/// From how many vehicles (items, for [`map_in_order`]) a pass below its task-pool threshold
+/// splits over the join pool instead of running on one thread. Not tuned finely: `dense_road`
+/// (about 130 cars), a ring of 250 and a town of about 390 gain from the split
+/// (`docs/performance.md`); below a few dozen cars a pass is a few microseconds of work, about
+/// what a hand-over costs (a level of about 16 cars split from 16 gained nothing).
 pub const JOIN_MIN_ITEMS: usize = 64;
 
 /// `f` on every item of `query`, each part of the items with its own scratch space from
@@ -129,6 +137,28 @@ fn join_parts<T: Send, S>(
     );
 }
 
+/// `f` over `items` split into `parts` nearly equal runs, halves joined on the join pool; the
+/// answers in the items' order.
+fn join_map<T: Sync, R: Send, S>(
+    items: &[T],
+    parts: usize,
+    scratch: &(impl Fn() -> S + Sync),
+    f: &(impl Fn(&mut S, &T) -> R + Sync),
+) -> Vec<R> {
+    if parts < 2 || items.len() < 2 {
+        let mut s = scratch();
+        return items.iter().map(|item| f(&mut s, item)).collect();
+    }
+    let left_parts = parts / 2;
+    let (left, right) = items.split_at(items.len() * left_parts / parts);
+    let (mut answers, right) = micropool::join(
+        || join_map(left, left_parts, scratch, f),
+        || join_map(right, parts - left_parts, scratch, f),
+    );
+    answers.extend(right);
+    answers
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,6 +180,25 @@ mod tests {
             Vec::<u64>::new()
         );
         assert_eq!(map_in_order(&items[..3], 1, || 0u64, square), want[..3]);
+        // Below the task pool's threshold: one part below the join threshold, split from it.
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        for n in [JOIN_MIN_ITEMS - 1, JOIN_MIN_ITEMS, 200] {
+            let parts = AtomicUsize::new(0);
+            let counted = || {
+                parts.fetch_add(1, Ordering::Relaxed);
+                0u64
+            };
+            assert_eq!(
+                map_in_order(&items[..n], usize::MAX, counted, square),
+                want[..n]
+            );
+            let parts = parts.load(Ordering::Relaxed);
+            if n < JOIN_MIN_ITEMS {
+                assert_eq!(parts, 1, "{n} items stay on one thread");
+            } else if std::env::var_os(PARALLEL_MIN_ENV).is_none() {
+                assert!(parts >= 2, "{n} items split into {parts} part(s)");
+            }
+        }
     }
 
     #[derive(bevy_ecs::component::Component)]
