@@ -52,13 +52,10 @@ where
     R: Send + 'static,
 {
     let threads = task_threads();
-    if threads >= 2
-        && items.len() < min_parallel.max(1)
-        && items.len() >= parallel_min(JOIN_MIN_ITEMS.min(min_parallel))
-    {
-        return join_map(items, threads, &scratch, &f);
-    }
     if items.len() < min_parallel.max(1) || threads < 2 {
+        if threads >= 2 && items.len() >= parallel_min(JOIN_MIN_ITEMS.min(min_parallel)) {
+            return join_map(items, threads, &scratch, &f);
+        }
         let mut s = scratch();
         return items.iter().map(|item| f(&mut s, item)).collect();
     }
