@@ -58,8 +58,8 @@ fn level_path(name: &str) -> PathBuf {
 /// hits, vehicles spawned).
 fn collisions(name: &str, model: BuiltinModel, seed: u64, seconds: Option<f64>) -> (f64, f64, f64) {
     // One thread per run: the test harness already runs a cell per core, and runs split over
-    // threads that other runs share wait on each other (the matrix took about a quarter longer
-    // so). The answers are the same bytes on any number of threads.
+    // threads that other runs share wait on each other (the cells of 64 cars or more took about
+    // a quarter longer so). The answers are the same bytes on any number of threads.
     flockway::core::init_task_pool(Some(1));
     let path = level_path(name);
     let level = load_level(&path).expect("a shipped level");
