@@ -143,8 +143,8 @@ impl ProfileConflicts {
 }
 
 /// The profiles a conflict between vehicles of profiles `a` and `b` counts for: each once.
-fn involved<'a>(a: &'a Arc<str>, b: &'a Arc<str>) -> impl Iterator<Item = &'a Arc<str>> {
-    std::iter::once(a).chain((a != b).then_some(b))
+fn involved<'a>(a: &'a Arc<str>, b: &'a Arc<str>) -> impl Iterator<Item = &'a str> {
+    std::iter::once(&**a).chain((a != b).then_some(&**b))
 }
 
 /// The TTC of a follower at speed `v` closing on a leader at `v_lead` with bumper gap `gap_m`,
@@ -160,17 +160,18 @@ pub fn drac_mps2(gap_m: f64, v: f64, v_lead: f64) -> Option<f64> {
     (closing > 0.0).then(|| closing * closing / (2.0 * gap_m.max(0.01)))
 }
 
-/// One observation of a follower behind its leader.
+/// One observation of a follower behind its leader (the drivers' profiles borrowed: this is
+/// made for every closing pair every tick).
 #[derive(Debug, Clone, PartialEq)]
-pub struct PairObservation {
+pub struct PairObservation<'a> {
     /// The follower.
     pub vehicle: Entity,
     /// The vehicle ahead of its body.
     pub leader: Entity,
     /// The follower's id and profile.
-    pub who: Who,
+    pub who: (u32, &'a Arc<str>),
     /// The leader's id and profile.
-    pub other: Who,
+    pub other: (u32, &'a Arc<str>),
     /// Bumper gap, m.
     pub gap_m: f64,
     /// Follower's speed, m/s.
@@ -242,14 +243,28 @@ pub struct Conflicts {
 impl Conflicts {
     /// Records one tick's observation of a follower closing on (or keeping behind) its leader.
     pub fn observe_pair(&mut self, t: &SsmThresholds, time_s: f64, o: PairObservation) {
+        let mut extremes = Extremes::default();
+        self.observe_pair_noting(t, time_s, &o, &mut extremes);
+        extremes.write_to(self);
+    }
+
+    /// [`observe_pair`](Self::observe_pair) with the profiles' extremes noted in `extremes`,
+    /// which the caller writes to the totals once its pass is done.
+    fn observe_pair_noting<'a>(
+        &mut self,
+        t: &SsmThresholds,
+        time_s: f64,
+        o: &PairObservation<'a>,
+        extremes: &mut Extremes<'a>,
+    ) {
         let ttc = ttc_s(o.gap_m, o.speed_mps, o.leader_mps);
         let drac = drac_mps2(o.gap_m, o.speed_mps, o.leader_mps);
         if ttc.is_none() && drac.is_none() {
             // Not closing in: nothing to note.
             return;
         }
-        for profile in involved(&o.who.1, &o.other.1) {
-            self.profile_mut(profile).note(ttc, drac);
+        for profile in involved(o.who.1, o.other.1) {
+            extremes.slot(self, profile).note(ttc, drac);
         }
         self.total.note(ttc, drac);
         let in_conflict = ttc.is_some_and(|x| x < t.ttc_s) || drac.is_some_and(|x| x > t.drac_mps2);
@@ -464,6 +479,51 @@ impl Conflicts {
     }
 }
 
+/// Each profile's lowest TTC and highest DRAC over one pass of the measures, kept aside and
+/// written to the totals when the pass is done: a vehicle's profile is matched by address first
+/// (vehicles of one profile share its name), so the totals' map is searched once per profile a
+/// pass instead of once per closing pair. Each extreme takes the same values in the same order
+/// as noting them one at a time, so the totals come out the same to the bit.
+#[derive(Debug, Default)]
+struct Extremes<'a> {
+    /// Each profile met, with its extremes (starting from the totals' own).
+    slots: Vec<(&'a str, ProfileConflicts)>,
+    /// The slot found last, tried first.
+    last: usize,
+}
+
+impl<'a> Extremes<'a> {
+    /// The extremes of `profile`, taken from `conflicts`' totals the first time.
+    fn slot(&mut self, conflicts: &mut Conflicts, profile: &'a str) -> &mut ProfileConflicts {
+        let same = |s: &&str| std::ptr::eq(*s, profile) || *s == profile;
+        if !self.slots.get(self.last).is_some_and(|(s, _)| same(s)) {
+            self.last = match self.slots.iter().position(|(s, _)| same(s)) {
+                Some(k) => k,
+                None => {
+                    self.slots.push((profile, *conflicts.profile_mut(profile)));
+                    self.slots.len() - 1
+                }
+            };
+        }
+        &mut self.slots[self.last].1
+    }
+
+    /// Writes the extremes to `conflicts`' totals (only the extremes: other code may have
+    /// counted episodes or PETs in the same totals meanwhile).
+    fn write_to(self, conflicts: &mut Conflicts) {
+        for (profile, noted) in self.slots {
+            let totals = conflicts.profile_mut(profile);
+            totals.min_ttc_s = noted.min_ttc_s;
+            totals.max_drac_mps2 = noted.max_drac_mps2;
+        }
+    }
+}
+
+/// A vehicle's driver profile (`none` without a label).
+fn profile_of<'a>(label: Option<&'a DriverLabel>, none: &'a Arc<str>) -> &'a Arc<str> {
+    label.map_or(none, |l| &l.profile)
+}
+
 /// A vehicle as the measures see it.
 type Measured = (
     Entity,
@@ -536,6 +596,7 @@ pub fn measure_conflicts(
         (driver.map_or("none", |l| &*l.profile), v.abs() * h)
     }));
     let mut scratch = Vec::new();
+    let mut extremes = Extremes::default();
     for (me, id, track, motion, model, driver, signal, (_, _, found)) in vehicles.iter() {
         // A vehicle without its own answer (spawned before the measures were added) is
         // searched for here.
@@ -553,20 +614,17 @@ pub fn measure_conflicts(
             && v > f64::from(ahead.speed_mps)
             && let Ok((other_id, other_label)) = ids.get(ahead.entity)
         {
-            conflicts.observe_pair(
-                &t,
-                time_s,
-                PairObservation {
-                    vehicle: me,
-                    leader: ahead.entity,
-                    who: (id.0, label(driver)),
-                    other: (other_id.0, label(other_label)),
-                    gap_m: f64::from(ahead.gap_m),
-                    speed_mps: v,
-                    leader_mps: f64::from(ahead.speed_mps),
-                    place: (track.road, junction.map(|(j, _)| j), motion.position),
-                },
-            );
+            let observed = PairObservation {
+                vehicle: me,
+                leader: ahead.entity,
+                who: (id.0, profile_of(driver, &none)),
+                other: (other_id.0, profile_of(other_label, &none)),
+                gap_m: f64::from(ahead.gap_m),
+                speed_mps: v,
+                leader_mps: f64::from(ahead.speed_mps),
+                place: (track.road, junction.map(|(j, _)| j), motion.position),
+            };
+            conflicts.observe_pair_noting(&t, time_s, &observed, &mut extremes);
         }
         // Off junctions, only a vehicle just leaving a conflict area has anything to record.
         if junction.is_none() && !conflicts.inside.contains_key(&me) {
@@ -596,6 +654,7 @@ pub fn measure_conflicts(
             (track.road, motion.position),
         );
     }
+    extremes.write_to(&mut conflicts);
     let alive = |e: Entity| vehicles.contains(e);
     conflicts.close_episodes(&t, time_s, Some(&alive));
     // Vehicles gone leave the areas they were in.
@@ -616,12 +675,15 @@ mod tests {
 
     const H: f64 = 1.0 / 120.0;
 
-    fn pair(gap: f64, v: f64, vl: f64) -> PairObservation {
+    fn pair(gap: f64, v: f64, vl: f64) -> PairObservation<'static> {
+        static HUMAN: std::sync::LazyLock<Arc<str>> =
+            std::sync::LazyLock::new(|| Arc::from("human"));
+        static AUTO: std::sync::LazyLock<Arc<str>> = std::sync::LazyLock::new(|| Arc::from("auto"));
         PairObservation {
             vehicle: Entity::from_raw_u32(1).expect("an entity"),
             leader: Entity::from_raw_u32(2).expect("an entity"),
-            who: (1, Arc::from("human")),
-            other: (2, Arc::from("auto")),
+            who: (1, &HUMAN),
+            other: (2, &AUTO),
             gap_m: gap,
             speed_mps: v,
             leader_mps: vl,
@@ -701,6 +763,57 @@ mod tests {
             );
         }
         assert_eq!(one.total.veh_km.to_bits(), all.total.veh_km.to_bits());
+    }
+
+    #[test]
+    fn extremes_noted_over_a_pass_match_noting_each_pair_alone() {
+        // Two names of one profile at different addresses, and a third profile, interleaved;
+        // some pairs in conflict (so episodes open), most only closing in.
+        let human: Arc<str> = Arc::from("human");
+        let human_too: Arc<str> = Arc::from("human");
+        let auto: Arc<str> = Arc::from("auto");
+        let t = SsmThresholds::default();
+        let (mut one, mut all) = (Conflicts::default(), Conflicts::default());
+        for tick in 0..50u32 {
+            let time = f64::from(tick) * H;
+            let mut extremes = Extremes::default();
+            for k in 0..40u32 {
+                let profile = |j: u32| match (j + tick) % 5 {
+                    0 | 1 => &human,
+                    2 => &human_too,
+                    _ => &auto,
+                };
+                let o = PairObservation {
+                    vehicle: Entity::from_raw_u32(k + 1).expect("an entity"),
+                    leader: Entity::from_raw_u32(k + 100).expect("an entity"),
+                    who: (k, profile(k)),
+                    other: (k + 100, profile(k + 3)),
+                    gap_m: 2.0 + f64::from((k * 7 + tick * 3) % 23),
+                    speed_mps: 10.0 + f64::from(k % 4),
+                    leader_mps: 9.0 + f64::from((k + tick) % 6) * 0.37,
+                    place: (RoadId(0), None, Vec3::ZERO),
+                };
+                one.observe_pair(&t, time, o.clone());
+                all.observe_pair_noting(&t, time, &o, &mut extremes);
+            }
+            extremes.write_to(&mut all);
+            one.close_episodes(&t, time, Some(&|_| true));
+            all.close_episodes(&t, time, Some(&|_| true));
+        }
+        one.close_episodes(&t, 1.0, None);
+        all.close_episodes(&t, 1.0, None);
+        assert_eq!(one.take_finished(), all.take_finished());
+        assert_eq!(one.by_profile.len(), 2);
+        assert_eq!(one.by_profile, all.by_profile);
+        for (profile, totals) in &one.by_profile {
+            let bits = |x: Option<f64>| x.map(f64::to_bits);
+            let noted = &all.by_profile[profile];
+            assert!(totals.min_ttc_s.is_some() && totals.max_drac_mps2.is_some());
+            assert_eq!(bits(totals.min_ttc_s), bits(noted.min_ttc_s));
+            assert_eq!(bits(totals.max_drac_mps2), bits(noted.max_drac_mps2));
+        }
+        assert_eq!(one.total, all.total);
+        assert!(one.total.episodes > 0, "{:?}", one.total);
     }
 
     #[test]
