@@ -2,12 +2,14 @@
 outermost Flockway system on its stack, and counted as parallel work when a task-pool frame is on
 it (the main thread's serial share is what bounds a step's speed-up on more cores).
 
-    perf record -o perf.data --call-graph dwarf,16384 -F 200 \\
+    perf record -o perf.data --call-graph dwarf,65528 -F 97 \\
         target/release/deps/scale-HASH --bench 'ring_step/10000' --measurement-time 5 --noplot
     perf script -i perf.data -F tid,ip,sym > perf.txt
     python python/bench/thread_profile.py perf.txt
 
-The main thread is the one with the lowest thread id (the process's first); every thread's
+Copy the whole stack size perf allows (65528 bytes): the main thread's stacks are deep, and
+cut short they end before the frames that tell parallel work from serial. The main thread is
+the one with the lowest thread id (the process's first); every thread's
 samples are listed, largest first, down to ``--min-share`` per cent.
 """
 
@@ -45,9 +47,15 @@ def samples(lines: Iterable[str]) -> Iterator[tuple[int, list[str]]]:
         yield tid, frames
 
 
+# What a sample whose stack perf could not unwind to its start is put under.
+CUT_SHORT = "(stack cut short: record with --call-graph dwarf,65528)"
+
+
 def system_of(frames: list[str]) -> str:
     """The outermost Flockway system on a stack (``rapier step`` for rapier's own, ``other`` for
-    neither)."""
+    neither, ``CUT_SHORT`` when the stack ends before its thread's start)."""
+    if frames and frames[-1] == "[unknown]":
+        return CUT_SHORT
     for frame in reversed(frames):
         if frame.startswith("flockway_") and not frame.startswith(MACHINERY):
             return re.sub(r"[<{(].*", "", frame)

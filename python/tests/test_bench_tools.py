@@ -62,6 +62,14 @@ def test_samples_go_under_the_outermost_system_and_the_pool_marks_parallel_work(
     assert "thread 104: 1 samples, 0.0 % outside parallel work" in text
 
 
+def test_a_stack_perf_could_not_unwind_is_put_under_its_own_name() -> None:
+    tp = load("thread_profile")
+    cut = "100 \n\t  5a2b flockway_vehicle::systems::drive_vehicles\n\t  0 [unknown]\n\n"
+    by_thread = tp.attribute(tp.samples(cut.splitlines(keepends=True)))
+    assert by_thread[100] == {(tp.CUT_SHORT, False): 1}
+    assert "dwarf,65528" in tp.report(by_thread, min_share=0.0)
+
+
 @pytest.mark.parametrize(("line", "micros"), [
     ("scale/ring_step/10000   time:   [8.3318 ms 8.6066 ms 8.9618 ms]", 8606.6),
     ("dense   time:   [412.05 µs 414.20 µs 418.00 µs]", 414.2),
