@@ -9,8 +9,8 @@ it (the main thread's serial share is what bounds a step's speed-up on more core
 
 Copy the whole stack size perf allows (65528 bytes): the main thread's stacks are deep, and
 cut short they end before the frames that tell parallel work from serial. The main thread is
-the one with the lowest thread id (the process's first); every thread's
-samples are listed, largest first, down to ``--min-share`` per cent.
+the one with the lowest thread id (the process's first); every thread's samples are listed,
+largest first, down to ``--min-share`` per cent.
 """
 
 from __future__ import annotations
