@@ -442,23 +442,13 @@ impl Conflicts {
     /// sums to the bit, but looking each profile's totals up once, not once per vehicle: a
     /// vehicle's profile is matched by address first (vehicles of one profile share its name).
     pub fn add_distances<'a>(&mut self, trips: impl IntoIterator<Item = (&'a str, f64)>) {
-        let mut sums: Vec<(&'a str, f64)> = Vec::new();
-        let mut last = 0;
+        let mut sums = ProfileSlots::default();
         for (profile, metres) in trips {
-            let same = |s: &&str| std::ptr::eq(*s, profile) || *s == profile;
-            if !sums.get(last).is_some_and(|(s, _)| same(s)) {
-                last = match sums.iter().position(|(s, _)| same(s)) {
-                    Some(k) => k,
-                    None => {
-                        sums.push((profile, self.profile_mut(profile).veh_km));
-                        sums.len() - 1
-                    }
-                };
-            }
-            sums[last].1 += metres / 1000.0;
+            *sums.get_or_insert_with(profile, || self.profile_mut(profile).veh_km) +=
+                metres / 1000.0;
             self.total.veh_km += metres / 1000.0;
         }
-        for (profile, veh_km) in sums {
+        for (profile, veh_km) in sums.slots {
             self.profile_mut(profile).veh_km = veh_km;
         }
     }
@@ -479,39 +469,61 @@ impl Conflicts {
     }
 }
 
-/// Each profile's lowest TTC and highest DRAC over one pass of the measures, kept aside and
-/// written to the totals when the pass is done: a vehicle's profile is matched by address first
-/// (vehicles of one profile share its name), so the totals' map is searched once per profile a
-/// pass instead of once per closing pair. Each extreme takes the same values in the same order
-/// as noting them one at a time, so the totals come out the same to the bit.
-#[derive(Debug, Default)]
-struct Extremes<'a> {
-    /// Each profile met, with its extremes (starting from the totals' own).
-    slots: Vec<(&'a str, ProfileConflicts)>,
+/// A value per driver profile over one pass of the measures, kept aside from the totals' map:
+/// a vehicle's profile is matched by address first (vehicles of one profile share its name), so
+/// the map is searched once per profile a pass instead of once per vehicle or pair.
+#[derive(Debug)]
+struct ProfileSlots<'a, T> {
+    /// Each profile met, with its value.
+    slots: Vec<(&'a str, T)>,
     /// The slot found last, tried first.
     last: usize,
 }
 
-impl<'a> Extremes<'a> {
-    /// The extremes of `profile`, taken from `conflicts`' totals the first time.
-    fn slot(&mut self, conflicts: &mut Conflicts, profile: &'a str) -> &mut ProfileConflicts {
+impl<T> Default for ProfileSlots<'_, T> {
+    fn default() -> Self {
+        ProfileSlots {
+            slots: Vec::new(),
+            last: 0,
+        }
+    }
+}
+
+impl<'a, T> ProfileSlots<'a, T> {
+    /// The value of `profile`, made by `init` the first time.
+    fn get_or_insert_with(&mut self, profile: &'a str, init: impl FnOnce() -> T) -> &mut T {
         let same = |s: &&str| std::ptr::eq(*s, profile) || *s == profile;
         if !self.slots.get(self.last).is_some_and(|(s, _)| same(s)) {
             self.last = match self.slots.iter().position(|(s, _)| same(s)) {
                 Some(k) => k,
                 None => {
-                    self.slots.push((profile, *conflicts.profile_mut(profile)));
+                    self.slots.push((profile, init()));
                     self.slots.len() - 1
                 }
             };
         }
         &mut self.slots[self.last].1
     }
+}
+
+/// Each profile's lowest TTC and highest DRAC over one pass of the measures, starting from the
+/// totals' own and written back to them when the pass is done. Each extreme takes the same
+/// values in the same order as noting them one at a time, so the totals come out the same to
+/// the bit.
+#[derive(Debug, Default)]
+struct Extremes<'a>(ProfileSlots<'a, ProfileConflicts>);
+
+impl<'a> Extremes<'a> {
+    /// The extremes of `profile`, taken from `conflicts`' totals the first time.
+    fn slot(&mut self, conflicts: &mut Conflicts, profile: &'a str) -> &mut ProfileConflicts {
+        self.0
+            .get_or_insert_with(profile, || *conflicts.profile_mut(profile))
+    }
 
     /// Writes the extremes to `conflicts`' totals (only the extremes: other code may have
     /// counted episodes or PETs in the same totals meanwhile).
     fn write_to(self, conflicts: &mut Conflicts) {
-        for (profile, noted) in self.slots {
+        for (profile, noted) in self.0.slots {
             let totals = conflicts.profile_mut(profile);
             totals.min_ttc_s = noted.min_ttc_s;
             totals.max_drac_mps2 = noted.max_drac_mps2;
