@@ -204,9 +204,13 @@ impl LaneIndex {
             });
             self.vehicles += 1;
         }
+        // The vehicles come in the query's order, which a running simulation keeps from tick to
+        // tick, so each lane arrives as a few long runs (a ring's cars past its join, cars that
+        // changed lane): the stable sort merges runs in linear time where the unstable one
+        // sorts from scratch. Every `(s, entity)` is distinct, so the order is the same.
         for road in self.roads.iter_mut().flatten() {
             for lane in &mut road.lanes {
-                lane.sort_unstable_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
+                lane.sort_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
             }
         }
     }
