@@ -1,6 +1,6 @@
 //! The shared controller: PID loops that turn a target speed and heading into `Controls`.
 
-use crate::perception::{LaneIndex, LaneSignal, Seen};
+use crate::perception::{LaneIndex, LaneSignal};
 use crate::safety::{AheadMemo, OVER_SAFE_BRAKE_PER_MPS, SafetyParams, SafetyView, safe_speed_mps};
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
@@ -272,17 +272,17 @@ pub fn follow_targets(
     mut vehicles: Query<Followed>,
 ) {
     let tick = clock.tick();
-    let run = |scratch: &mut Vec<Seen>, item: QueryItem<'_, '_, Followed>| {
-        follow_one(&network, &index, tick, scratch, item);
+    let run = |_: &mut (), item: QueryItem<'_, '_, Followed>| {
+        follow_one(&network, &index, tick, item);
     };
     // Each car reads the shared index and road network and writes only its own controller and
     // controls, so the answers are the same whichever thread finds them.
-    for_each_car(&mut vehicles, FOLLOW_PARALLEL_MIN, Vec::new, run);
+    for_each_car(&mut vehicles, FOLLOW_PARALLEL_MIN, || (), run);
 }
 
-/// One vehicle's controls for its target, capped as [`follow_targets`] says; `scratch` is
-/// space for the safety layer's search, which reads the vehicle's [`AheadMemo`] of tick `tick`
-/// where it gives the answer (the conflict measures leave one).
+/// One vehicle's controls for its target, capped as [`follow_targets`] says; the safety layer's
+/// search reads the vehicle's [`AheadMemo`] of tick `tick` where it gives the answer (the
+/// conflict measures leave one).
 // Inlined into both loops of `follow_targets`: as a call per car, passing the item's many
 // references cost more instructions than the loop's work saved (callgrind, `dense_road`).
 #[inline(always)]
@@ -290,7 +290,6 @@ fn follow_one(
     network: &RoadNetwork,
     index: &LaneIndex,
     tick: Tick,
-    scratch: &mut Vec<Seen>,
     item: QueryItem<'_, '_, Followed>,
 ) {
     let (
@@ -313,7 +312,7 @@ fn follow_one(
         let view = SafetyView::new(me, track, motion, model, signal);
         let params = safety.copied().unwrap_or_default();
         let memo = memo.map(|m| (m, tick));
-        safe_speed_mps(network, index, &params, &view, memo, scratch)
+        safe_speed_mps(network, index, &params, &view, memo)
     });
     let cap = held.min(safe);
     if cap < target.speed_mps {

@@ -321,15 +321,35 @@ impl LaneIndex {
         exclude: Option<Entity>,
         out: &mut Vec<Seen>,
     ) {
+        self.visit_within(road, lane, s_m, behind_m, ahead_m, exclude, |s| out.push(s));
+    }
+
+    /// [`within`](Self::within), each vehicle handed to `visit` in the same order instead of
+    /// appended to a buffer: for a caller that keeps few of them.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
+    pub fn visit_within(
+        &self,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        behind_m: f64,
+        ahead_m: f64,
+        exclude: Option<Entity>,
+        mut visit: impl FnMut(Seen),
+    ) {
         let Some(r) = self.road(road) else {
             return;
         };
         let Some(entries) = r.lanes.get(lane as usize) else {
             return;
         };
+        let out = &mut visit;
         let mut push = |e: &LaneEntry, gap: f64| {
             if Some(e.entity) != exclude {
-                out.push(Seen {
+                out(Seen {
                     gap_m: gap,
                     lane,
                     entry: *e,
@@ -380,7 +400,7 @@ impl LaneIndex {
                 let end = e2.partition_point(|e| e.s_m <= hi - r.length_m);
                 for e in &e2[..end] {
                     if Some(e.entity) != exclude {
-                        out.push(Seen {
+                        out(Seen {
                             gap_m: r.length_m - s_m + e.s_m,
                             lane: lane2,
                             entry: *e,
@@ -410,7 +430,7 @@ impl LaneIndex {
                 let from = e0.partition_point(|e| e.s_m < r0.length_m + lo);
                 for e in &e0[from..] {
                     if Some(e.entity) != exclude {
-                        out.push(Seen {
+                        out(Seen {
                             gap_m: e.s_m - r0.length_m - s_m,
                             lane: lane0,
                             entry: *e,
@@ -514,12 +534,12 @@ impl LaneIndex {
         offset: f64,
         lane: u32,
         exclude: Option<Entity>,
-        out: &mut Vec<Seen>,
+        out: &mut impl FnMut(Seen),
     ) {
         for b in &r.beside {
             for e in b.entries(self, lo).take_while(|e| e.s_m <= hi) {
                 if Some(e.entity) != exclude {
-                    out.push(Seen {
+                    out(Seen {
                         gap_m: e.s_m + offset,
                         lane,
                         entry: e,

@@ -153,15 +153,14 @@ pub struct Ahead {
 /// The nearest vehicle ahead of the car's body within its reach: the leader in the lane under it (across links onto its next road, and on a
 /// junction path sharing its lane), the leader in the lane it is moving into, and any vehicle
 /// on this road in a lane either side whose body overlaps its own sideways (one of the two
-/// partly across). `scratch` is reused space.
+/// partly across).
 pub fn nearest_ahead(
     network: &RoadNetwork,
     index: &LaneIndex,
     view: &SafetyView,
     reach_m: f32,
-    scratch: &mut Vec<Seen>,
 ) -> Option<Ahead> {
-    search(network, index, view, search_range(view, reach_m), scratch)
+    search(network, index, view, search_range(view, reach_m))
         .best
         .map(|(a, _)| a)
 }
@@ -186,13 +185,7 @@ struct Found {
 
 /// [`nearest_ahead`] within `range` m (centre to centre), with what a shorter range needs to
 /// be answered from it ([`AheadMemo::answer`]).
-fn search(
-    network: &RoadNetwork,
-    index: &LaneIndex,
-    view: &SafetyView,
-    range: f64,
-    scratch: &mut Vec<Seen>,
-) -> Found {
+fn search(network: &RoadNetwork, index: &LaneIndex, view: &SafetyView, range: f64) -> Found {
     let t = view.track;
     let ahead_of = |s: &Seen| Ahead {
         entity: s.entry.entity,
@@ -239,39 +232,25 @@ fn search(
     } else {
         geometry.length_m() - t.s_m
     };
-    scratch.clear();
     let ahead = range.min(left_on_road);
     // Half the loop, not all of it: flagged whenever the lane index's window could have taken
     // the whole loop, whatever rounding its length carries.
     found.whole_loop = geometry.is_closed() && ahead >= 0.5 * geometry.length_m();
+    let overlap = view.width_m + LATERAL_MARGIN_M;
+    // Few of the cars beside overlap this one sideways: each is judged as the index walks it.
+    let mut beside = |s: Seen| {
+        if s.gap_m <= 0.0 || (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap {
+            return;
+        }
+        count(&mut found, &s);
+    };
     if t.lane > 0 {
-        index.within(
-            t.road,
-            t.lane - 1,
-            t.s_m,
-            0.0,
-            ahead,
-            Some(view.me),
-            scratch,
-        );
+        let left = t.lane - 1;
+        index.visit_within(t.road, left, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
     if t.lane + 1 < lanes {
-        index.within(
-            t.road,
-            t.lane + 1,
-            t.s_m,
-            0.0,
-            ahead,
-            Some(view.me),
-            scratch,
-        );
-    }
-    let overlap = view.width_m + LATERAL_MARGIN_M;
-    for s in scratch.iter() {
-        if s.gap_m <= 0.0 || (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap {
-            continue;
-        }
-        count(&mut found, s);
+        let right = t.lane + 1;
+        index.visit_within(t.road, right, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
     found
 }
@@ -336,10 +315,9 @@ impl AheadMemo {
         view: &SafetyView,
         reach_m: f32,
         tick: flockway_core::Tick,
-        scratch: &mut Vec<Seen>,
     ) -> Option<Ahead> {
         let range_m = search_range(view, reach_m);
-        let found = search(network, index, view, range_m, scratch);
+        let found = search(network, index, view, range_m);
         *self = AheadMemo {
             made: Some((tick, ViewKey::of(view))),
             range_m,
@@ -389,11 +367,10 @@ pub fn nearest_ahead_memo(
     view: &SafetyView,
     reach_m: f32,
     memo: Option<(&AheadMemo, flockway_core::Tick)>,
-    scratch: &mut Vec<Seen>,
 ) -> Option<Ahead> {
     match memo.and_then(|(m, tick)| m.answer(view, reach_m, tick)) {
         Some(answer) => answer,
-        None => nearest_ahead(network, index, view, reach_m, scratch),
+        None => nearest_ahead(network, index, view, reach_m),
     }
 }
 
@@ -406,10 +383,9 @@ pub fn safe_speed_mps(
     params: &SafetyParams,
     view: &SafetyView,
     memo: Option<(&AheadMemo, flockway_core::Tick)>,
-    scratch: &mut Vec<Seen>,
 ) -> f32 {
     let reach = params.reach_m(view.speed_mps);
-    nearest_ahead_memo(network, index, view, reach, memo, scratch).map_or(f32::INFINITY, |a| {
+    nearest_ahead_memo(network, index, view, reach, memo).map_or(f32::INFINITY, |a| {
         params.safe_speed_mps(a.gap_m, a.speed_mps)
     })
 }
@@ -467,7 +443,6 @@ mod tests {
                 .collect();
             let mut index = LaneIndex::default();
             index.rebuild(&network, cars.iter().map(|(e, t, l, s)| (*e, t, *l, *s)));
-            let mut scratch = Vec::new();
             for (me, track, length, signal) in &cars {
                 let view = SafetyView {
                     me: *me,
@@ -480,13 +455,10 @@ mod tests {
                 for wide in [10.0f32, 40.0, 90.0, 250.0] {
                     let mut memo = AheadMemo::default();
                     let tick = Tick(7);
-                    let got = memo.search(&network, &index, &view, wide, tick, &mut scratch);
-                    assert_eq!(
-                        got,
-                        nearest_ahead(&network, &index, &view, wide, &mut scratch)
-                    );
+                    let got = memo.search(&network, &index, &view, wide, tick);
+                    assert_eq!(got, nearest_ahead(&network, &index, &view, wide));
                     for narrow in [0.0f32, 5.0, 10.0, 25.0, 40.0, 60.0, 90.0, 250.0] {
-                        let fresh = nearest_ahead(&network, &index, &view, narrow, &mut scratch);
+                        let fresh = nearest_ahead(&network, &index, &view, narrow);
                         let read = memo.answer(&view, narrow, tick);
                         asked += usize::from(narrow <= wide);
                         if let Some(read) = read {

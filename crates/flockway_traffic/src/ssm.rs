@@ -25,8 +25,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryItem;
 use flockway_core::{SimClock, for_each_car};
 use flockway_drivers::{
-    Ahead, AheadMemo, DriverLabel, LaneIndex, LaneSignal, SafetyParams, SafetyView, Seen,
-    nearest_ahead,
+    Ahead, AheadMemo, DriverLabel, LaneIndex, LaneSignal, SafetyParams, SafetyView, nearest_ahead,
 };
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
@@ -586,7 +585,7 @@ pub fn measure_conflicts(
     // and each car keeps its own answer: over the task pool from a threshold. It reaches as
     // far as the car's safety layer will look too and is kept in the car's memo, which the
     // safety layer then reads its answer off instead of searching again.
-    let search = |scratch: &mut Vec<Seen>, item: MeasuredItem| {
+    let search = |_: &mut (), item: MeasuredItem| {
         let (me, _, track, motion, model, _, signal, (memo, safety, found)) = item;
         let Some(mut found) = found else {
             return;
@@ -596,18 +595,16 @@ pub fn measure_conflicts(
         let narrowed = memo.and_then(|mut memo| {
             let safety_reach = safety.copied().unwrap_or_default().reach_m(view.speed_mps);
             let wide = reach.max(safety_reach);
-            memo.search(&network, &index, &view, wide, tick, scratch);
+            memo.search(&network, &index, &view, wide, tick);
             memo.narrowed(&view, reach)
         });
-        found.0 =
-            narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach, scratch));
+        found.0 = narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach));
     };
-    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, Vec::new, search);
+    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, || (), search);
     conflicts.add_distances(vehicles.iter().map(|(_, _, _, motion, _, driver, _, _)| {
         let v = f64::from(motion.forward_mps);
         (driver.map_or("none", |l| &*l.profile), v.abs() * h)
     }));
-    let mut scratch = Vec::new();
     let mut extremes = Extremes::default();
     for (me, id, track, motion, model, driver, signal, (_, _, found)) in vehicles.iter() {
         // A vehicle without its own answer (spawned before the measures were added) is
@@ -615,7 +612,7 @@ pub fn measure_conflicts(
         let ahead = found.map_or_else(
             || {
                 let view = SafetyView::new(me, track, motion, model, signal);
-                nearest_ahead(&network, &index, &view, reach_of(motion), &mut scratch)
+                nearest_ahead(&network, &index, &view, reach_of(motion))
             },
             |f| f.0,
         );
