@@ -324,7 +324,7 @@ impl LaneIndex {
         self.visit_within(road, lane, s_m, behind_m, ahead_m, exclude, |s| out.push(s));
     }
 
-    /// [`within`](Self::within), each vehicle handed to `visit` in the same order instead of
+    /// [`within`](Self::within), each vehicle handed to `out` in the same order instead of
     /// appended to a buffer: for a caller that keeps few of them.
     #[expect(
         clippy::too_many_arguments,
@@ -338,7 +338,7 @@ impl LaneIndex {
         behind_m: f64,
         ahead_m: f64,
         exclude: Option<Entity>,
-        mut visit: impl FnMut(Seen),
+        mut out: impl FnMut(Seen),
     ) {
         let Some(r) = self.road(road) else {
             return;
@@ -346,7 +346,6 @@ impl LaneIndex {
         let Some(entries) = r.lanes.get(lane as usize) else {
             return;
         };
-        let out = &mut visit;
         let mut push = |e: &LaneEntry, gap: f64| {
             if Some(e.entity) != exclude {
                 out(Seen {
@@ -390,7 +389,7 @@ impl LaneIndex {
         }
         // Inside a junction, the cars on paths sharing this one's lane (from the same lane while
         // they overlap, merging into the same lane once they meet).
-        self.push_beside(r, lo, hi, -s_m, lane, exclude, out);
+        self.push_beside(r, lo, hi, -s_m, lane, exclude, &mut out);
         if !r.closed && hi > r.length_m {
             // Traffic continues onto its lane's link.
             if let Some((next, lane2)) = r.lane_next(lane, None)
@@ -414,7 +413,7 @@ impl LaneIndex {
                     r.length_m - s_m,
                     lane2,
                     exclude,
-                    out,
+                    &mut out,
                 );
             }
         }
