@@ -10,6 +10,7 @@ use crate::components::{
     Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType,
 };
 use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput, apply_brake};
+use crate::lanes::{F4, Vec3x4, map, zip};
 use crate::params::VehicleParams;
 use crate::physics::{GRAVITY, Physics};
 use crate::steering::{ackermann, slew};
@@ -43,17 +44,6 @@ impl Kinematics {
     }
 }
 
-/// The road surface under one wheel: a point on it and its normal, with its friction.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Surface {
-    /// Where the suspension's line meets the surface, m.
-    pub point: Vec3,
-    /// Its unit normal.
-    pub normal: Vec3,
-    /// Its friction relative to dry asphalt.
-    pub friction: f32,
-}
-
 /// What the gearbox and clutch decided for this tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Transmission {
@@ -67,34 +57,46 @@ pub(crate) struct Transmission {
     pub driven_omega: f32,
 }
 
-/// Where each wheel touches: its surface (if any), spring compression and load.
+/// Where each wheel touches, one array per quantity (wheel order as everywhere: front left,
+/// front right, rear left, rear right). A wheel in the air has zeros in every field.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct WheelContact {
-    /// The surface under the wheel; `None` for a wheel in the air.
-    pub surface: Option<Surface>,
+pub(crate) struct WheelContacts {
+    /// Whether the wheel is on a surface.
+    pub grounded: [bool; 4],
+    /// Where each suspension line meets its surface, m.
+    pub point: Vec3x4,
+    /// Each surface's unit normal.
+    pub normal: Vec3x4,
+    /// Each surface's friction relative to dry asphalt.
+    pub friction: F4,
     /// Spring compression, m.
-    pub compression_m: f32,
+    pub compression_m: F4,
     /// Load on the tyre (spring, damper, bump stop, anti-roll), N.
-    pub load_n: f32,
+    pub load_n: F4,
 }
 
-/// One grounded tyre's state after the tyre stage: its force directions and what the later
-/// stages need of it.
+/// The tyres' state after the tyre stage, one array per quantity: their force directions and
+/// what the later stages need of them. A wheel in the air has zeros in every field.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct TyrePatch {
-    /// Surface normal, forward and lateral directions of the contact, and its arm from the
-    /// centre of mass.
-    pub dirs: (Vec3, Vec3, Vec3, Vec3),
+pub(crate) struct TyrePatches {
+    /// Surface normals.
+    pub normal: Vec3x4,
+    /// The tyres' forward directions in the surface.
+    pub forward: Vec3x4,
+    /// Their lateral directions in the surface.
+    pub lateral: Vec3x4,
+    /// The contacts' arms from the centre of mass, m.
+    pub arm: Vec3x4,
     /// Longitudinal force at the current slip, N.
-    pub long_n: f32,
+    pub long_n: F4,
     /// How fast that force grows with wheel speed, N·s/rad (for the implicit spin update).
-    pub slope: f32,
+    pub slope: F4,
     /// Contact point's speed along the tyre's forward direction, m/s.
-    pub vx: f32,
+    pub vx: F4,
     /// The most force the tyre can pass to the road, N.
-    pub peak_n: f32,
+    pub peak_n: F4,
     /// Longitudinal force that would hold the contact still this step, N.
-    pub hold_n: f32,
+    pub hold_n: F4,
 }
 
 /// Stage 1, gearbox and clutch: shifts follow the wheels' speed through the gear, not the
@@ -172,7 +174,7 @@ pub(crate) fn wheel_contact(
     t: &VehicleType,
     track: &RoadTrack,
     body: &Kinematics,
-    contacts: &mut [WheelContact; 4],
+    out: &mut WheelContacts,
 ) {
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
@@ -186,84 +188,65 @@ pub(crate) fn wheel_contact(
     let k = p.suspension.stiffness_n_per_m;
     let c = p.suspension.damping_n_s_per_m;
     let r = p.wheels.radius_m;
-    let mut surfaces: [Option<Surface>; 4] = [None; 4];
-    let mut compression = [0.0f32; 4];
-    let mut spring = [0.0f32; 4];
+    // The geometry of all four wheels at once: mounts, their offsets from each axle's road
+    // cross-section, and their velocities (a wheel off the road ignores its lanes).
+    let com4 = Vec3x4::splat(com);
+    let mounts = com4 + Vec3x4::from_fn(|i| t.mounts_cs[i]).rotated_by(rot);
+    let on_frame = |f: fn(&RoadFrame) -> Vec3| {
+        Vec3x4::from_fn(|i| frames[i / 2].as_ref().map_or(Vec3::ZERO, f))
+    };
+    let origin = on_frame(|f| f.pos.as_vec3());
+    let up = on_frame(|f| f.up.as_vec3());
+    let left = on_frame(|f| f.left.as_vec3());
+    let dn = Vec3x4::splat(down).dot(up);
+    let lateral = (mounts - origin).dot(left);
+    let dist = zip((origin - mounts).dot(up), dn, |a, b| a / b);
+    let velocity = Vec3x4::splat(v) + Vec3x4::splat(w).cross(mounts - com4);
+    *out = WheelContacts::default();
     for i in 0..4 {
-        let mount = com + rot * t.mounts_cs[i];
-        let surface = match &frames[i / 2] {
-            Some(frame) => {
-                let origin = frame.pos.as_vec3();
-                let n = frame.up.as_vec3();
-                let dn = down.dot(n);
-                let lateral = f64::from((mount - origin).dot(frame.left.as_vec3()));
-                let dist = (origin - mount).dot(n) / dn;
-                // A wheel far above or below this surface (a bridge overhead, a fall) is not
-                // on it.
-                if dn < -0.2
-                    && lateral.abs() <= frame.width_m / 2.0 + SHOULDER_M
-                    && (0.0..=travel + r + 0.5).contains(&dist)
-                {
-                    Some((
-                        dist,
-                        Surface {
-                            point: mount + down * dist,
-                            normal: n,
-                            friction: 1.0,
-                        },
-                    ))
-                } else {
-                    None
-                }
-            }
-            None => None,
-        };
-        // No road under this wheel: ask rapier for the ground (off-road, after a crash).
-        let surface = surface.or_else(|| {
+        let mount = mounts.lane(i);
+        // A wheel far above or below the road's surface (a bridge overhead, a fall) is not on
+        // it.
+        let on_road = frames[i / 2].as_ref().is_some_and(|frame| {
+            dn[i] < -0.2
+                && f64::from(lateral[i]).abs() <= frame.width_m / 2.0 + SHOULDER_M
+                && (0.0..=travel + r + 0.5).contains(&dist[i])
+        });
+        let surface = if on_road {
+            Some((dist[i], up.lane(i), 1.0))
+        } else {
+            // No road under this wheel: ask rapier for the ground (off-road, after a crash).
             physics
                 .cast_ground(mount, down, travel + r + 0.5)
-                .map(|(dist, n)| {
-                    (
-                        dist,
-                        Surface {
-                            point: mount + down * dist,
-                            normal: n,
-                            friction: OFF_ROAD_FRICTION,
-                        },
-                    )
-                })
-        });
-        if let Some((dist, s)) = surface {
-            let x = travel - (dist - r);
-            if x > 0.0 {
-                let vm = v + w.cross(mount - com);
-                let x_dot = vm.dot(s.normal) / down.dot(s.normal);
-                let mut f = k * x + c * x_dot;
-                if x > travel {
-                    f += BUMP_STOP_FACTOR * k * (x - travel);
-                }
-                spring[i] = f.max(0.0);
-                compression[i] = x;
-                surfaces[i] = Some(s);
+                .map(|(dist, n)| (dist, n, OFF_ROAD_FRICTION))
+        };
+        let Some((dist, normal, friction)) = surface else {
+            continue;
+        };
+        let x = travel - (dist - r);
+        if x > 0.0 {
+            let x_dot = velocity.lane(i).dot(normal) / down.dot(normal);
+            let mut f = k * x + c * x_dot;
+            if x > travel {
+                f += BUMP_STOP_FACTOR * k * (x - travel);
             }
+            out.grounded[i] = true;
+            out.point.set(i, mount + down * dist);
+            out.normal.set(i, normal);
+            out.friction[i] = friction;
+            out.compression_m[i] = x;
+            out.load_n[i] = f.max(0.0);
         }
     }
     for axle in 0..2 {
         let (l, rr) = (2 * axle, 2 * axle + 1);
-        let arb = p.suspension.anti_roll_n_per_m * (compression[l] - compression[rr]);
-        if surfaces[l].is_some() {
-            spring[l] = (spring[l] + arb).max(0.0);
+        let arb = p.suspension.anti_roll_n_per_m * (out.compression_m[l] - out.compression_m[rr]);
+        if out.grounded[l] {
+            out.load_n[l] = (out.load_n[l] + arb).max(0.0);
         }
-        if surfaces[rr].is_some() {
-            spring[rr] = (spring[rr] - arb).max(0.0);
+        if out.grounded[rr] {
+            out.load_n[rr] = (out.load_n[rr] - arb).max(0.0);
         }
-    }
-    for (i, c) in contacts.iter_mut().enumerate() {
-        *c = WheelContact {
-            surface: surfaces[i],
-            compression_m: compression[i],
-            load_n: spring[i],
-        };
     }
 }
 
@@ -275,11 +258,11 @@ pub(crate) fn wheel_contact(
 pub(crate) fn tyre_forces(
     t: &VehicleType,
     body: &Kinematics,
-    contacts: &[WheelContact; 4],
+    contacts: &WheelContacts,
     steer: &[f32; 4],
     state: &mut VehicleState,
     h: f32,
-    patches: &mut [TyrePatch; 4],
+    out: &mut TyrePatches,
 ) -> f32 {
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
@@ -287,57 +270,65 @@ pub(crate) fn tyre_forces(
     let r = p.wheels.radius_m;
     // A quarter of the car's mass moves with each contact patch.
     let m_eff = p.chassis.mass_kg / 4.0;
+    let gravity_share = m_eff * GRAVITY;
+    // The directions and slips of all four tyres at once (a wheel in the air has a zero
+    // normal, and its lanes are dropped below). The rear wheels never steer: no trigonometry
+    // for them.
+    let heading = Vec3x4::from_fn(|i| {
+        if steer[i] == 0.0 {
+            fwd
+        } else {
+            rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
+        }
+    });
+    let n = contacts.normal;
+    let along = heading.dot(n);
+    let f_dir = (heading - n * along).normalize_or_zero();
+    let l_dir = n.cross(f_dir);
+    let arm = contacts.point - Vec3x4::splat(com);
+    let vc = Vec3x4::splat(v) + Vec3x4::splat(w).cross(arm);
+    let vx = vc.dot(f_dir);
+    let vy = vc.dot(l_dir);
+    let v_ref = map(vx, |vx| vx.abs().max(p.tyres.low_speed_mps));
+    let omega: F4 = std::array::from_fn(|i| state.wheels[i].omega);
+    let slip_ratio: F4 = std::array::from_fn(|i| (omega[i] * r - vx[i]) / v_ref[i]);
+    // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
+    // within 2 % below 14°, and it needs no arctangent.
+    let slip_angle = zip(vy, v_ref, |vy, v_ref| vy / v_ref);
+    let gravity = Vec3x4::splat(gravity_share);
+    let pull_lat = gravity.dot(l_dir);
+    let pull_long = gravity.dot(f_dir);
+    *out = TyrePatches::default();
     let mut slope_pull = 0.0f32;
     for i in 0..4 {
         let ws = &mut state.wheels[i];
         ws.steer_rad = steer[i];
-        ws.compression_m = contacts[i].compression_m;
-        ws.load_n = contacts[i].load_n;
-        let Some(s) = contacts[i].surface else {
-            patches[i] = TyrePatch::default();
-            ws.grounded = false;
+        ws.compression_m = contacts.compression_m[i];
+        ws.load_n = contacts.load_n[i];
+        ws.grounded = contacts.grounded[i];
+        if !ws.grounded {
             ws.slip_ratio = 0.0;
             ws.slip_angle_rad = 0.0;
             ws.force_long_n = 0.0;
             ws.force_lat_n = 0.0;
             continue;
-        };
-        ws.grounded = true;
-        let n = s.normal;
-        // The rear wheels never steer: no trigonometry for them.
-        let heading = if steer[i] == 0.0 {
-            fwd
-        } else {
-            rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
-        };
-        let f_dir = (heading - n * heading.dot(n)).normalize_or_zero();
-        let l_dir = n.cross(f_dir);
-        let arm = s.point - com;
-        let vc = v + w.cross(arm);
-        let vx = vc.dot(f_dir);
-        let vy = vc.dot(l_dir);
-        let v_ref = vx.abs().max(p.tyres.low_speed_mps);
-        let slip_ratio = (ws.omega * r - vx) / v_ref;
-        // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
-        // within 2 % below 14°, and it needs no arctangent.
-        let slip_angle = vy / v_ref;
-        let (cx, cy, dcx) = t.tyre.forces(slip_ratio, slip_angle);
-        let grip = ws.friction_scale * s.friction * ws.load_n;
+        }
+        let (vx, vy, v_ref) = (vx[i], vy[i], v_ref[i]);
+        let (cx, cy, dcx) = t.tyre.forces(slip_ratio[i], slip_angle[i]);
+        let grip = ws.friction_scale * contacts.friction[i] * ws.load_n;
         // The lateral force may stop the sideways slide within this step but not reverse it:
         // at low speed the tyre's slope is far too stiff for an explicit step. Near a
         // standstill the tyre holds like static friction: it stops the slide and carries the
         // wheel's share of gravity along the slope, so a parked car on a bank does not creep.
-        let gravity_share = m_eff * GRAVITY;
         let fy = if vx.abs() < p.tyres.low_speed_mps {
             let peak = grip * t.tyre.friction;
-            (-m_eff * vy / h - gravity_share.dot(l_dir)).clamp(-peak, peak)
+            (-m_eff * vy / h - pull_lat[i]).clamp(-peak, peak)
         } else {
             clamp_towards(cy * grip, -vy * m_eff / h)
         };
-        let hold_n = -m_eff * vx / h;
-        slope_pull += gravity_share.dot(f_dir);
-        ws.slip_ratio = slip_ratio;
-        ws.slip_angle_rad = slip_angle;
+        slope_pull += pull_long[i];
+        ws.slip_ratio = slip_ratio[i];
+        ws.slip_angle_rad = slip_angle[i];
         ws.force_lat_n = fy;
         // Linearise with the steeper of the tangent and the secant to the zero-slip point:
         // past the peak the tangent is flat, and an update using it would carry the wheel
@@ -349,14 +340,15 @@ pub(crate) fn tyre_forces(
         } else {
             0.0
         };
-        patches[i] = TyrePatch {
-            dirs: (n, f_dir, l_dir, arm),
-            long_n: cx * grip,
-            slope: tangent.max(secant),
-            vx,
-            peak_n: grip * t.tyre.friction,
-            hold_n,
-        };
+        out.normal.set(i, n.lane(i));
+        out.forward.set(i, f_dir.lane(i));
+        out.lateral.set(i, l_dir.lane(i));
+        out.arm.set(i, arm.lane(i));
+        out.long_n[i] = cx * grip;
+        out.slope[i] = tangent.max(secant);
+        out.vx[i] = vx;
+        out.peak_n[i] = grip * t.tyre.friction;
+        out.hold_n[i] = -m_eff * vx / h;
     }
     slope_pull
 }
@@ -370,7 +362,7 @@ pub(crate) fn brakes_and_abs(
     pedals: &Pedals,
     forward_mps: f32,
     state: &VehicleState,
-    patches: &[TyrePatch; 4],
+    patches: &TyrePatches,
     h: f32,
 ) -> ([f32; 4], [f32; 4]) {
     let p = &t.params;
@@ -386,7 +378,7 @@ pub(crate) fn brakes_and_abs(
             // never more than the tyre can pass to the road.
             let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
             let release = 1.0 - excess.clamp(0.0, 1.0);
-            brake = (brake * release).min(patches[i].peak_n * r);
+            brake = (brake * release).min(patches.peak_n[i] * r);
         }
         if controls.handbrake && i >= 2 {
             brake += p.brakes.max_handbrake_torque_nm;
@@ -406,7 +398,7 @@ pub(crate) fn driveline(
     transmission: &Transmission,
     state: &mut VehicleState,
     omega_braked: [f32; 4],
-    patches: &[TyrePatch; 4],
+    patches: &TyrePatches,
     h: f32,
 ) -> SpinOutput {
     let p = &t.params;
@@ -416,8 +408,8 @@ pub(crate) fn driveline(
         &SpinInput {
             omega: omega_braked,
             omega_tyre: omega_now,
-            tyre_force_n: patches.map(|t| t.long_n),
-            tyre_slope: patches.map(|t| t.slope),
+            tyre_force_n: patches.long_n,
+            tyre_slope: patches.slope,
             engine_omega: state.engine_omega,
             accelerator: if state.gearbox.shifting() {
                 0.0
@@ -451,7 +443,7 @@ pub(crate) fn driveline(
 pub(crate) fn standstill_hold(
     p: &VehicleParams,
     state: &VehicleState,
-    patches: &[TyrePatch; 4],
+    patches: &TyrePatches,
     spin: &SpinOutput,
     brake_nm: &[f32; 4],
     slope_pull: f32,
@@ -459,7 +451,7 @@ pub(crate) fn standstill_hold(
     let r = p.wheels.radius_m;
     let mut holding: [bool; 4] = std::array::from_fn(|i| {
         state.wheels[i].grounded
-            && patches[i].vx.abs() < p.tyres.low_speed_mps
+            && patches.vx[i].abs() < p.tyres.low_speed_mps
             && spin.omega[i].abs() * r < p.tyres.low_speed_mps
             && brake_nm[i] > spin.drive_torque_nm[i].abs()
     });
@@ -468,7 +460,7 @@ pub(crate) fn standstill_hold(
         holders = holding.iter().filter(|&&b| b).count().max(1) as f32;
         let before = holding;
         for i in 0..4 {
-            let need = (patches[i].hold_n - slope_pull / holders).abs() * r;
+            let need = (patches.hold_n[i] - slope_pull / holders).abs() * r;
             holding[i] &= need <= brake_nm[i] - spin.drive_torque_nm[i].abs();
         }
         if holding == before {
@@ -496,7 +488,7 @@ pub(crate) struct Hold {
 pub(crate) fn contact_forces(
     t: &VehicleType,
     state: &mut VehicleState,
-    patches: &[TyrePatch; 4],
+    patches: &TyrePatches,
     spin: &SpinOutput,
     brake_nm: &[f32; 4],
     hold: &Hold,
@@ -506,8 +498,7 @@ pub(crate) fn contact_forces(
     let r = p.wheels.radius_m;
     let iw = t.driveline.wheel_inertia;
     let m_eff = p.chassis.mass_kg / 4.0;
-    let mut force = Vec3::ZERO;
-    let mut torque = Vec3::ZERO;
+    let mut fx = [0.0f32; 4];
     for i in 0..4 {
         let ws = &mut state.wheels[i];
         ws.drive_torque_nm = spin.drive_torque_nm[i];
@@ -515,15 +506,13 @@ pub(crate) fn contact_forces(
         if !ws.grounded {
             continue;
         }
-        let tp = &patches[i];
-        let hold_n = tp.hold_n - hold.slope_pull / hold.holders;
-        let (n, f_dir, l_dir, arm) = tp.dirs;
-        let peak = tp.peak_n;
+        let hold_n = patches.hold_n[i] - hold.slope_pull / hold.holders;
+        let peak = patches.peak_n[i];
         let room = (peak * peak - ws.force_lat_n * ws.force_lat_n)
             .max(0.0)
             .sqrt();
         let linear = spin.tyre_force_n[i];
-        let fx = if hold.holding[i]
+        fx[i] = if hold.holding[i]
             && hold_n.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
             && hold_n.abs() <= room
         {
@@ -532,15 +521,26 @@ pub(crate) fn contact_forces(
         } else {
             let fx = clamp_towards(
                 linear.clamp(-room, room),
-                (ws.omega * r - tp.vx) * m_eff / h,
+                (ws.omega * r - patches.vx[i]) * m_eff / h,
             );
             ws.omega += h * r * (linear - fx) / iw;
             fx
         };
-        ws.force_long_n = fx;
-        let f = n * ws.load_n + f_dir * fx + l_dir * ws.force_lat_n;
-        force += f;
-        torque += arm.cross(f);
+        ws.force_long_n = fx[i];
+    }
+    // Each tyre's force and its moment about the centre of mass, all four at once, then summed
+    // in wheel order over the grounded ones.
+    let load: F4 = std::array::from_fn(|i| state.wheels[i].load_n);
+    let fy: F4 = std::array::from_fn(|i| state.wheels[i].force_lat_n);
+    let f = (patches.normal * load + patches.forward * fx) + patches.lateral * fy;
+    let moment = patches.arm.cross(f);
+    let mut force = Vec3::ZERO;
+    let mut torque = Vec3::ZERO;
+    for i in 0..4 {
+        if state.wheels[i].grounded {
+            force += f.lane(i);
+            torque += moment.lane(i);
+        }
     }
     (force, torque)
 }
@@ -571,9 +571,9 @@ pub(crate) fn vehicle_forces(
     let transmission = gearbox_and_clutch(t, controls, state, forward_mps, h);
     let steer = steer_wheels(&t.params, controls, state, forward_mps, h);
     // The arrays are written in place: returned by value they would be copied each tick.
-    let mut contacts = [WheelContact::default(); 4];
+    let mut contacts = WheelContacts::default();
     wheel_contact(physics, network, t, track, &kin, &mut contacts);
-    let mut patches = [TyrePatch::default(); 4];
+    let mut patches = TyrePatches::default();
     let slope_pull = tyre_forces(t, &kin, &contacts, &steer, state, h, &mut patches);
     let (brake_nm, omega_braked) = brakes_and_abs(
         t,
@@ -657,8 +657,8 @@ mod tests {
         t: &VehicleType,
         track: &RoadTrack,
         kin: &Kinematics,
-    ) -> [WheelContact; 4] {
-        let mut c = [WheelContact::default(); 4];
+    ) -> WheelContacts {
+        let mut c = WheelContacts::default();
         wheel_contact(physics, network, t, track, kin, &mut c);
         c
     }
@@ -666,10 +666,10 @@ mod tests {
     fn patches_of(
         t: &VehicleType,
         kin: &Kinematics,
-        contacts: &[WheelContact; 4],
+        contacts: &WheelContacts,
         state: &mut VehicleState,
-    ) -> ([TyrePatch; 4], f32) {
-        let mut p = [TyrePatch::default(); 4];
+    ) -> (TyrePatches, f32) {
+        let mut p = TyrePatches::default();
         let pull = tyre_forces(t, kin, contacts, &[0.0; 4], state, 1.0 / 120.0, &mut p);
         (p, pull)
     }
@@ -679,21 +679,18 @@ mod tests {
         let (physics, network, t, track, kin, _) = parked();
         let c = contacts_of(&physics, &network, &t, &track, &kin);
         let g = -GRAVITY.z;
-        let total: f32 = c.iter().map(|w| w.load_n).sum();
+        let total: f32 = c.load_n.iter().sum();
         assert!(
             (total - t.params.chassis.mass_kg * g).abs() < 1.0,
             "the springs carry the car: {total} N"
         );
+        assert!(c.grounded == [true; 4] && c.friction == [1.0; 4]);
         assert!(
-            c.iter()
-                .all(|w| w.surface.is_some_and(|s| s.friction == 1.0))
-        );
-        assert!(
-            (c[0].load_n - c[1].load_n).abs() < 1e-3,
+            (c.load_n[0] - c.load_n[1]).abs() < 1e-3,
             "left and right alike"
         );
-        for (i, w) in c.iter().enumerate() {
-            assert!((w.compression_m - t.rest_compression_m[i]).abs() < 1e-4);
+        for (i, x) in c.compression_m.iter().enumerate() {
+            assert!((x - t.rest_compression_m[i]).abs() < 1e-4);
         }
         // Lifted a metre, no wheel reaches the road (and there is no ground collider here).
         let high = Kinematics {
@@ -701,14 +698,14 @@ mod tests {
             ..kin
         };
         let c = contacts_of(&physics, &network, &t, &track, &high);
-        assert!(c.iter().all(|w| w.surface.is_none() && w.load_n == 0.0));
+        assert_eq!(c, WheelContacts::default());
         // Rolled to the left: the anti-roll bar moves load to the more compressed right side.
         let rolled = Kinematics {
             rot: Quat::from_rotation_x(0.02) * kin.rot,
             ..kin
         };
         let c = contacts_of(&physics, &network, &t, &track, &rolled);
-        assert!(c[1].compression_m > c[0].compression_m && c[1].load_n > c[0].load_n);
+        assert!(c.compression_m[1] > c.compression_m[0] && c.load_n[1] > c.load_n[0]);
     }
 
     #[test]
@@ -723,10 +720,11 @@ mod tests {
         }
         let contacts = contacts_of(&physics, &network, &t, &track, &rolling);
         let (patches, slope_pull) = patches_of(&t, &rolling, &contacts, &mut state);
-        for (i, p) in patches.iter().enumerate() {
-            assert!(p.long_n.abs() < 1e-3, "wheel {i}: {}", p.long_n);
+        for i in 0..4 {
+            let long = patches.long_n[i];
+            assert!(long.abs() < 1e-3, "wheel {i}: {long}");
             assert!(state.wheels[i].force_lat_n.abs() < 1e-3);
-            assert!(p.peak_n > 0.0 && (p.vx - 20.0).abs() < 1e-4);
+            assert!(patches.peak_n[i] > 0.0 && (patches.vx[i] - 20.0).abs() < 1e-4);
         }
         assert!(slope_pull.abs() < 1e-3, "flat road: no pull along it");
         // Sliding left at 1 m/s: every tyre pushes right, and no more than it can.
@@ -735,27 +733,38 @@ mod tests {
             ..kin
         };
         let (patches, _) = patches_of(&t, &sliding, &contacts, &mut state);
-        for (i, p) in patches.iter().enumerate() {
+        for i in 0..4 {
             let fy = state.wheels[i].force_lat_n;
-            assert!(fy < 0.0 && fy.abs() <= p.peak_n, "wheel {i}: {fy}");
+            assert!(fy < 0.0 && fy.abs() <= patches.peak_n[i], "wheel {i}: {fy}");
         }
         // Spinning faster than the road: a driving force, and a wheel in the air has none.
         state.wheels[2].omega *= 1.1;
         let mut airborne = contacts;
-        airborne[3].surface = None;
+        airborne.grounded[3] = false;
         let (patches, _) = patches_of(&t, &rolling, &airborne, &mut state);
-        assert!(patches[2].long_n > 0.0);
-        assert_eq!(patches[3], TyrePatch::default());
+        assert!(patches.long_n[2] > 0.0);
+        let fields = [
+            patches.long_n,
+            patches.slope,
+            patches.vx,
+            patches.peak_n,
+            patches.hold_n,
+        ];
+        assert!(
+            fields.iter().all(|f| f[3] == 0.0),
+            "wheel 3 in the air: {patches:?}"
+        );
+        assert_eq!(patches.forward.lane(3), Vec3::ZERO);
         assert!(!state.wheels[3].grounded);
     }
 
     #[test]
     fn brakes_release_beyond_the_abs_slip_and_the_handbrake_holds_the_rear() {
         let (_, _, t, _, _, mut state) = parked();
-        let patches = [TyrePatch {
-            peak_n: 4000.0,
-            ..TyrePatch::default()
-        }; 4];
+        let patches = TyrePatches {
+            peak_n: [4000.0; 4],
+            ..TyrePatches::default()
+        };
         let braking = Pedals {
             accelerator: 0.0,
             brake: 1.0,
@@ -800,7 +809,7 @@ mod tests {
         for w in &mut state.wheels {
             w.grounded = true;
         }
-        let patches = [TyrePatch::default(); 4];
+        let patches = TyrePatches::default();
         let spin = SpinOutput {
             omega: [0.0; 4],
             tyre_force_n: [0.0; 4],
@@ -830,7 +839,6 @@ mod tests {
     #[test]
     fn the_longitudinal_force_stays_inside_the_friction_ellipse() {
         let (_, _, t, _, _, mut state) = parked();
-        let dirs = (Vec3::Z, Vec3::X, Vec3::Y, Vec3::ZERO);
         for w in &mut state.wheels {
             w.grounded = true;
             w.load_n = 3600.0;
@@ -838,12 +846,15 @@ mod tests {
         }
         // Wheel 0 uses 3000 of its 5000 N for cornering: 4000 N are left along the tyre.
         state.wheels[0].force_lat_n = 3000.0;
-        let patches = [TyrePatch {
-            dirs,
-            peak_n: 5000.0,
-            vx: 10.0,
-            ..TyrePatch::default()
-        }; 4];
+        let patches = TyrePatches {
+            normal: Vec3x4::splat(Vec3::Z),
+            forward: Vec3x4::splat(Vec3::X),
+            lateral: Vec3x4::splat(Vec3::Y),
+            arm: Vec3x4::ZERO,
+            peak_n: [5000.0; 4],
+            vx: [10.0; 4],
+            ..TyrePatches::default()
+        };
         let spin = SpinOutput {
             omega: [30.0; 4],
             tyre_force_n: [9000.0; 4],

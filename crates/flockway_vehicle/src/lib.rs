@@ -12,7 +12,8 @@
 //! [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back. Drivers write only [`Controls`].
 //!
 //! Modules: `components` (what a vehicle is made of), `spawn` (putting one into the world),
-//! `forces` (one tick's forces in named stages), `systems` (the per-tick systems), `gates`
+//! `forces` (one tick's forces in named stages, each on
+//! the four wheels at once through `lanes`), `systems` (the per-tick systems), `gates`
 //! (which colliders rapier sees), `free_body` (bodies integrated here while out of rapier), and
 //! the models they use: `tyre`, `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
 //!
@@ -25,6 +26,7 @@ mod dyno;
 mod forces;
 mod free_body;
 mod gates;
+mod lanes;
 mod longitudinal;
 mod params;
 mod physics;
