@@ -10,13 +10,14 @@ use crate::components::{
     Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType,
 };
 use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput, apply_brake};
-use crate::lanes::{F4, Vec3x4, map, zip};
+use crate::lanes::{self, F4, Vec3x4};
 use crate::params::VehicleParams;
 use crate::physics::{GRAVITY, Physics};
 use crate::steering::{ackermann, slew};
 use flockway_core::DT_S;
 use flockway_road::{RoadFrame, RoadNetwork};
 use glam::{Quat, Vec3};
+use wide::f32x4;
 
 /// Stiffness of the bump stop relative to the spring.
 const BUMP_STOP_FACTOR: f32 = 10.0;
@@ -199,8 +200,9 @@ pub(crate) fn wheel_contact(
     let up = on_frame(|f| f.up.as_vec3());
     let left = on_frame(|f| f.left.as_vec3());
     let dn = Vec3x4::splat(down).dot(up);
-    let lateral = (mounts - origin).dot(left);
-    let dist = zip((origin - mounts).dot(up), dn, |a, b| a / b);
+    let lateral = (mounts - origin).dot(left).to_array();
+    let dist = ((origin - mounts).dot(up) / dn).to_array();
+    let dn = dn.to_array();
     let velocity = Vec3x4::splat(v) + Vec3x4::splat(w).cross(mounts - com4);
     *out = WheelContacts::default();
     for i in 0..4 {
@@ -289,66 +291,80 @@ pub(crate) fn tyre_forces(
     let vc = Vec3x4::splat(v) + Vec3x4::splat(w).cross(arm);
     let vx = vc.dot(f_dir);
     let vy = vc.dot(l_dir);
-    let v_ref = map(vx, |vx| vx.abs().max(p.tyres.low_speed_mps));
-    let omega: F4 = std::array::from_fn(|i| state.wheels[i].omega);
-    let slip_ratio: F4 = std::array::from_fn(|i| (omega[i] * r - vx[i]) / v_ref[i]);
+    // The larger of |vx| and the floor (never NaN: the floor is a number).
+    let v_ref = vx.abs().max(f32x4::splat(p.tyres.low_speed_mps));
+    let omega = f32x4::new(std::array::from_fn(|i| state.wheels[i].omega));
+    let slip_ratio = (omega * f32x4::splat(r) - vx) / v_ref;
     // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
     // within 2 % below 14°, and it needs no arctangent.
-    let slip_angle = zip(vy, v_ref, |vy, v_ref| vy / v_ref);
+    let slip_angle = vy / v_ref;
     let gravity = Vec3x4::splat(gravity_share);
     let pull_lat = gravity.dot(l_dir);
-    let pull_long = gravity.dot(f_dir);
-    *out = TyrePatches::default();
-    let mut slope_pull = 0.0f32;
-    for i in 0..4 {
-        let ws = &mut state.wheels[i];
-        ws.steer_rad = steer[i];
-        ws.compression_m = contacts.compression_m[i];
-        ws.load_n = contacts.load_n[i];
-        ws.grounded = contacts.grounded[i];
-        if !ws.grounded {
-            ws.slip_ratio = 0.0;
-            ws.slip_angle_rad = 0.0;
-            ws.force_long_n = 0.0;
-            ws.force_lat_n = 0.0;
-            continue;
-        }
-        let (vx, vy, v_ref) = (vx[i], vy[i], v_ref[i]);
-        let (cx, cy, dcx) = t.tyre.forces(slip_ratio[i], slip_angle[i]);
-        let grip = ws.friction_scale * contacts.friction[i] * ws.load_n;
-        // The lateral force may stop the sideways slide within this step but not reverse it:
-        // at low speed the tyre's slope is far too stiff for an explicit step. Near a
-        // standstill the tyre holds like static friction: it stops the slide and carries the
-        // wheel's share of gravity along the slope, so a parked car on a bank does not creep.
-        let fy = if vx.abs() < p.tyres.low_speed_mps {
-            let peak = grip * t.tyre.friction;
-            (-m_eff * vy / h - pull_lat[i]).clamp(-peak, peak)
-        } else {
-            clamp_towards(cy * grip, -vy * m_eff / h)
-        };
-        slope_pull += pull_long[i];
-        ws.slip_ratio = slip_ratio[i];
-        ws.slip_angle_rad = slip_angle[i];
-        ws.force_lat_n = fy;
-        // Linearise with the steeper of the tangent and the secant to the zero-slip point:
-        // past the peak the tangent is flat, and an update using it would carry the wheel
-        // straight through rolling speed into the opposite slip.
-        let tangent = grip * dcx * r / v_ref;
-        let rolling_omega = vx / r;
-        let secant = if (ws.omega - rolling_omega).abs() > 1.0e-6 {
-            (cx * grip / (ws.omega - rolling_omega)).max(0.0)
+    let pull_long = gravity.dot(f_dir).to_array();
+    let [cx, cy, dcx] = t.tyre.forces4(slip_ratio, slip_angle);
+    let grip = f32x4::new(std::array::from_fn(|i| state.wheels[i].friction_scale))
+        * f32x4::new(contacts.friction)
+        * f32x4::new(contacts.load_n);
+    let peak = grip * f32x4::splat(t.tyre.friction);
+    let (m_eff4, h4, r4) = (f32x4::splat(m_eff), f32x4::splat(h), f32x4::splat(r));
+    // The lateral force may stop the sideways slide within this step but not reverse it: at
+    // low speed the tyre's slope is far too stiff for an explicit step. Near a standstill the
+    // tyre holds like static friction: it stops the slide and carries the wheel's share of
+    // gravity along the slope, so a parked car on a bank does not creep.
+    let creeping = vx.abs().simd_lt(f32x4::splat(p.tyres.low_speed_mps));
+    let hold_fy = lanes::clamp(-m_eff4 * vy / h4 - pull_lat, -peak, peak);
+    let slide_fy = clamp_towards4(cy * grip, -vy * m_eff4 / h4);
+    let fy = creeping.select(hold_fy, slide_fy);
+    // Linearise with the steeper of the tangent and the secant to the zero-slip point: past
+    // the peak the tangent is flat, and an update using it would carry the wheel straight
+    // through rolling speed into the opposite slip. (`f32::max` lane by lane: ties of signed
+    // zeros resolve as they do there.)
+    let long_n = cx * grip;
+    let behind = omega - vx / r4;
+    let (tangent, ratio) = (
+        (grip * dcx * r4 / v_ref).to_array(),
+        (long_n / behind).to_array(),
+    );
+    let behind = behind.to_array();
+    let slope: F4 = std::array::from_fn(|i| {
+        let secant = if behind[i].abs() > 1.0e-6 {
+            ratio[i].max(0.0)
         } else {
             0.0
         };
-        out.normal.set(i, n.lane(i));
-        out.forward.set(i, f_dir.lane(i));
-        out.lateral.set(i, l_dir.lane(i));
-        out.arm.set(i, arm.lane(i));
-        out.long_n[i] = cx * grip;
-        out.slope[i] = tangent.max(secant);
-        out.vx[i] = vx;
-        out.peak_n[i] = grip * t.tyre.friction;
-        out.hold_n[i] = -m_eff * vx / h;
+        tangent[i].max(secant)
+    });
+    let grounded = contacts.grounded;
+    let on = lanes::mask(grounded);
+    let zero = f32x4::ZERO;
+    let keep = |v: f32x4| on.select(v, zero).to_array();
+    *out = TyrePatches {
+        // A wheel in the air has a zero normal already.
+        normal: n,
+        forward: f_dir.masked(grounded),
+        lateral: l_dir.masked(grounded),
+        arm: arm.masked(grounded),
+        long_n: keep(long_n),
+        slope: keep(f32x4::new(slope)),
+        vx: keep(vx),
+        peak_n: keep(peak),
+        hold_n: keep(-m_eff4 * vx / h4),
+    };
+    let (slip_ratio, slip_angle, fy) = (keep(slip_ratio), keep(slip_angle), keep(fy));
+    let mut slope_pull = 0.0f32;
+    for (i, ws) in state.wheels.iter_mut().enumerate() {
+        ws.steer_rad = steer[i];
+        ws.compression_m = contacts.compression_m[i];
+        ws.load_n = contacts.load_n[i];
+        ws.grounded = grounded[i];
+        ws.slip_ratio = slip_ratio[i];
+        ws.slip_angle_rad = slip_angle[i];
+        ws.force_lat_n = fy[i];
+        if grounded[i] {
+            slope_pull += pull_long[i];
+        } else {
+            ws.force_long_n = 0.0;
+        }
     }
     slope_pull
 }
@@ -530,8 +546,9 @@ pub(crate) fn contact_forces(
     }
     // Each tyre's force and its moment about the centre of mass, all four at once, then summed
     // in wheel order over the grounded ones.
-    let load: F4 = std::array::from_fn(|i| state.wheels[i].load_n);
-    let fy: F4 = std::array::from_fn(|i| state.wheels[i].force_lat_n);
+    let load = f32x4::new(std::array::from_fn(|i| state.wheels[i].load_n));
+    let fy = f32x4::new(std::array::from_fn(|i| state.wheels[i].force_lat_n));
+    let fx = f32x4::new(fx);
     let f = (patches.normal * load + patches.forward * fx) + patches.lateral * fy;
     let moment = patches.arm.cross(f);
     let mut force = Vec3::ZERO;
@@ -595,6 +612,16 @@ pub(crate) fn vehicle_forces(
     let (mut force, torque) = contact_forces(t, state, &patches, &spin, &brake_nm, &hold, h);
     force += drag(&t.params, kin.v);
     (force, torque)
+}
+
+/// [`clamp_towards`] on four wheels at once.
+fn clamp_towards4(force: f32x4, stop: f32x4) -> f32x4 {
+    let ahead = stop.simd_ge(f32x4::ZERO);
+    lanes::clamp(
+        force,
+        ahead.select(f32x4::ZERO, stop),
+        ahead.select(stop, f32x4::ZERO),
+    )
 }
 
 /// Clamps a tyre force to lie between zero and the force that would stop the slip.
@@ -850,7 +877,7 @@ mod tests {
             normal: Vec3x4::splat(Vec3::Z),
             forward: Vec3x4::splat(Vec3::X),
             lateral: Vec3x4::splat(Vec3::Y),
-            arm: Vec3x4::ZERO,
+            arm: Vec3x4::default(),
             peak_n: [5000.0; 4],
             vx: [10.0; 4],
             ..TyrePatches::default()

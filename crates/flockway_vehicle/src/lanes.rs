@@ -1,5 +1,5 @@
-//! The four wheels' vectors held one array per axis, so that a force stage does each operation
-//! on all four wheels at once: the compiler turns the four-wide loops into SIMD instructions.
+//! The four wheels' vectors held one SIMD register per axis ([`wide::f32x4`]), so that a force
+//! stage does each operation on all four wheels at once.
 //!
 //! Every operation keeps glam's scalar order of operations (a dot product is
 //! `(x·x + y·y) + z·z`, a rotation glam's `Quat * Vec3`, no fused multiply–add), and IEEE
@@ -8,106 +8,122 @@
 
 use glam::{Quat, Vec3};
 use std::ops::{Add, Mul, Sub};
+use wide::f32x4;
 
 /// One `f32` per wheel.
 pub(crate) type F4 = [f32; 4];
 
-/// `f` of each lane.
+/// A lane mask (all bits set where `keep` holds) for [`f32x4::select`].
 #[inline(always)]
-pub(crate) fn map(a: F4, f: impl Fn(f32) -> f32) -> F4 {
-    [f(a[0]), f(a[1]), f(a[2]), f(a[3])]
+pub(crate) fn mask(keep: [bool; 4]) -> f32x4 {
+    f32x4::new(keep.map(|k| f32::from_bits(if k { u32::MAX } else { 0 })))
 }
 
-/// `f` of each pair of lanes.
+/// Each lane's magnitude with the sign of the same lane of `sign`, as `f32::copysign`.
 #[inline(always)]
-pub(crate) fn zip(a: F4, b: F4, f: impl Fn(f32, f32) -> f32) -> F4 {
-    [f(a[0], b[0]), f(a[1], b[1]), f(a[2], b[2]), f(a[3], b[3])]
+pub(crate) fn copysign(magnitude: f32x4, sign: f32x4) -> f32x4 {
+    let bit = f32x4::splat(-0.0);
+    (magnitude & !bit) | (sign & bit)
+}
+
+/// Each lane of `x` clamped to `[lo, hi]` as `f32::clamp` does it (which panics where
+/// `lo > hi`; the callers' bounds never cross).
+#[inline(always)]
+pub(crate) fn clamp(x: f32x4, lo: f32x4, hi: f32x4) -> f32x4 {
+    let x = x.simd_lt(lo).select(lo, x);
+    x.simd_gt(hi).select(hi, x)
 }
 
 /// Four vectors, one per wheel, stored by axis.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Vec3x4 {
     /// The four x components.
-    pub x: F4,
+    pub x: f32x4,
     /// The four y components.
-    pub y: F4,
+    pub y: f32x4,
     /// The four z components.
-    pub z: F4,
+    pub z: f32x4,
 }
 
 impl Vec3x4 {
-    /// Four zero vectors.
-    pub const ZERO: Vec3x4 = Vec3x4 {
-        x: [0.0; 4],
-        y: [0.0; 4],
-        z: [0.0; 4],
-    };
-
     /// The same vector in every lane.
     #[inline(always)]
     pub fn splat(v: Vec3) -> Vec3x4 {
         Vec3x4 {
-            x: [v.x; 4],
-            y: [v.y; 4],
-            z: [v.z; 4],
+            x: f32x4::splat(v.x),
+            y: f32x4::splat(v.y),
+            z: f32x4::splat(v.z),
         }
     }
 
     /// Lane `i` from `f(i)`.
     #[inline(always)]
-    pub fn from_fn(mut f: impl FnMut(usize) -> Vec3) -> Vec3x4 {
-        let mut out = Vec3x4::ZERO;
-        for i in 0..4 {
-            out.set(i, f(i));
+    pub fn from_fn(f: impl FnMut(usize) -> Vec3) -> Vec3x4 {
+        let v: [Vec3; 4] = std::array::from_fn(f);
+        Vec3x4 {
+            x: f32x4::new(v.map(|v| v.x)),
+            y: f32x4::new(v.map(|v| v.y)),
+            z: f32x4::new(v.map(|v| v.z)),
         }
-        out
     }
 
     /// Lane `i` as a vector.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
+        Vec3::new(
+            self.x.as_array()[i],
+            self.y.as_array()[i],
+            self.z.as_array()[i],
+        )
     }
 
     /// Sets lane `i`.
     #[inline(always)]
     pub fn set(&mut self, i: usize, v: Vec3) {
-        self.x[i] = v.x;
-        self.y[i] = v.y;
-        self.z[i] = v.z;
+        self.x.as_mut_array()[i] = v.x;
+        self.y.as_mut_array()[i] = v.y;
+        self.z.as_mut_array()[i] = v.z;
+    }
+
+    /// Each lane where `keep` holds, zero elsewhere.
+    #[inline(always)]
+    pub fn masked(self, keep: [bool; 4]) -> Vec3x4 {
+        let mask = mask(keep);
+        Vec3x4 {
+            x: mask.select(self.x, f32x4::ZERO),
+            y: mask.select(self.y, f32x4::ZERO),
+            z: mask.select(self.z, f32x4::ZERO),
+        }
     }
 
     /// Each lane's dot product with the same lane of `rhs`, as glam orders it.
     #[inline(always)]
-    pub fn dot(self, rhs: Vec3x4) -> F4 {
-        std::array::from_fn(|i| {
-            (self.x[i] * rhs.x[i]) + (self.y[i] * rhs.y[i]) + (self.z[i] * rhs.z[i])
-        })
+    pub fn dot(self, rhs: Vec3x4) -> f32x4 {
+        (self.x * rhs.x) + (self.y * rhs.y) + (self.z * rhs.z)
     }
 
     /// Each lane's cross product with the same lane of `rhs`, as glam orders it.
     #[inline(always)]
     pub fn cross(self, rhs: Vec3x4) -> Vec3x4 {
         Vec3x4 {
-            x: std::array::from_fn(|i| self.y[i] * rhs.z[i] - rhs.y[i] * self.z[i]),
-            y: std::array::from_fn(|i| self.z[i] * rhs.x[i] - rhs.z[i] * self.x[i]),
-            z: std::array::from_fn(|i| self.x[i] * rhs.y[i] - rhs.x[i] * self.y[i]),
+            x: self.y * rhs.z - rhs.y * self.z,
+            y: self.z * rhs.x - rhs.z * self.x,
+            z: self.x * rhs.y - rhs.x * self.y,
         }
     }
 
     /// Each lane normalised, or zero where that is not finite (glam's `normalize_or_zero`).
     #[inline(always)]
     pub fn normalize_or_zero(self) -> Vec3x4 {
-        let len = map(self.dot(self), f32::sqrt);
-        let rcp = map(len, |l| 1.0 / l);
-        let keep = map(rcp, |r| if r.is_finite() && r > 0.0 { r } else { 0.0 });
-        let out = self * rcp;
-        // A kept lane is the product; a dropped one is +0.0 in every component, as glam's
-        // `Vec3::ZERO` (the product by zero could be −0.0 or NaN).
+        let rcp = f32x4::ONE / self.dot(self).sqrt();
+        let keep = rcp.is_finite() & rcp.simd_gt(f32x4::ZERO);
+        // A dropped lane is +0.0 in every component, as glam's `Vec3::ZERO` (the product
+        // could be −0.0 or NaN there).
+        let scaled = self * rcp;
         Vec3x4 {
-            x: zip(out.x, keep, |v, k| if k != 0.0 { v } else { 0.0 }),
-            y: zip(out.y, keep, |v, k| if k != 0.0 { v } else { 0.0 }),
-            z: zip(out.z, keep, |v, k| if k != 0.0 { v } else { 0.0 }),
+            x: keep.select(scaled.x, f32x4::ZERO),
+            y: keep.select(scaled.y, f32x4::ZERO),
+            z: keep.select(scaled.z, f32x4::ZERO),
         }
     }
 
@@ -118,8 +134,8 @@ impl Vec3x4 {
         let b = Vec3::new(q.x, q.y, q.z);
         let b2 = b.dot(b);
         let bs = Vec3x4::splat(b);
-        let along = map(self.dot(bs), |d| d * 2.0);
-        (self * [w * w - b2; 4] + bs * along) + bs.cross(self) * [w * 2.0; 4]
+        let along = self.dot(bs) * f32x4::splat(2.0);
+        (self * f32x4::splat(w * w - b2) + bs * along) + bs.cross(self) * f32x4::splat(w * 2.0)
     }
 }
 
@@ -129,9 +145,9 @@ impl Add for Vec3x4 {
     #[inline(always)]
     fn add(self, rhs: Vec3x4) -> Vec3x4 {
         Vec3x4 {
-            x: zip(self.x, rhs.x, |a, b| a + b),
-            y: zip(self.y, rhs.y, |a, b| a + b),
-            z: zip(self.z, rhs.z, |a, b| a + b),
+            x: self.x + rhs.x,
+            y: self.y + rhs.y,
+            z: self.z + rhs.z,
         }
     }
 }
@@ -142,23 +158,23 @@ impl Sub for Vec3x4 {
     #[inline(always)]
     fn sub(self, rhs: Vec3x4) -> Vec3x4 {
         Vec3x4 {
-            x: zip(self.x, rhs.x, |a, b| a - b),
-            y: zip(self.y, rhs.y, |a, b| a - b),
-            z: zip(self.z, rhs.z, |a, b| a - b),
+            x: self.x - rhs.x,
+            y: self.y - rhs.y,
+            z: self.z - rhs.z,
         }
     }
 }
 
 /// Each lane scaled by its own factor.
-impl Mul<F4> for Vec3x4 {
+impl Mul<f32x4> for Vec3x4 {
     type Output = Vec3x4;
 
     #[inline(always)]
-    fn mul(self, s: F4) -> Vec3x4 {
+    fn mul(self, s: f32x4) -> Vec3x4 {
         Vec3x4 {
-            x: zip(self.x, s, |a, b| a * b),
-            y: zip(self.y, s, |a, b| a * b),
-            z: zip(self.z, s, |a, b| a * b),
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
         }
     }
 }
@@ -178,6 +194,8 @@ mod tests {
             Vec3::new(0.0, 0.0, 1.0),
             Vec3::new(-0.61, 0.07, -0.79),
             Vec3::new(12.5, -0.001, 7.25),
+            Vec3::new(f32::NAN, 1.0, 0.0),
+            Vec3::new(f32::INFINITY, 1.0, -2.0),
         ]
     }
 
@@ -193,7 +211,7 @@ mod tests {
         for window in s.windows(4) {
             let a = Vec3x4::from_fn(|i| window[i]);
             let b = Vec3x4::from_fn(|i| window[3 - i] * 1.3 - Vec3::splat(0.2));
-            let k: F4 = std::array::from_fn(|i| window[i].y - 0.5);
+            let k = f32x4::new(std::array::from_fn(|i| window[i].y - 0.5));
             let (sum, diff, scaled) = (a + b, a - b, a * k);
             let (dot, cross, unit, turned) =
                 (a.dot(b), a.cross(b), a.normalize_or_zero(), a.rotated_by(q));
@@ -201,13 +219,28 @@ mod tests {
                 let (u, v) = (a.lane(i), b.lane(i));
                 assert_eq!(bits(sum.lane(i)), bits(u + v));
                 assert_eq!(bits(diff.lane(i)), bits(u - v));
-                assert_eq!(bits(scaled.lane(i)), bits(u * k[i]));
-                assert_eq!(dot[i].to_bits(), u.dot(v).to_bits());
+                assert_eq!(bits(scaled.lane(i)), bits(u * k.as_array()[i]));
+                assert_eq!(dot.as_array()[i].to_bits(), u.dot(v).to_bits());
                 assert_eq!(bits(cross.lane(i)), bits(u.cross(v)));
                 assert_eq!(bits(unit.lane(i)), bits(u.normalize_or_zero()), "{u}");
                 assert_eq!(bits(turned.lane(i)), bits(q * u));
             }
         }
         assert_eq!(Vec3x4::splat(Vec3::X).lane(2), Vec3::X);
+        let mut m = Vec3x4::splat(Vec3::ONE).masked([true, false, true, false]);
+        assert_eq!((m.lane(0), m.lane(1)), (Vec3::ONE, Vec3::ZERO));
+        m.set(1, Vec3::Z);
+        assert_eq!((m.lane(1), m.lane(2)), (Vec3::Z, Vec3::ONE));
+        let x = f32x4::new([-2.0, 0.5, f32::NAN, -0.0]);
+        let (lo, hi) = (f32x4::splat(-1.0), f32x4::new([1.0, 1.0, 1.0, 0.0]));
+        let c = clamp(x, lo, hi).to_array();
+        let (x, lo, hi) = (x.to_array(), lo.to_array(), hi.to_array());
+        for i in 0..4 {
+            assert_eq!(c[i].to_bits(), x[i].clamp(lo[i], hi[i]).to_bits());
+            for s in [1.0, -1.0, 0.0, -0.0, f32::NAN] {
+                let got = copysign(f32x4::splat(x[i]), f32x4::splat(s)).to_array()[0];
+                assert_eq!(got.to_bits(), x[i].copysign(s).to_bits());
+            }
+        }
     }
 }

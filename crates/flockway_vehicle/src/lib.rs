@@ -12,10 +12,10 @@
 //! [`sync_vehicles`] reads [`Motion`] and [`RoadTrack`] back. Drivers write only [`Controls`].
 //!
 //! Modules: `components` (what a vehicle is made of), `spawn` (putting one into the world),
-//! `forces` (one tick's forces in named stages, each on
-//! the four wheels at once through `lanes`), `systems` (the per-tick systems), `gates`
-//! (which colliders rapier sees), `free_body` (bodies integrated here while out of rapier), and
-//! the models they use: `tyre`, `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
+//! `forces` (one tick's forces in named stages, each on the four wheels at once through
+//! `lanes`), `systems` (the per-tick systems), `gates` (which colliders rapier sees),
+//! `free_body` (bodies integrated here while out of rapier), and the models they use: `tyre`,
+//! `drivetrain`, `steering`, `params`, `physics`, and the `dyno`.
 //!
 //! Conventions: world x east, y north, z up; body x forward, y left, z up; wheels in the order
 //! front left, front right, rear left, rear right.

@@ -1,7 +1,9 @@
 //! The Pacejka magic formula and combined slip.
 
+use crate::lanes::copysign;
 use crate::params::{MagicFormula, TyreParams};
 use std::f32::consts::FRAC_PI_2;
+use wide::f32x4;
 
 impl MagicFormula {
     /// Normalised force at slip `x` (peak 1): `sin(C·atan(B·x − E·(B·x − atan(B·x))))`.
@@ -80,6 +82,39 @@ impl SampledCurve {
                 .map(|i| mf.eval(i as f32 * step))
                 .collect(),
         }
+    }
+
+    /// [`eval`](Self::eval) at four points: the same bits in each lane, the arithmetic four
+    /// wide and only the table reads one at a time.
+    #[inline(always)]
+    pub(crate) fn eval4(&self, x: f32x4) -> (f32x4, f32x4) {
+        let inv_step = f32x4::splat(self.inv_step);
+        let pos = x.abs() * inv_step;
+        let last = self.values.len().saturating_sub(1);
+        // `eval`'s `pos as usize` past the table's end (or NaN, which it reads as 0) is a lane
+        // that reads the first two samples here and is replaced below.
+        let beyond = pos.simd_ge(f32x4::splat(last as f32));
+        let skip = (beyond | pos.is_nan()).to_bitmask();
+        let trunc = pos.fast_trunc_int().to_array();
+        let index: [usize; 4] = std::array::from_fn(|k| {
+            if skip >> k & 1 != 0 {
+                0
+            } else {
+                usize::try_from(trunc[k]).unwrap_or(0)
+            }
+        });
+        let sample = |i: usize| self.values.get(i).copied().unwrap_or(0.0);
+        let a = f32x4::new(index.map(sample));
+        let b = f32x4::new(index.map(|i| sample(i + 1)));
+        let t = pos - f32x4::new(index.map(|i| i as f32));
+        let rise = b - a;
+        let value = copysign(a + rise * t, x);
+        let slope = rise * inv_step;
+        let flat = copysign(f32x4::splat(sample(last)), x);
+        (
+            beyond.select(flat, value),
+            beyond.select(f32x4::ZERO, slope),
+        )
     }
 
     /// `(value, slope)` at `x` (odd in `x`, like the formula).
@@ -175,6 +210,29 @@ impl Tyre {
         let fy = -self.lateral_table.eval(rho * self.peak_slip_angle_rad).0 * sy / rho;
         (self.friction * fx, self.friction * fy, slope)
     }
+
+    /// [`forces`](Self::forces) for four wheels at once, bit for bit the same in each lane.
+    #[inline(always)]
+    pub(crate) fn forces4(&self, slip_ratio: f32x4, slip_angle_rad: f32x4) -> [f32x4; 3] {
+        let peak_ratio = f32x4::splat(self.peak_slip_ratio);
+        let peak_angle = f32x4::splat(self.peak_slip_angle_rad);
+        let friction = f32x4::splat(self.friction);
+        let sx = slip_ratio / peak_ratio;
+        let sy = slip_angle_rad / peak_angle;
+        let rho = (sx * sx + sy * sy).sqrt();
+        let (long, slope) = self.longitudinal_table.eval4(rho * peak_ratio);
+        // `f32::max(_, 0.0)` lane by lane: a tie of signed zeros must resolve as it does there.
+        let slope = f32x4::new((friction * slope).to_array().map(|d| d.max(0.0)));
+        let (lat, _) = self.lateral_table.eval4(rho * peak_angle);
+        let at_rest = rho.simd_lt(f32x4::splat(1.0e-9));
+        let fx = friction * (long * sx / rho);
+        let fy = friction * (-lat * sy / rho);
+        [
+            at_rest.select(f32x4::ZERO, fx),
+            at_rest.select(f32x4::ZERO, fy),
+            slope,
+        ]
+    }
 }
 
 #[cfg(test)]
@@ -269,6 +327,38 @@ mod tests {
                 ((k / t.peak_slip_ratio).powi(2) + (a / t.peak_slip_angle_rad).powi(2)).sqrt();
             let slope = (t.longitudinal.slope(rho * t.peak_slip_ratio) * t.friction).max(0.0);
             assert!(close(d, slope, 0.05 * slope.max(1.0)), "{d} vs {slope}");
+        }
+    }
+
+    #[test]
+    fn four_wheels_at_once_give_each_wheel_s_bits() {
+        let t = Tyre::new(&TyreParams::default());
+        // Rest, tiny, ordinary, past the peak, past the table's end, signed zeros, NaN.
+        let slips = [
+            (0.0, 0.0),
+            (-0.0, -0.0),
+            (1.0e-12, -1.0e-12),
+            (0.03, 0.0),
+            (-0.2, 0.05),
+            (0.5, -0.3),
+            (0.0, 0.1),
+            (40.0, -7.0),
+            (-1.0e6, 3.0e5),
+            (0.08, -0.0),
+            (f32::NAN, 0.1),
+            (0.01, 0.0),
+        ];
+        for w in slips.windows(4) {
+            let [fx, fy, d] = t.forces4(
+                f32x4::new(std::array::from_fn(|i| w[i].0)),
+                f32x4::new(std::array::from_fn(|i| w[i].1)),
+            );
+            let (fx, fy, d) = (fx.to_array(), fy.to_array(), d.to_array());
+            for (i, &(k, a)) in w.iter().enumerate() {
+                let (ex, ey, ed) = t.forces(k, a);
+                let got = [fx[i], fy[i], d[i]].map(f32::to_bits);
+                assert_eq!(got, [ex, ey, ed].map(f32::to_bits), "({k}, {a})");
+            }
         }
     }
 
