@@ -204,9 +204,13 @@ pub(crate) fn wheel_contact(
     let dist = ((origin - mounts).dot(up) / dn).to_array();
     let dn = dn.to_array();
     let velocity = Vec3x4::splat(v) + Vec3x4::splat(w).cross(mounts - com4);
-    *out = WheelContacts::default();
+    // Each wheel's surface: the road's where the wheel is over it, else rapier's ground (off
+    // the road, after a crash), else none.
+    let mut has_surface = [false; 4];
+    let mut surface_dist = [0.0f32; 4];
+    let mut normal = Vec3x4::default();
+    let mut friction = [0.0f32; 4];
     for i in 0..4 {
-        let mount = mounts.lane(i);
         // A wheel far above or below the road's surface (a bridge overhead, a fall) is not on
         // it.
         let on_road = frames[i / 2].as_ref().is_some_and(|frame| {
@@ -217,39 +221,43 @@ pub(crate) fn wheel_contact(
         let surface = if on_road {
             Some((dist[i], up.lane(i), 1.0))
         } else {
-            // No road under this wheel: ask rapier for the ground (off-road, after a crash).
             physics
-                .cast_ground(mount, down, travel + r + 0.5)
+                .cast_ground(mounts.lane(i), down, travel + r + 0.5)
                 .map(|(dist, n)| (dist, n, OFF_ROAD_FRICTION))
         };
-        let Some((dist, normal, friction)) = surface else {
-            continue;
-        };
-        let x = travel - (dist - r);
-        if x > 0.0 {
-            let x_dot = velocity.lane(i).dot(normal) / down.dot(normal);
-            let mut f = k * x + c * x_dot;
-            if x > travel {
-                f += BUMP_STOP_FACTOR * k * (x - travel);
-            }
-            out.grounded[i] = true;
-            out.point.set(i, mount + down * dist);
-            out.normal.set(i, normal);
-            out.friction[i] = friction;
-            out.compression_m[i] = x;
-            out.load_n[i] = f.max(0.0);
+        if let Some((d, n, mu)) = surface {
+            has_surface[i] = true;
+            surface_dist[i] = d;
+            normal.set(i, n);
+            friction[i] = mu;
         }
     }
-    for axle in 0..2 {
-        let (l, rr) = (2 * axle, 2 * axle + 1);
-        let arb = p.suspension.anti_roll_n_per_m * (out.compression_m[l] - out.compression_m[rr]);
-        if out.grounded[l] {
-            out.load_n[l] = (out.load_n[l] + arb).max(0.0);
-        }
-        if out.grounded[rr] {
-            out.load_n[rr] = (out.load_n[rr] - arb).max(0.0);
-        }
-    }
+    // The springs, dampers and bump stops of all four at once.
+    let dist = f32x4::new(surface_dist);
+    let (travel4, k4) = (f32x4::splat(travel), f32x4::splat(k));
+    let x = travel4 - (dist - f32x4::splat(r));
+    let compressed = x.simd_gt(f32x4::ZERO).to_bitmask();
+    let grounded: [bool; 4] = std::array::from_fn(|i| has_surface[i] && compressed >> i & 1 != 0);
+    let x_dot = velocity.dot(normal) / Vec3x4::splat(down).dot(normal);
+    let f = k4 * x + f32x4::splat(c) * x_dot;
+    let bump = f + f32x4::splat(BUMP_STOP_FACTOR * k) * (x - travel4);
+    let f = x.simd_gt(travel4).select(bump, f).max(f32x4::ZERO);
+    // Anti-roll bars: each moves load from the less to the more compressed side of its axle.
+    let on = lanes::mask(grounded);
+    let x = on.select(x, f32x4::ZERO);
+    let xs = x.to_array();
+    let arb: [f32; 2] =
+        std::array::from_fn(|a| p.suspension.anti_roll_n_per_m * (xs[2 * a] - xs[2 * a + 1]));
+    let shift = f32x4::new([arb[0], -arb[0], arb[1], -arb[1]]);
+    let load = on.select((f + shift).max(f32x4::ZERO), f32x4::ZERO);
+    *out = WheelContacts {
+        grounded,
+        point: (mounts + Vec3x4::splat(down) * dist).masked(grounded),
+        normal: normal.masked(grounded),
+        friction: on.select(f32x4::new(friction), f32x4::ZERO).to_array(),
+        compression_m: xs,
+        load_n: load.to_array(),
+    };
 }
 
 /// Stage 4, tyre forces: each grounded tyre's slips and forces, the lateral one limited so it
@@ -733,6 +741,49 @@ mod tests {
         };
         let c = contacts_of(&physics, &network, &t, &track, &rolled);
         assert!(c.compression_m[1] > c.compression_m[0] && c.load_n[1] > c.load_n[0]);
+    }
+
+    #[test]
+    fn a_wheel_off_the_road_stands_on_rapier_s_ground_with_its_friction() {
+        let (mut physics, network, t, track, kin, _) = parked();
+        physics.rebuild_statics(&network);
+        // A step brings the ground into rapier's scene queries.
+        physics.step();
+        // The same pose 30 m to the side of the road, down on the ground below it.
+        let dz = physics.ground_z();
+        let off = Kinematics {
+            com: kin.com + Vec3::new(0.0, 30.0, dz),
+            ..kin
+        };
+        let c = contacts_of(&physics, &network, &t, &track, &off);
+        assert_eq!(c.grounded, [true; 4]);
+        assert_eq!(c.friction, [OFF_ROAD_FRICTION; 4]);
+        let total: f32 = c.load_n.iter().sum();
+        let weight = t.params.chassis.mass_kg * -GRAVITY.z;
+        assert!(
+            (total - weight).abs() < 1.0,
+            "the springs carry the car: {total} N"
+        );
+        for i in 0..4 {
+            assert!((c.normal.lane(i) - Vec3::Z).length() < 1e-5);
+            assert!((c.point.lane(i).z - dz).abs() < 1e-3, "{}", c.point.lane(i));
+        }
+        // Astride the road's right edge: the left wheels on the road, the right ones on the
+        // ground beside it.
+        let edge = network
+            .get(RoadId(0))
+            .expect("road 0")
+            .frame_at(50.0)
+            .width_m
+            / 2.0;
+        let astride = Kinematics {
+            com: kin.com - Vec3::Y * (edge + SHOULDER_M) as f32,
+            ..kin
+        };
+        let c = contacts_of(&physics, &network, &t, &track, &astride);
+        assert_eq!(c.grounded, [true; 4]);
+        let off = OFF_ROAD_FRICTION;
+        assert_eq!(c.friction, [1.0, off, 1.0, off]);
     }
 
     #[test]
