@@ -5,6 +5,7 @@ use crate::grid::SegmentGrid;
 use crate::spec::RoadSpec;
 use crate::spline::{Cubic, centre_line};
 use glam::DVec3;
+use wide::f64x2;
 
 /// Longest stretch of centre line one arc-length table entry covers, in metres.
 const TABLE_STEP_M: f64 = 2.0;
@@ -460,6 +461,79 @@ impl RoadGeometry {
     /// a few metres. Its `s_m` is `cursor_s_m + ds_m`, wrapped. `None` past either end of an open
     /// road.
     pub fn frame_near(&self, cursor: &RoadCursor, cursor_s_m: f64, ds_m: f64) -> Option<RoadFrame> {
+        let p = self.param_near(cursor, ds_m)?;
+        Some(self.frame_at_param(p, self.normalize_s(cursor_s_m + ds_m)))
+    }
+
+    /// [`frame_near`](Self::frame_near) at two distances from the same cursor (a car's two
+    /// axles), the two frames' arithmetic two wide: the same frames to the bit.
+    pub fn frames_near(
+        &self,
+        cursor: &RoadCursor,
+        cursor_s_m: f64,
+        ds_m: [f64; 2],
+    ) -> [Option<RoadFrame>; 2] {
+        let params = ds_m.map(|ds| self.param_near(cursor, ds));
+        let s = ds_m.map(|ds| self.normalize_s(cursor_s_m + ds));
+        match params {
+            [Some(p0), Some(p1)] => self.frames_at_params([p0, p1], s).map(Some),
+            _ => std::array::from_fn(|i| params[i].map(|p| self.frame_at_param(p, s[i]))),
+        }
+    }
+
+    /// Two [`frame_at_param`](Self::frame_at_param)s at once, in its order of operations.
+    fn frames_at_params(&self, p: [SplineParam; 2], s_m: [f64; 2]) -> [RoadFrame; 2] {
+        let g = p.map(|p| &self.segments[p.seg]);
+        let k = g.map(|g| g.cubic.coefficients());
+        let coef = |j: usize| V2::from([k[0][j], k[1][j]]);
+        let (a, b, c, d) = (coef(0), coef(1), coef(2), coef(3));
+        let u = f64x2::new([p[0].u, p[1].u]);
+        let pos = a + (b + (c + d * u) * u) * u;
+        let two_c = c * f64x2::splat(2.0);
+        let three_u = f64x2::splat(3.0) * u;
+        let tangent = (b + (two_c + d * three_u) * u).normalize_or(DVec3::X);
+        let blend = u * u * (f64x2::splat(3.0) - f64x2::splat(2.0) * u);
+        let lerp = |a: [f64; 2], b: [f64; 2]| {
+            let (a, b) = (f64x2::new(a), f64x2::new(b));
+            (a + (b - a) * blend).to_array()
+        };
+        let bank = lerp(g.map(|g| g.bank0_rad), g.map(|g| g.bank1_rad));
+        let width = lerp(g.map(|g| g.width0_m), g.map(|g| g.width1_m));
+        // `banked_axes`: world up crossed with the tangent, as glam computes `Z.cross(t)`.
+        let zero = f64x2::ZERO;
+        let one = f64x2::splat(1.0);
+        let left0 = V2 {
+            x: zero * tangent.z - tangent.y * one,
+            y: one * tangent.x - tangent.z * zero,
+            z: zero * tangent.y - tangent.x * zero,
+        }
+        .normalize_or(DVec3::Y);
+        let up0 = tangent.cross(left0);
+        std::array::from_fn(|i| {
+            let (left, up) = if bank[i] == 0.0 {
+                (left0.lane(i), up0.lane(i))
+            } else {
+                let (sin, cos) = libm::sincos(bank[i]);
+                let (l, u) = (left0.lane(i), up0.lane(i));
+                (l * cos + u * sin, u * cos - l * sin)
+            };
+            RoadFrame {
+                s_m: s_m[i],
+                pos: pos.lane(i),
+                tangent: tangent.lane(i),
+                left,
+                up,
+                bank_rad: bank[i],
+                width_m: width[i],
+            }
+        })
+    }
+
+    /// Where `ds_m` along the road from the cursor falls on the spline ([`frame_near`]'s
+    /// stepping); `None` past either end of an open road.
+    ///
+    /// [`frame_near`]: Self::frame_near
+    fn param_near(&self, cursor: &RoadCursor, ds_m: f64) -> Option<SplineParam> {
         let nseg = self.segments.len();
         let mut p = cursor.param;
         if p.seg >= nseg {
@@ -498,8 +572,7 @@ impl RoadGeometry {
             // A second step with the speed at the midpoint brings the arc error to second order.
             let mid = c.d1(0.5 * (p.u + u)).length().max(1e-9);
             u = (p.u + left / mid).clamp(0.0, 1.0);
-            p = SplineParam { seg, u };
-            return Some(self.frame_at_param(p, self.normalize_s(cursor_s_m + ds_m)));
+            return Some(SplineParam { seg, u });
         }
         None
     }
@@ -596,6 +669,80 @@ impl RoadGeometry {
 pub fn lane_offset(width_m: f64, lanes: u32, lane: u32) -> f64 {
     let lane_w = width_m / f64::from(lanes.max(1));
     -0.5 * width_m + (f64::from(lane) + 0.5) * lane_w
+}
+
+/// Two vectors stored by axis, for two road frames computed at once; every operation in glam's
+/// `DVec3` order of operations, so each lane has the scalar code's bits.
+#[derive(Clone, Copy)]
+struct V2 {
+    x: f64x2,
+    y: f64x2,
+    z: f64x2,
+}
+
+impl V2 {
+    fn from(v: [DVec3; 2]) -> V2 {
+        V2 {
+            x: f64x2::new([v[0].x, v[1].x]),
+            y: f64x2::new([v[0].y, v[1].y]),
+            z: f64x2::new([v[0].z, v[1].z]),
+        }
+    }
+
+    fn lane(&self, i: usize) -> DVec3 {
+        DVec3::new(
+            self.x.as_array()[i],
+            self.y.as_array()[i],
+            self.z.as_array()[i],
+        )
+    }
+
+    fn dot(self, o: V2) -> f64x2 {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+
+    fn cross(self, o: V2) -> V2 {
+        V2 {
+            x: self.y * o.z - o.y * self.z,
+            y: self.z * o.x - o.z * self.x,
+            z: self.x * o.y - o.x * self.y,
+        }
+    }
+
+    /// glam's `normalize_or`: each lane scaled by the reciprocal of its length where that is
+    /// finite and positive, else `fallback`.
+    fn normalize_or(self, fallback: DVec3) -> V2 {
+        let rcp = f64x2::splat(1.0) / self.dot(self).sqrt();
+        let keep = rcp.is_finite() & rcp.simd_gt(f64x2::ZERO);
+        V2 {
+            x: keep.select(self.x * rcp, f64x2::splat(fallback.x)),
+            y: keep.select(self.y * rcp, f64x2::splat(fallback.y)),
+            z: keep.select(self.z * rcp, f64x2::splat(fallback.z)),
+        }
+    }
+}
+
+impl std::ops::Add for V2 {
+    type Output = V2;
+    fn add(self, o: V2) -> V2 {
+        V2 {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+}
+
+/// Each lane scaled by its own factor.
+impl std::ops::Mul<f64x2> for V2 {
+    type Output = V2;
+    fn mul(self, s: f64x2) -> V2 {
+        V2 {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
 }
 
 /// The cubic through (0, 0) and (1, 1) with slopes `m0` and `m1` there, at `t`.

@@ -33,6 +33,12 @@ impl Cubic {
         (p0.min(p1).min(p2).min(p3), p0.max(p1).max(p2).max(p3))
     }
 
+    /// The coefficients `a + u·(b + u·(c + u·d))`.
+    #[inline]
+    pub(crate) fn coefficients(&self) -> [DVec3; 4] {
+        [self.a, self.b, self.c, self.d]
+    }
+
     #[inline]
     pub(crate) fn pos(&self, u: f64) -> DVec3 {
         self.a + u * (self.b + u * (self.c + u * self.d))

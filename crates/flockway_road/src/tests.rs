@@ -605,3 +605,59 @@ fn a_ring_has_the_curvature_of_its_circle_and_a_straight_none() {
     let cw = RoadGeometry::new(&spec).expect("valid");
     assert!((cw.curvature_at(10.0) * 50.0 + 1.0).abs() < 0.01);
 }
+
+#[test]
+fn two_frames_near_a_cursor_at_once_have_each_frame_s_bits() {
+    let mut spec = RoadSpec::through(
+        "banked curve",
+        3,
+        60.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(60.0, 10.0, 1.0),
+            DVec3::new(110.0, 60.0, 3.0),
+            DVec3::new(120.0, 130.0, 2.0),
+        ],
+    );
+    spec.points[1].bank_deg = 6.0;
+    spec.points[2].bank_deg = -4.0;
+    let banked = RoadGeometry::new(&spec).expect("road");
+    let bits = |f: &RoadFrame| {
+        [
+            f.s_m,
+            f.pos.x,
+            f.pos.y,
+            f.pos.z,
+            f.tangent.x,
+            f.tangent.y,
+            f.tangent.z,
+            f.left.x,
+            f.left.y,
+            f.left.z,
+            f.up.x,
+            f.up.y,
+            f.up.z,
+            f.bank_rad,
+            f.width_m,
+        ]
+        .map(f64::to_bits)
+    };
+    for g in [curved_road(3), banked] {
+        let mut rng = Lcg(7);
+        for _ in 0..400 {
+            let s = rng.next() * g.length_m();
+            let ds = [1.3 + rng.next() * 2.0, -1.3 - rng.next() * 2.0];
+            let cursor = g.cursor_at(s);
+            let two = g.frames_near(&cursor, s, ds);
+            for i in 0..2 {
+                let one = g.frame_near(&cursor, s, ds[i]);
+                assert_eq!(
+                    two[i].map(|f| bits(&f)),
+                    one.map(|f| bits(&f)),
+                    "{s} {}",
+                    ds[i]
+                );
+            }
+        }
+    }
+}

@@ -153,16 +153,25 @@ pub(crate) fn steer_wheels(
     [steer_l, steer_r, 0.0, 0.0]
 }
 
-/// The exact road cross-section under an axle `offset_m` ahead of the centre of mass: stepped
-/// from the vehicle's road cursor, or through a connection onto the next road near an end.
-fn axle_frame(network: &RoadNetwork, track: &RoadTrack, offset_m: f32) -> Option<RoadFrame> {
-    let ds = f64::from(offset_m * track.heading_cos);
-    let geometry = network.get(track.road)?;
-    if let Some(frame) = geometry.frame_near(&track.cursor, track.s_m, ds) {
-        return Some(frame);
-    }
-    let (road, s) = network.advance(track.road, track.s_m, ds)?;
-    Some(network.get(road)?.frame_at(s))
+/// The exact road cross-sections under the axles `offsets_m` ahead of the centre of mass: stepped
+/// from the vehicle's road cursor (the two together), or through a connection onto the next road
+/// near an end.
+fn axle_frames(
+    network: &RoadNetwork,
+    track: &RoadTrack,
+    offsets_m: [f32; 2],
+) -> [Option<RoadFrame>; 2] {
+    let Some(geometry) = network.get(track.road) else {
+        return [None, None];
+    };
+    let ds = offsets_m.map(|x| f64::from(x * track.heading_cos));
+    let near = geometry.frames_near(&track.cursor, track.s_m, ds);
+    std::array::from_fn(|i| {
+        near[i].or_else(|| {
+            let (road, s) = network.advance(track.road, track.s_m, ds[i])?;
+            Some(network.get(road)?.frame_at(s))
+        })
+    })
 }
 
 /// Stage 3, wheel contact: the road cross-section under each axle (one exact spline evaluation
@@ -180,11 +189,7 @@ pub(crate) fn wheel_contact(
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
     let down = body.down();
-    let axle_x = [t.mounts_cs[0].x, t.mounts_cs[2].x];
-    let frames = [
-        axle_frame(network, track, axle_x[0]),
-        axle_frame(network, track, axle_x[1]),
-    ];
+    let frames = axle_frames(network, track, [t.mounts_cs[0].x, t.mounts_cs[2].x]);
     let travel = p.suspension.travel_m;
     let k = p.suspension.stiffness_n_per_m;
     let c = p.suspension.damping_n_s_per_m;
