@@ -153,7 +153,9 @@ pub const RAIL_GATE_MARGIN_M: f32 = 0.3;
 pub(crate) const RAIL_GATE_HYSTERESIS_M: f32 = 0.3;
 
 /// Within this distance of an open road's ends the gate stays open: the next road's guardrails
-/// are near, and the edge of the road the car tracks no longer bounds where it can go, m.
+/// are near, and the edge of the road the car tracks no longer bounds where it can go, m. At a
+/// bare end ([`Physics::bare_ends`](crate::Physics::bare_ends)), with nothing of another road
+/// near, it stays open only while the box reaches past the end.
 pub(crate) const RAIL_GATE_END_M: f64 = 10.0;
 
 /// Margin kept between two cars' boxes before both colliders go into rapier, on top of the

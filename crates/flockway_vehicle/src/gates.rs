@@ -19,30 +19,47 @@ impl ContactGate {
     /// next step.
     pub(crate) fn decide_rails(
         &mut self,
+        physics: &Physics,
         network: &RoadNetwork,
         track: &RoadTrack,
         motion: &Motion,
     ) {
-        let near_end = network.get(track.road).is_none_or(|g| {
-            !g.is_closed()
-                && (track.s_m < RAIL_GATE_END_M || track.s_m > g.length_m() - RAIL_GATE_END_M)
-        });
         let upright = (motion.rotation * Vec3::Z).z > 0.8;
-        if near_end || !track.on_road || !upright {
+        if !track.on_road || !upright {
+            self.want_rails = true;
+            return;
+        }
+        let (half_length, half_width) = (self.half_extents.x, self.half_extents.y);
+        let cos = track.heading_cos.abs().min(1.0);
+        let sin = (1.0 - cos * cos).max(0.0).sqrt();
+        let turning = motion.angvel.z.abs() * half_length;
+        // Near an open road's end the gate stays open, unless the end is bare and the box,
+        // with what it can move in two steps and a margin, lies over the road short of it:
+        // there the road's edges bound it as anywhere between the ends.
+        let along = half_length * cos
+            + half_width * sin
+            + 2.0 * DT_S as f32 * (motion.linvel.length() + turning)
+            + RAIL_GATE_MARGIN_M;
+        let bare = physics.bare_ends(track.road);
+        let near_end = network.get(track.road).is_none_or(|g| {
+            let (s, length) = (track.s_m, g.length_m());
+            let inside_start = bare[0] && s >= f64::from(along);
+            let inside_end = bare[1] && s <= length - f64::from(along);
+            !g.is_closed()
+                && ((s < RAIL_GATE_END_M && !inside_start)
+                    || (s > length - RAIL_GATE_END_M && !inside_end))
+        });
+        if near_end {
             self.want_rails = true;
             return;
         }
         // The box's reach across the road: its half width and half length turned by the
         // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
-        let (half_length, half_width) = (self.half_extents.x, self.half_extents.y);
-        let cos = track.heading_cos.abs().min(1.0);
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
         let reach = half_length * sin + half_width * cos + 0.1;
         let edge = 0.5 * track.width_m + flockway_road::GUARDRAIL_OFFSET_M as f32;
         let clearance = edge - (track.lateral_m.abs() as f32 + reach);
         // How far the box's side can move in two steps: sliding across, and turning.
         let across = motion.linvel.dot(track.left).abs();
-        let turning = motion.angvel.z.abs() * half_length;
         let moves = 2.0 * DT_S as f32 * (across + turning);
         let needed = moves + RAIL_GATE_MARGIN_M;
         self.want_rails = if self.rails_open {

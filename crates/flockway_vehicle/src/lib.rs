@@ -53,8 +53,9 @@ pub use params::{
     WheelParams,
 };
 pub use physics::{
-    ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP, GUARDRAIL_THICKNESS_M, Physics,
-    VEHICLE_GROUP, VehicleContact, rebuild_static_colliders, step_physics, update_contact_messages,
+    BARE_END_CLEARANCE_M, ContactWith, GRAVITY, GROUND_GROUP, GUARDRAIL_GROUP,
+    GUARDRAIL_THICKNESS_M, Physics, VEHICLE_GROUP, VehicleContact, rebuild_static_colliders,
+    step_physics, update_contact_messages,
 };
 pub use spawn::{SpawnError, VehicleSpawn, rest_pose, spawn_vehicle};
 pub use steering::{ackermann, slew};

@@ -118,6 +118,8 @@ pub struct Physics {
     /// The road each vehicle collider's car is on, by the collider's index (kept only while
     /// there are `crossings`).
     vehicle_roads: Vec<u32>,
+    /// Per road, by id: whether its start and its end are bare ([`Physics::bare_ends`]).
+    bare_ends: Vec<[bool; 2]>,
 }
 
 impl Default for Physics {
@@ -141,6 +143,7 @@ impl Default for Physics {
             ground_z: 0.0,
             crossings: BTreeSet::new(),
             vehicle_roads: Vec::new(),
+            bare_ends: Vec::new(),
         }
     }
 }
@@ -170,6 +173,18 @@ impl Physics {
             self.vehicle_roads.resize(index + 1, u32::MAX);
         }
         self.vehicle_roads[index] = road.0;
+    }
+
+    /// Whether road `road`'s start and its end (in that order) are bare: the road is open, leads
+    /// nowhere from that end, and nothing of any other road (surface or guardrail) comes within
+    /// [`BARE_END_CLEARANCE_M`] of the end. A car whose box is over such an end's stretch of road
+    /// can touch there only what it could touch between the ends. Both `false` for a road the
+    /// statics were not built with.
+    pub fn bare_ends(&self, road: RoadId) -> [bool; 2] {
+        self.bare_ends
+            .get(road.0 as usize)
+            .copied()
+            .unwrap_or([false; 2])
     }
 
     /// Replaces the guardrail and ground colliders with ones built from `network`, and takes
@@ -252,6 +267,7 @@ impl Physics {
             lo = DVec3::ZERO;
             hi = DVec3::ZERO;
         }
+        self.bare_ends = bare_ends(network);
         self.ground_z = lo.z as f32 - GROUND_BELOW_ROADS_M;
         // A slab, not a half-space: its bounding box ends at the surface, so cars on the roads
         // above it form no broad-phase pair with it until they come down to it.
@@ -488,6 +504,79 @@ pub fn rebuild_static_colliders(network: Res<RoadNetwork>, mut physics: ResMut<P
     if network.is_changed() {
         physics.rebuild_statics(&network);
     }
+}
+
+/// How far from a road's end anything of another road must stay for the end to be bare
+/// ([`Physics::bare_ends`]), m: beyond the stretch near an end where a car's gate would
+/// otherwise stay open, with room for the road's width.
+pub const BARE_END_CLEARANCE_M: f64 = 25.0;
+
+/// [`Physics::bare_ends`] for every road of `network`, by id. An end with a link, a road
+/// leading onto it or a junction is not bare; nor is one that another road's box (its surface
+/// and guardrails, widened by a guardrail's thickness and height) comes within
+/// [`BARE_END_CLEARANCE_M`] of. Only the dead ends are measured against the other roads.
+fn bare_ends(network: &RoadNetwork) -> Vec<[bool; 2]> {
+    let size = network
+        .iter()
+        .map(|(id, _)| id.0 as usize + 1)
+        .max()
+        .unwrap_or(0);
+    // Each road's surface and guardrails, in a box.
+    let mut boxes: Vec<Option<(DVec3, DVec3)>> = vec![None; size];
+    for (id, _) in network.iter() {
+        let Some(meshes) = network.meshes(id) else {
+            continue;
+        };
+        let rails = meshes
+            .guardrail_runs
+            .iter()
+            .flat_map(|r| r.foot.iter().copied());
+        let surface = meshes
+            .surface
+            .positions
+            .iter()
+            .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+        let pad = DVec3::splat(f64::from(GUARDRAIL_THICKNESS_M) + GUARDRAIL_HEIGHT_M);
+        boxes[id.0 as usize] = surface.chain(rails).fold(None, |b, p| {
+            let (lo, hi) = b.unwrap_or((p, p));
+            Some((lo.min(p), hi.max(p)))
+        });
+        if let Some((lo, hi)) = boxes[id.0 as usize] {
+            boxes[id.0 as usize] = Some((lo - pad, hi + pad));
+        }
+    }
+    let mut entered = vec![false; size];
+    for (id, _) in network.iter() {
+        for link in network.links(id) {
+            if let Some(e) = entered.get_mut(link.to.0 as usize) {
+                *e = true;
+            }
+        }
+    }
+    let mut out = vec![[false; 2]; size];
+    for (id, g) in network.iter() {
+        if g.is_closed() || network.junction_path(id).is_some() {
+            continue;
+        }
+        let lanes = g.lanes();
+        let leads_on =
+            entered[id.0 as usize] || (0..lanes).any(|l| !network.lane_prev(id, l).is_empty());
+        let leads_off = network.next(id).is_some() || !network.links(id).is_empty();
+        let ends = [(0.0, leads_on), (g.length_m(), leads_off)];
+        out[id.0 as usize] = ends.map(|(s, leads)| {
+            if leads {
+                return false;
+            }
+            let at = g.frame_at(s).pos;
+            network.iter().all(|(other, _)| {
+                other == id
+                    || boxes[other.0 as usize].is_none_or(|(lo, hi)| {
+                        (lo - at).max(at - hi).max(DVec3::ZERO).length() > BARE_END_CLEARANCE_M
+                    })
+            })
+        });
+    }
+    out
 }
 
 /// Steps rapier and publishes its contact changes.

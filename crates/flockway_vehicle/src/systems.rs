@@ -146,7 +146,7 @@ pub fn sync_vehicles(
         );
         track.speed_along_mps = linvel.dot(track.tangent);
         if let Some(mut gate) = gate {
-            gate.decide_rails(network, &track, &motion);
+            gate.decide_rails(physics, network, &track, &motion);
         }
     };
     for_each_car(

@@ -369,21 +369,25 @@ fn busy_run(gates: bool) -> (Vec<(u32, [u32; 13])>, usize, usize, usize) {
             ..p.clone()
         };
     }
+    let starts: Vec<f64> = (0..8).map(|i| f64::from(i) * 12.0).collect();
+    busy_run_on(spec, &starts, gates)
+}
+
+/// [`busy_run`] on road `spec` with a car starting at each of `starts_m` along it.
+fn busy_run_on(
+    spec: RoadSpec,
+    starts_m: &[f64],
+    gates: bool,
+) -> (Vec<(u32, [u32; 13])>, usize, usize, usize) {
     let mut sim = world_with(vec![spec]);
     sim.world_mut().resource_mut::<Physics>().gates = gates;
     let mut rail_hits = 0;
     let mut car_hits = 0;
     let mut out_of_rapier = 0;
-    let cars: Vec<Entity> = (0..8)
-        .map(|i| {
-            spawn(
-                &mut sim,
-                0,
-                f64::from(i) * 12.0,
-                if i % 2 == 0 { -1.5 } else { 1.5 },
-                8.0,
-            )
-        })
+    let cars: Vec<Entity> = starts_m
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| spawn(&mut sim, 0, s, if i % 2 == 0 { -1.5 } else { 1.5 }, 8.0))
         .collect();
     for tick in 0..ticks(20.0) {
         for (i, &car) in cars.iter().enumerate() {
@@ -461,6 +465,110 @@ fn gates_change_nothing_but_the_work() {
     assert_eq!(
         (gated, rail_hits, car_hits),
         (ungated, rail_hits2, car_hits2)
+    );
+}
+
+#[test]
+fn gates_change_nothing_at_a_bare_road_end_either() {
+    // A short open road with nothing beyond its ends: cars start a few metres from its start,
+    // where their gates close once their boxes are over the road, and run off its end onto the
+    // ground. With gates or without, the same bits.
+    let spec = RoadSpec::through(
+        "short",
+        2,
+        60.0,
+        &[
+            DVec3::ZERO,
+            DVec3::new(60.0, 10.0, 0.0),
+            DVec3::new(120.0, 0.0, 0.0),
+        ],
+    );
+    let starts = [4.0, 7.0, 12.0, 20.0, 30.0, 45.0];
+    let (gated, rail_hits, car_hits, out) = busy_run_on(spec.clone(), &starts, true);
+    assert!(rail_hits > 0, "the scene has cars hitting the rails");
+    assert!(car_hits > 0, "and cars hitting each other");
+    assert!(out > 500, "colliders left rapier ({out} car-steps)");
+    let (ungated, rail_hits2, car_hits2, out2) = busy_run_on(spec, &starts, false);
+    assert_eq!(out2, 0);
+    assert_eq!(
+        (gated, rail_hits, car_hits),
+        (ungated, rail_hits2, car_hits2)
+    );
+}
+
+#[test]
+fn at_a_bare_road_end_a_car_is_out_of_rapier_only_while_its_box_is_over_the_road() {
+    let mut sim = world_with(vec![straight(60.0)]);
+    assert_eq!(
+        sim.world().resource::<Physics>().bare_ends(RoadId(0)),
+        [true, true]
+    );
+    let car = spawn(&mut sim, 0, 1.0, 0.0, 10.0);
+    set(
+        &mut sim,
+        car,
+        Controls {
+            throttle: 0.6,
+            ..Controls::default()
+        },
+    );
+    let in_rapier = |sim: &Sim| {
+        sim.world()
+            .get::<flockway_vehicle::ContactGate>(car)
+            .is_some_and(|g| g.in_rapier())
+    };
+    let mut left_at = None;
+    let mut back_at = None;
+    for _ in 0..ticks(8.0) {
+        sim.step();
+        let s = sim.world().get::<RoadTrack>(car).expect("a track").s_m;
+        match (left_at, back_at, in_rapier(&sim)) {
+            (None, _, false) => left_at = Some(s),
+            (Some(_), None, true) => back_at = Some(s),
+            _ => {}
+        }
+        // Within half its length (2.3 m) of either end, the box reaches past it.
+        if !(2.3..=60.0 - 2.3).contains(&s) {
+            assert!(in_rapier(&sim), "out of rapier at {s} m");
+        }
+    }
+    // Out once its box, two steps' travel and a margin are past the start, well short of the
+    // 10 m an end that is not bare keeps the gate open for; back in before the end.
+    let s = left_at.expect("the car's collider left rapier");
+    assert!((2.5..6.0).contains(&s), "left rapier at {s} m");
+    let s = back_at.expect("the car's collider came back");
+    assert!((54.0..57.7).contains(&s), "came back at {s} m");
+}
+
+#[test]
+fn road_ends_with_a_road_near_or_leading_on_are_not_bare() {
+    // a leads onto b; c runs alongside b's end, 12 m away; far is on its own.
+    let mut a = RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+    a.next = Some("b".into());
+    let b = RoadSpec::through(
+        "b",
+        2,
+        60.0,
+        &[DVec3::new(100.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+    );
+    let c = RoadSpec::through(
+        "c",
+        2,
+        60.0,
+        &[DVec3::new(150.0, 12.0, 0.0), DVec3::new(250.0, 12.0, 0.0)],
+    );
+    let far = RoadSpec::through(
+        "far",
+        2,
+        60.0,
+        &[DVec3::new(0.0, 500.0, 0.0), DVec3::new(100.0, 500.0, 0.0)],
+    );
+    let sim = world_with(vec![a, b, c, far]);
+    let physics = sim.world().resource::<Physics>();
+    let bare: Vec<[bool; 2]> = (0..4).map(|i| physics.bare_ends(RoadId(i))).collect();
+    assert_eq!(
+        bare,
+        vec![[true, false], [false, false], [false, true], [true, true]]
     );
 }
 
