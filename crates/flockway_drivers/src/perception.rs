@@ -42,10 +42,39 @@ struct RoadLanes {
     /// Per lane: the `(road, lane)` pairs leading onto it.
     prev: Vec<Vec<(RoadId, u32)>>,
     lanes: Vec<Vec<LaneEntry>>,
+    /// Per lane: how its vehicles spread sideways.
+    spread: Vec<Spread>,
     /// For a junction path: the other paths whose vehicles are in this one's lane somewhere —
     /// those from the same lane while they overlap, those merging into the same lane once they
     /// meet.
     beside: Vec<Beside>,
+}
+
+/// How the vehicles of one lane spread sideways: the least and the greatest lateral offset, and
+/// whether any is not a number (then nothing can be said of how far aside they all are).
+#[derive(Debug, Clone, Copy)]
+struct Spread {
+    least_m: f32,
+    most_m: f32,
+    any_nan: bool,
+}
+
+impl Default for Spread {
+    fn default() -> Self {
+        Spread {
+            least_m: f32::INFINITY,
+            most_m: f32::NEG_INFINITY,
+            any_nan: false,
+        }
+    }
+}
+
+impl Spread {
+    fn add(&mut self, lateral_m: f32) {
+        self.least_m = self.least_m.min(lateral_m);
+        self.most_m = self.most_m.max(lateral_m);
+        self.any_nan |= lateral_m.is_nan();
+    }
 }
 
 /// A junction path sharing part of another's lane: its vehicles between `from_m` and `to_m`
@@ -173,6 +202,7 @@ impl LaneIndex {
         // Keep the allocations of last tick's lanes.
         for road in self.roads.iter_mut().flatten() {
             road.lanes.iter_mut().for_each(Vec::clear);
+            road.spread.fill(Spread::default());
         }
         self.signalling = 0;
         if self.read_from != Some(network.revision()) {
@@ -194,10 +224,14 @@ impl LaneIndex {
                 continue;
             };
             self.signalling += usize::from(signal != 0);
+            let lateral_m = track.lateral_m as f32;
+            if let Some(spread) = road.spread.get_mut(track.lane as usize) {
+                spread.add(lateral_m);
+            }
             lane.push(LaneEntry {
                 entity,
                 s_m: track.s_m,
-                lateral_m: track.lateral_m as f32,
+                lateral_m,
                 speed_mps: track.speed_along_mps,
                 length_m,
                 signal,
@@ -241,6 +275,7 @@ impl LaneIndex {
                 }
             }
             road.lanes.resize_with(g.lanes() as usize, Vec::new);
+            road.spread.resize(g.lanes() as usize, Spread::default());
             road.beside.clear();
             if let Some((j, k)) = network.junction_path(id) {
                 let path = &network.junctions()[j].paths[k];
@@ -302,6 +337,43 @@ impl LaneIndex {
     /// Number of lanes of a road in the index.
     pub fn lanes(&self, road: RoadId) -> u32 {
         self.road(road).map_or(0, |r| r.lanes.len() as u32)
+    }
+
+    /// Whether every vehicle [`visit_within`](Self::visit_within) would hand over for the same
+    /// window is at least `apart_m` sideways of `lateral_m`, as `|entry.lateral_m - lateral_m|
+    /// >= apart_m` computes it, so that a caller looking only for vehicles nearer than that can
+    /// skip the walk: the window stays on this road (no links, no lanes leading on, no junction
+    /// paths sharing the lane) and the lane's least or greatest lateral offset is that far
+    /// aside. `false` whenever that is not certain.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
+    pub fn window_apart(
+        &self,
+        road: RoadId,
+        lane: u32,
+        s_m: f64,
+        behind_m: f64,
+        ahead_m: f64,
+        lateral_m: f32,
+        apart_m: f32,
+    ) -> bool {
+        let Some(r) = self.road(road) else {
+            return false;
+        };
+        let Some(spread) = r.spread.get(lane as usize) else {
+            return false;
+        };
+        // The bounds as `visit_within` computes them: open roads' windows stay on the road.
+        let (lo, hi) = (s_m - behind_m, s_m + ahead_m);
+        let on_road = r.closed || (lo >= 0.0 && hi <= r.length_m);
+        // Subtraction rounds monotonically, so the nearest of the lane's offsets bounds them
+        // all (and a NaN anywhere fails every comparison, as in the caller's test).
+        on_road
+            && r.beside.is_empty()
+            && !spread.any_nan
+            && (spread.least_m - lateral_m >= apart_m || lateral_m - spread.most_m >= apart_m)
     }
 
     /// Every vehicle in `lane` whose arc distance from `s_m` lies in `[-behind_m, ahead_m]`,
@@ -969,6 +1041,80 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_window_said_to_be_apart_holds_no_vehicle_nearer_sideways() {
+        // Cars wandering about their lanes' centres on a ring and on a three-lane road leading
+        // onto a one-lane road (whose cars are at other offsets); windows from random places,
+        // some reaching past the road's end.
+        let apart = 2.1f32;
+        let (mut skipped, mut walked_empty) = (0, 0);
+        for closed in [true, false] {
+            let specs = if closed {
+                vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 60.0, 12)]
+            } else {
+                let mut a =
+                    RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
+                a.next = Some("b".into());
+                let b = RoadSpec::through(
+                    "b",
+                    1,
+                    50.0,
+                    &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
+                );
+                vec![a, b]
+            };
+            let network = RoadNetwork::build(&specs).expect("valid roads");
+            for seed in 1..=20u64 {
+                let mut rng = Lcg(seed);
+                let mut world = World::new();
+                // Most lanes keep to their centres; on some seeds one car is half across.
+                let tracks: Vec<(Entity, RoadTrack)> = (0..40)
+                    .map(|i| {
+                        let road = RoadId(u32::from(!closed && i % 4 == 3));
+                        let g = network.get(road).expect("road");
+                        let s = rng.next() * g.length_m();
+                        let lane = (rng.next() * f64::from(g.lanes())) as u32;
+                        let centre =
+                            flockway_road::lane_offset(g.frame_at(s).width_m, g.lanes(), lane);
+                        let wander = if i == 0 && seed % 3 == 0 { 1.6 } else { 0.5 };
+                        let lateral = centre + (rng.next() - 0.5) * 2.0 * wander;
+                        (
+                            world.spawn_empty().id(),
+                            RoadTrack::new(road, g, s, lateral),
+                        )
+                    })
+                    .collect();
+                let mut index = LaneIndex::default();
+                index.rebuild(&network, tracks.iter().map(|(e, t)| (*e, t, 4.6, 0)));
+                let length = network.get(RoadId(0)).expect("road").length_m();
+                for _ in 0..60 {
+                    let lane = (rng.next() * 3.0) as u32;
+                    let s = rng.next() * length;
+                    let (behind, ahead) = (rng.next() * 20.0, rng.next() * 80.0);
+                    let me = flockway_road::lane_offset(10.5, 3, (rng.next() * 3.0) as u32) as f32
+                        + (rng.next() as f32 - 0.5);
+                    let mut nearest = f32::INFINITY;
+                    index.visit_within(RoadId(0), lane, s, behind, ahead, None, |v| {
+                        nearest = nearest.min((v.entry.lateral_m - me).abs());
+                    });
+                    if index.window_apart(RoadId(0), lane, s, behind, ahead, me, apart) {
+                        assert!(nearest >= apart, "closed {closed} seed {seed}: {nearest}");
+                        skipped += 1;
+                    } else if nearest >= apart {
+                        walked_empty += 1;
+                    }
+                }
+            }
+        }
+        // Most windows into another lane are skipped; some are walked, past an end or with a
+        // car half across.
+        assert!(skipped > 800, "{skipped} windows skipped");
+        assert!(
+            walked_empty > 20,
+            "{walked_empty} windows walked for nothing"
+        );
     }
 
     #[test]

@@ -244,11 +244,15 @@ fn search(network: &RoadNetwork, index: &LaneIndex, view: &SafetyView, range: f6
         }
         count(&mut found, &s);
     };
-    if t.lane > 0 {
+    // A lane whose every car is that far aside has none to count: its walk is skipped.
+    let me_lateral = t.lateral_m as f32;
+    let apart =
+        |lane: u32| index.window_apart(t.road, lane, t.s_m, 0.0, ahead, me_lateral, overlap);
+    if t.lane > 0 && !apart(t.lane - 1) {
         let left = t.lane - 1;
         index.visit_within(t.road, left, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
-    if t.lane + 1 < lanes {
+    if t.lane + 1 < lanes && !apart(t.lane + 1) {
         let right = t.lane + 1;
         index.visit_within(t.road, right, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
