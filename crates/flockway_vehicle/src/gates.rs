@@ -36,18 +36,20 @@ impl ContactGate {
         // Near an open road's end the gate stays open, unless the end is bare and the box,
         // with what it can move in two steps and a margin, lies over the road short of it:
         // there the road's edges bound it as anywhere between the ends.
-        let along = half_length * cos
-            + half_width * sin
-            + 2.0 * DT_S as f32 * (motion.linvel.length() + turning)
-            + RAIL_GATE_MARGIN_M;
-        let bare = physics.bare_ends(track.road);
         let near_end = network.get(track.road).is_none_or(|g| {
             let (s, length) = (track.s_m, g.length_m());
-            let inside_start = bare[0] && s >= f64::from(along);
-            let inside_end = bare[1] && s <= length - f64::from(along);
-            !g.is_closed()
-                && ((s < RAIL_GATE_END_M && !inside_start)
-                    || (s > length - RAIL_GATE_END_M && !inside_end))
+            let (at_start, at_end) = (s < RAIL_GATE_END_M, s > length - RAIL_GATE_END_M);
+            if g.is_closed() || !(at_start || at_end) {
+                return false;
+            }
+            let along = f64::from(
+                half_length * cos
+                    + half_width * sin
+                    + 2.0 * DT_S as f32 * (motion.linvel.length() + turning)
+                    + RAIL_GATE_MARGIN_M,
+            );
+            let bare = physics.bare_ends(track.road);
+            (at_start && !(bare[0] && s >= along)) || (at_end && !(bare[1] && s <= length - along))
         });
         if near_end {
             self.want_rails = true;
