@@ -826,25 +826,28 @@ mod tests {
     use flockway_road::RoadSpec;
     use glam::DVec3;
 
+    /// A three-lane ring of 60 m radius, or a three-lane 300 m road leading onto a 200 m road
+    /// of `next_lanes` lanes.
+    fn ring_or_road_on(closed: bool, next_lanes: u32) -> Vec<RoadSpec> {
+        if closed {
+            return vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 60.0, 12)];
+        }
+        let mut a = RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
+        a.next = Some("b".into());
+        let b = RoadSpec::through(
+            "b",
+            next_lanes,
+            50.0,
+            &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
+        );
+        vec![a, b]
+    }
+
     /// An index over `n` random placements on road 0 (a ring or an open road) and road 1 (its
     /// connected successor when open), built directly from entries.
     fn placements(closed: bool, n: usize, seed: u64) -> (LaneIndex, Vec<(RoadId, u32, LaneEntry)>) {
         let mut rng = Lcg(seed);
-        let specs = if closed {
-            vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 60.0, 12)]
-        } else {
-            let mut a =
-                RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
-            a.next = Some("b".into());
-            let b = RoadSpec::through(
-                "b",
-                2,
-                50.0,
-                &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
-            );
-            vec![a, b]
-        };
-        let network = RoadNetwork::build(&specs).expect("valid roads");
+        let network = RoadNetwork::build(&ring_or_road_on(closed, 2)).expect("valid roads");
         let mut world = World::new();
         let mut all = Vec::new();
         let mut index = LaneIndex::default();
@@ -1051,21 +1054,7 @@ mod tests {
         let apart = 2.1f32;
         let (mut skipped, mut walked_empty) = (0, 0);
         for closed in [true, false] {
-            let specs = if closed {
-                vec![RoadSpec::ring("ring", 3, 50.0, DVec3::ZERO, 60.0, 12)]
-            } else {
-                let mut a =
-                    RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(300.0, 0.0, 0.0)]);
-                a.next = Some("b".into());
-                let b = RoadSpec::through(
-                    "b",
-                    1,
-                    50.0,
-                    &[DVec3::new(300.0, 0.0, 0.0), DVec3::new(500.0, 0.0, 0.0)],
-                );
-                vec![a, b]
-            };
-            let network = RoadNetwork::build(&specs).expect("valid roads");
+            let network = RoadNetwork::build(&ring_or_road_on(closed, 1)).expect("valid roads");
             for seed in 1..=20u64 {
                 let mut rng = Lcg(seed);
                 let mut world = World::new();
