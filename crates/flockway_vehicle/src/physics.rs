@@ -200,10 +200,30 @@ impl Physics {
         }
         let mut lo = DVec3::INFINITY;
         let mut hi = DVec3::NEG_INFINITY;
+        // Each road's surface and guardrails, in a box, for its bare ends.
+        let slots = network.iter().map(|(id, _)| id.0 as usize + 1).max();
+        let mut boxes: Vec<Option<(DVec3, DVec3)>> = vec![None; slots.unwrap_or(0)];
         for (id, _) in network.iter() {
             let Some(meshes) = network.meshes(id) else {
                 continue;
             };
+            let surface = meshes
+                .surface
+                .positions
+                .iter()
+                .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+            let rails = meshes.guardrail_runs.iter().flat_map(|r| r.foot.iter());
+            let (road_lo, road_hi) = surface
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |b, p| {
+                    (b.0.min(p), b.1.max(p))
+                });
+            (lo, hi) = (lo.min(road_lo), hi.max(road_hi));
+            let (rails_lo, rails_hi) =
+                rails.fold((road_lo, road_hi), |b, &p| (b.0.min(p), b.1.max(p)));
+            let pad = DVec3::splat(f64::from(GUARDRAIL_THICKNESS_M) + GUARDRAIL_HEIGHT_M);
+            boxes[id.0 as usize] = rails_lo
+                .is_finite()
+                .then_some((rails_lo - pad, rails_hi + pad));
             for run in &meshes.guardrail_runs {
                 for (i, j) in simplify(&run.foot, GUARDRAIL_TOLERANCE_M, GUARDRAIL_PIECE_M) {
                     let (a, b) = (run.foot[i], run.foot[j]);
@@ -250,24 +270,12 @@ impl Physics {
                         .push(self.world.insert_collider(collider, None));
                 }
             }
-            for p in &meshes.surface.positions {
-                lo = lo.min(DVec3::new(
-                    f64::from(p[0]),
-                    f64::from(p[1]),
-                    f64::from(p[2]),
-                ));
-                hi = hi.max(DVec3::new(
-                    f64::from(p[0]),
-                    f64::from(p[1]),
-                    f64::from(p[2]),
-                ));
-            }
         }
         if !lo.is_finite() {
             lo = DVec3::ZERO;
             hi = DVec3::ZERO;
         }
-        self.bare_ends = bare_ends(network);
+        self.bare_ends = bare_ends(network, &boxes);
         self.ground_z = lo.z as f32 - GROUND_BELOW_ROADS_M;
         // A slab, not a half-space: its bounding box ends at the surface, so cars on the roads
         // above it form no broad-phase pair with it until they come down to it.
@@ -511,40 +519,12 @@ pub fn rebuild_static_colliders(network: Res<RoadNetwork>, mut physics: ResMut<P
 /// otherwise stay open, with room for the road's width.
 pub const BARE_END_CLEARANCE_M: f64 = 25.0;
 
-/// [`Physics::bare_ends`] for every road of `network`, by id. An end with a link, a road
-/// leading onto it or a junction is not bare; nor is one that another road's box (its surface
-/// and guardrails, widened by a guardrail's thickness and height) comes within
-/// [`BARE_END_CLEARANCE_M`] of. Only the dead ends are measured against the other roads.
-fn bare_ends(network: &RoadNetwork) -> Vec<[bool; 2]> {
-    let size = network
-        .iter()
-        .map(|(id, _)| id.0 as usize + 1)
-        .max()
-        .unwrap_or(0);
-    // Each road's surface and guardrails, in a box.
-    let mut boxes: Vec<Option<(DVec3, DVec3)>> = vec![None; size];
-    for (id, _) in network.iter() {
-        let Some(meshes) = network.meshes(id) else {
-            continue;
-        };
-        let rails = meshes
-            .guardrail_runs
-            .iter()
-            .flat_map(|r| r.foot.iter().copied());
-        let surface = meshes
-            .surface
-            .positions
-            .iter()
-            .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
-        let pad = DVec3::splat(f64::from(GUARDRAIL_THICKNESS_M) + GUARDRAIL_HEIGHT_M);
-        boxes[id.0 as usize] = surface.chain(rails).fold(None, |b, p| {
-            let (lo, hi) = b.unwrap_or((p, p));
-            Some((lo.min(p), hi.max(p)))
-        });
-        if let Some((lo, hi)) = boxes[id.0 as usize] {
-            boxes[id.0 as usize] = Some((lo - pad, hi + pad));
-        }
-    }
+/// [`Physics::bare_ends`] for every road of `network`, by id, from each road's `boxes` (its
+/// surface and guardrails, widened by a guardrail's thickness and height). An end with a link,
+/// a road leading onto it or a junction is not bare; nor is one that another road's box comes
+/// within [`BARE_END_CLEARANCE_M`] of. Only the dead ends are measured against the other roads.
+fn bare_ends(network: &RoadNetwork, boxes: &[Option<(DVec3, DVec3)>]) -> Vec<[bool; 2]> {
+    let size = boxes.len();
     let mut entered = vec![false; size];
     for (id, _) in network.iter() {
         for link in network.links(id) {
@@ -561,7 +541,7 @@ fn bare_ends(network: &RoadNetwork) -> Vec<[bool; 2]> {
         let lanes = g.lanes();
         let leads_on =
             entered[id.0 as usize] || (0..lanes).any(|l| !network.lane_prev(id, l).is_empty());
-        let leads_off = network.next(id).is_some() || !network.links(id).is_empty();
+        let leads_off = !network.links(id).is_empty();
         let ends = [(0.0, leads_on), (g.length_m(), leads_off)];
         out[id.0 as usize] = ends.map(|(s, leads)| {
             if leads {
