@@ -11,6 +11,7 @@ use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::RoadTrack;
 use glam::Vec3;
+use multiversion::multiversion;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -303,6 +304,9 @@ impl DrivingModel for FlockDriver {
 /// following) plus collision avoidance — away from every vehicle within range in its own lane
 /// and the lanes beside it, only along the lane when it keeps its lane — and, with a time gap
 /// set, adaptive cruise control behind its leader. Free flocking steers along the result.
+/// Built twice, for x86-64 and for AVX2 (taken at run time where the CPU has it; the same
+/// answers to the bit).
+#[multiversion(targets("x86_64+avx2"))]
 pub fn flock_law(
     p: &FlockParams,
     keep_lane: bool,
@@ -485,8 +489,10 @@ impl HumanDriver {
 /// Lane following for a car in `lane`: speed matching along the lane direction plus road
 /// following towards the lane centre (the pull capped at `max_lateral_mps`), and the lane's
 /// curvature a little ahead for the steering feed-forward. Returns
-/// `(lane direction here, desired velocity without avoidance, curvature ahead in 1/m)`.
+/// `(lane direction here, desired velocity without avoidance, curvature ahead in 1/m)`. Built
+/// twice, for x86-64 and for AVX2, like [`flock_law`].
 #[allow(clippy::too_many_arguments)]
+#[multiversion(targets("x86_64+avx2"))]
 pub fn lane_following(
     geometry: &RoadGeometry,
     track: &RoadTrack,

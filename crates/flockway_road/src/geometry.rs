@@ -5,6 +5,7 @@ use crate::grid::SegmentGrid;
 use crate::spec::RoadSpec;
 use crate::spline::{Cubic, centre_line};
 use glam::DVec3;
+use multiversion::multiversion;
 use wide::f64x2;
 
 /// Longest stretch of centre line one arc-length table entry covers, in metres.
@@ -325,6 +326,8 @@ impl RoadGeometry {
         &self.segments[seg].cubic
     }
 
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     pub(crate) fn s_of(&self, p: SplineParam) -> f64 {
         let g = &self.segments[p.seg];
         let n = g.subdivisions();
@@ -340,6 +343,8 @@ impl RoadGeometry {
         g.s0 + g.table[k] + ds * hermite01(t, g.speeds[k] * du / ds, g.speeds[k + 1] * du / ds)
     }
 
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     fn frame_at_param(&self, p: SplineParam, s_m: f64) -> RoadFrame {
         let g = &self.segments[p.seg];
         let pos = g.cubic.pos(p.u);
@@ -437,22 +442,7 @@ impl RoadGeometry {
         pos: DVec3,
         cursor: &mut RoadCursor,
     ) -> (RoadProjection, RoadFrame) {
-        let (start, before) = if cursor.param.seg < self.segments.len() {
-            (cursor.param, cursor.s_m)
-        } else {
-            (self.param_at(0.0), 0.0)
-        };
-        let (proj, p, frame) = self.refine(pos, start);
-        let (proj, p, frame) = if self.delta_s(before, proj.s_m).abs() > 25.0 {
-            self.refine(pos, self.grid.nearest(pos))
-        } else {
-            (proj, p, frame)
-        };
-        *cursor = RoadCursor {
-            param: p,
-            s_m: proj.s_m,
-        };
-        (proj, frame)
+        project_tracked_frame(self, pos, cursor)
     }
 
     /// The exact road cross-section about `ds_m` along the road from a cursor at arc position
@@ -460,6 +450,8 @@ impl RoadGeometry {
     /// for accuracy), so the frame lies exactly on the surface, within millimetres of `ds_m` over
     /// a few metres. Its `s_m` is `cursor_s_m + ds_m`, wrapped. `None` past either end of an open
     /// road.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     pub fn frame_near(&self, cursor: &RoadCursor, cursor_s_m: f64, ds_m: f64) -> Option<RoadFrame> {
         let p = self.param_near(cursor, ds_m)?;
         Some(self.frame_at_param(p, self.normalize_s(cursor_s_m + ds_m)))
@@ -467,6 +459,8 @@ impl RoadGeometry {
 
     /// [`frame_near`](Self::frame_near) at two distances from the same cursor (a car's two
     /// axles), the two frames' arithmetic two wide: the same frames to the bit.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     pub fn frames_near(
         &self,
         cursor: &RoadCursor,
@@ -482,6 +476,8 @@ impl RoadGeometry {
     }
 
     /// Two [`frame_at_param`](Self::frame_at_param)s at once, in its order of operations.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     fn frames_at_params(&self, p: [SplineParam; 2], s_m: [f64; 2]) -> [RoadFrame; 2] {
         let g = p.map(|p| &self.segments[p.seg]);
         let k = g.map(|g| g.cubic.coefficients());
@@ -533,6 +529,8 @@ impl RoadGeometry {
     /// stepping); `None` past either end of an open road.
     ///
     /// [`frame_near`]: Self::frame_near
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     fn param_near(&self, cursor: &RoadCursor, ds_m: f64) -> Option<SplineParam> {
         let nseg = self.segments.len();
         let mut p = cursor.param;
@@ -589,6 +587,8 @@ impl RoadGeometry {
     }
 
     /// Newton's method on the squared distance in the spline parameter, moving across segments.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     fn refine(&self, q: DVec3, start: SplineParam) -> (RoadProjection, SplineParam, RoadFrame) {
         let nseg = self.segments.len();
         let mut p = start;
@@ -663,6 +663,32 @@ impl RoadGeometry {
         out.push(self.length_m);
         out
     }
+}
+
+/// [`RoadGeometry::project_tracked_frame`], built twice, for x86-64 and for AVX2 (taken at run
+/// time where the CPU has it; the same answers to the bit: see `multiversion` in Cargo.toml).
+#[multiversion(targets("x86_64+avx2"))]
+fn project_tracked_frame(
+    road: &RoadGeometry,
+    pos: DVec3,
+    cursor: &mut RoadCursor,
+) -> (RoadProjection, RoadFrame) {
+    let (start, before) = if cursor.param.seg < road.segments.len() {
+        (cursor.param, cursor.s_m)
+    } else {
+        (road.param_at(0.0), 0.0)
+    };
+    let (proj, p, frame) = road.refine(pos, start);
+    let (proj, p, frame) = if road.delta_s(before, proj.s_m).abs() > 25.0 {
+        road.refine(pos, road.grid.nearest(pos))
+    } else {
+        (proj, p, frame)
+    };
+    *cursor = RoadCursor {
+        param: p,
+        s_m: proj.s_m,
+    };
+    (proj, frame)
 }
 
 /// Lateral offset of a lane centre from the road centre (positive left); lane 0 is rightmost.
@@ -757,6 +783,8 @@ fn smoothstep(u: f64) -> f64 {
 }
 
 /// The left and up axes of a surface banked by `bank_rad` about `tangent` (world up is +z).
+// Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+#[inline(always)]
 fn banked_axes(tangent: DVec3, bank_rad: f64) -> (DVec3, DVec3) {
     let left0 = DVec3::Z.cross(tangent).normalize_or(DVec3::Y);
     let up0 = tangent.cross(left0);

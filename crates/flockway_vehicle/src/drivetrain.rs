@@ -81,6 +81,8 @@ impl Gearbox {
     /// Advances one step: interprets the throttle axis (negative brakes, or selects reverse
     /// from a standstill) and shifts on the speed of the gearbox input, `input_rpm` (the wheels'
     /// speed through the current ratio, not the slipping engine).
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     pub fn update(
         &mut self,
         p: &GearboxParams,
@@ -254,6 +256,8 @@ impl Driveline {
     /// inertia (explicit integration would diverge in low gears), but the coupling has rank one —
     /// every wheel sees the same clutch slip through the differential — so the implicit system
     /// solves in closed form.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
     pub fn spin(&self, engine: &EngineParams, input: &SpinInput, dt_s: f32) -> SpinOutput {
         let h = dt_s;
         let g = input.ratio;
