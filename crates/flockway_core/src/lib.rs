@@ -5,6 +5,7 @@
 //! ChaCha streams derived from the level seed and a [`StableId`] ([`RngStreams`]), so the same level
 //! and seed give the same run whether a command-line runner or a window drives the [`Sim`].
 
+pub mod arrays;
 mod clock;
 mod ids;
 mod parallel;

@@ -4,6 +4,7 @@ use crate::RoadError;
 use crate::grid::SegmentGrid;
 use crate::spec::RoadSpec;
 use crate::spline::{Cubic, centre_line};
+use flockway_core::arrays::array2;
 use glam::DVec3;
 use multiversion::multiversion;
 use wide::f64x2;
@@ -467,11 +468,14 @@ impl RoadGeometry {
         cursor_s_m: f64,
         ds_m: [f64; 2],
     ) -> [Option<RoadFrame>; 2] {
-        let params = ds_m.map(|ds| self.param_near(cursor, ds));
-        let s = ds_m.map(|ds| self.normalize_s(cursor_s_m + ds));
+        let params = array2(|i| self.param_near(cursor, ds_m[i]));
+        let s = array2(|i| self.normalize_s(cursor_s_m + ds_m[i]));
         match params {
-            [Some(p0), Some(p1)] => self.frames_at_params([p0, p1], s).map(Some),
-            _ => std::array::from_fn(|i| params[i].map(|p| self.frame_at_param(p, s[i]))),
+            [Some(p0), Some(p1)] => {
+                let [f0, f1] = self.frames_at_params([p0, p1], s);
+                [Some(f0), Some(f1)]
+            }
+            _ => array2(|i| params[i].map(|p| self.frame_at_param(p, s[i]))),
         }
     }
 
@@ -479,8 +483,8 @@ impl RoadGeometry {
     // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
     #[inline(always)]
     fn frames_at_params(&self, p: [SplineParam; 2], s_m: [f64; 2]) -> [RoadFrame; 2] {
-        let g = p.map(|p| &self.segments[p.seg]);
-        let k = g.map(|g| g.cubic.coefficients());
+        let g = array2(|i| &self.segments[p[i].seg]);
+        let k = array2(|i| g[i].cubic.coefficients());
         let coef = |j: usize| V2::from([k[0][j], k[1][j]]);
         let (a, b, c, d) = (coef(0), coef(1), coef(2), coef(3));
         let u = f64x2::new([p[0].u, p[1].u]);
@@ -493,8 +497,8 @@ impl RoadGeometry {
             let (a, b) = (f64x2::new(a), f64x2::new(b));
             (a + (b - a) * blend).to_array()
         };
-        let bank = lerp(g.map(|g| g.bank0_rad), g.map(|g| g.bank1_rad));
-        let width = lerp(g.map(|g| g.width0_m), g.map(|g| g.width1_m));
+        let bank = lerp(array2(|i| g[i].bank0_rad), array2(|i| g[i].bank1_rad));
+        let width = lerp(array2(|i| g[i].width0_m), array2(|i| g[i].width1_m));
         // `banked_axes`: world up crossed with the tangent, as glam computes `Z.cross(t)`.
         let zero = f64x2::ZERO;
         let one = f64x2::splat(1.0);
@@ -505,7 +509,7 @@ impl RoadGeometry {
         }
         .normalize_or(DVec3::Y);
         let up0 = tangent.cross(left0);
-        std::array::from_fn(|i| {
+        array2(|i| {
             let (left, up) = if bank[i] == 0.0 {
                 (left0.lane(i), up0.lane(i))
             } else {

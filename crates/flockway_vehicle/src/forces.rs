@@ -15,6 +15,7 @@ use crate::params::VehicleParams;
 use crate::physics::{GRAVITY, Physics};
 use crate::steering::{ackermann, slew};
 use flockway_core::DT_S;
+use flockway_core::arrays::{array2, array4};
 use flockway_road::{RoadFrame, RoadNetwork};
 use glam::{Quat, Vec3};
 use multiversion::multiversion;
@@ -171,9 +172,9 @@ fn axle_frames(
     let Some(geometry) = network.get(track.road) else {
         return [None, None];
     };
-    let ds = offsets_m.map(|x| f64::from(x * track.heading_cos));
+    let ds = array2(|i| f64::from(offsets_m[i] * track.heading_cos));
     let near = geometry.frames_near(&track.cursor, track.s_m, ds);
-    std::array::from_fn(|i| {
+    array2(|i| {
         near[i].or_else(|| {
             let (road, s) = network.advance(track.road, track.s_m, ds[i])?;
             Some(network.get(road)?.frame_at(s))
@@ -251,7 +252,7 @@ pub(crate) fn wheel_contact(
     let (travel4, k4) = (f32x4::splat(travel), f32x4::splat(k));
     let x = travel4 - (dist - f32x4::splat(r));
     let compressed = x.simd_gt(f32x4::ZERO).to_bitmask();
-    let grounded: [bool; 4] = std::array::from_fn(|i| has_surface[i] && compressed >> i & 1 != 0);
+    let grounded: [bool; 4] = array4(|i| has_surface[i] && compressed >> i & 1 != 0);
     let x_dot = velocity.dot(normal) / Vec3x4::splat(down).dot(normal);
     let f = k4 * x + f32x4::splat(c) * x_dot;
     let bump = f + f32x4::splat(BUMP_STOP_FACTOR * k) * (x - travel4);
@@ -260,8 +261,7 @@ pub(crate) fn wheel_contact(
     let on = lanes::mask(grounded);
     let x = on.select(x, f32x4::ZERO);
     let xs = x.to_array();
-    let arb: [f32; 2] =
-        std::array::from_fn(|a| p.suspension.anti_roll_n_per_m * (xs[2 * a] - xs[2 * a + 1]));
+    let arb: [f32; 2] = array2(|a| p.suspension.anti_roll_n_per_m * (xs[2 * a] - xs[2 * a + 1]));
     let shift = f32x4::new([arb[0], -arb[0], arb[1], -arb[1]]);
     let load = on.select((f + shift).max(f32x4::ZERO), f32x4::ZERO);
     *out = WheelContacts {
@@ -317,7 +317,7 @@ pub(crate) fn tyre_forces(
     let vy = vc.dot(l_dir);
     // The larger of |vx| and the floor (never NaN: the floor is a number).
     let v_ref = vx.abs().max(f32x4::splat(p.tyres.low_speed_mps));
-    let omega = f32x4::new(std::array::from_fn(|i| state.wheels[i].omega));
+    let omega = f32x4::new(array4(|i| state.wheels[i].omega));
     let slip_ratio = (omega * f32x4::splat(r) - vx) / v_ref;
     // Lateral slip as the tangent of the slip angle: the same as the angle in radians to
     // within 2 % below 14°, and it needs no arctangent.
@@ -326,7 +326,7 @@ pub(crate) fn tyre_forces(
     let pull_lat = gravity.dot(l_dir);
     let pull_long = gravity.dot(f_dir).to_array();
     let [cx, cy, dcx] = t.tyre.forces4(slip_ratio, slip_angle);
-    let grip = f32x4::new(std::array::from_fn(|i| state.wheels[i].friction_scale))
+    let grip = f32x4::new(array4(|i| state.wheels[i].friction_scale))
         * f32x4::new(contacts.friction)
         * f32x4::new(contacts.load_n);
     let peak = grip * f32x4::splat(t.tyre.friction);
@@ -350,7 +350,7 @@ pub(crate) fn tyre_forces(
         (long_n / behind).to_array(),
     );
     let behind = behind.to_array();
-    let slope: F4 = std::array::from_fn(|i| {
+    let slope: F4 = array4(|i| {
         let secant = if behind[i].abs() > 1.0e-6 {
             ratio[i].max(0.0)
         } else {
@@ -411,7 +411,7 @@ pub(crate) fn brakes_and_abs(
     let r = p.wheels.radius_m;
     let iw = t.driveline.wheel_inertia;
     let mut brake_nm = [0.0f32; 4];
-    let mut omega_braked = state.wheels.map(|w| w.omega);
+    let mut omega_braked = array4(|i| state.wheels[i].omega);
     for i in 0..4 {
         let ws = &state.wheels[i];
         let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
@@ -446,7 +446,7 @@ pub(crate) fn driveline(
     h: f32,
 ) -> SpinOutput {
     let p = &t.params;
-    let omega_now = state.wheels.map(|w| w.omega);
+    let omega_now = array4(|i| state.wheels[i].omega);
     let spin = t.driveline.spin(
         &p.engine,
         &SpinInput {
@@ -495,7 +495,7 @@ pub(crate) fn standstill_hold(
     slope_pull: f32,
 ) -> ([bool; 4], f32) {
     let r = p.wheels.radius_m;
-    let mut holding: [bool; 4] = std::array::from_fn(|i| {
+    let mut holding: [bool; 4] = array4(|i| {
         state.wheels[i].grounded
             && patches.vx[i].abs() < p.tyres.low_speed_mps
             && spin.omega[i].abs() * r < p.tyres.low_speed_mps
@@ -578,8 +578,8 @@ pub(crate) fn contact_forces(
     }
     // Each tyre's force and its moment about the centre of mass, all four at once, then summed
     // in wheel order over the grounded ones.
-    let load = f32x4::new(std::array::from_fn(|i| state.wheels[i].load_n));
-    let fy = f32x4::new(std::array::from_fn(|i| state.wheels[i].force_lat_n));
+    let load = f32x4::new(array4(|i| state.wheels[i].load_n));
+    let fy = f32x4::new(array4(|i| state.wheels[i].force_lat_n));
     let fx = f32x4::new(fx);
     let f = (patches.normal * load + patches.forward * fx) + patches.lateral * fy;
     let moment = patches.arm.cross(f);

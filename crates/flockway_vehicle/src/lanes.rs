@@ -6,6 +6,7 @@
 //! addition, multiplication, division and square root round each lane as they round a scalar,
 //! so the results are bit for bit those of the per-wheel `Vec3` code.
 
+use flockway_core::arrays::array4;
 use glam::{Quat, Vec3};
 use std::ops::{Add, Mul, Sub};
 use wide::f32x4;
@@ -16,7 +17,9 @@ pub(crate) type F4 = [f32; 4];
 /// A lane mask (all bits set where `keep` holds) for [`f32x4::select`].
 #[inline(always)]
 pub(crate) fn mask(keep: [bool; 4]) -> f32x4 {
-    f32x4::new(keep.map(|k| f32::from_bits(if k { u32::MAX } else { 0 })))
+    f32x4::new(array4(|i| {
+        f32::from_bits(if keep[i] { u32::MAX } else { 0 })
+    }))
 }
 
 /// Each lane's magnitude with the sign of the same lane of `sign`, as `f32::copysign`.
@@ -59,11 +62,11 @@ impl Vec3x4 {
     /// Lane `i` from `f(i)`.
     #[inline(always)]
     pub fn from_fn(f: impl FnMut(usize) -> Vec3) -> Vec3x4 {
-        let v: [Vec3; 4] = std::array::from_fn(f);
+        let v: [Vec3; 4] = array4(f);
         Vec3x4 {
-            x: f32x4::new(v.map(|v| v.x)),
-            y: f32x4::new(v.map(|v| v.y)),
-            z: f32x4::new(v.map(|v| v.z)),
+            x: f32x4::new(array4(|i| v[i].x)),
+            y: f32x4::new(array4(|i| v[i].y)),
+            z: f32x4::new(array4(|i| v[i].z)),
         }
     }
 

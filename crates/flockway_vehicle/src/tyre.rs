@@ -2,6 +2,7 @@
 
 use crate::lanes::copysign;
 use crate::params::{MagicFormula, TyreParams};
+use flockway_core::arrays::array4;
 use std::f32::consts::FRAC_PI_2;
 use wide::f32x4;
 
@@ -96,7 +97,7 @@ impl SampledCurve {
         let beyond = pos.simd_ge(f32x4::splat(last as f32));
         let skip = (beyond | pos.is_nan()).to_bitmask();
         let trunc = pos.fast_trunc_int().to_array();
-        let index: [usize; 4] = std::array::from_fn(|k| {
+        let index: [usize; 4] = array4(|k| {
             if skip >> k & 1 != 0 {
                 0
             } else {
@@ -104,9 +105,9 @@ impl SampledCurve {
             }
         });
         let sample = |i: usize| self.values.get(i).copied().unwrap_or(0.0);
-        let a = f32x4::new(index.map(sample));
-        let b = f32x4::new(index.map(|i| sample(i + 1)));
-        let t = pos - f32x4::new(index.map(|i| i as f32));
+        let a = f32x4::new(array4(|k| sample(index[k])));
+        let b = f32x4::new(array4(|k| sample(index[k] + 1)));
+        let t = pos - f32x4::new(array4(|k| index[k] as f32));
         let rise = b - a;
         let value = copysign(a + rise * t, x);
         let slope = rise * inv_step;
@@ -222,7 +223,8 @@ impl Tyre {
         let rho = (sx * sx + sy * sy).sqrt();
         let (long, slope) = self.longitudinal_table.eval4(rho * peak_ratio);
         // `f32::max(_, 0.0)` lane by lane: a tie of signed zeros must resolve as it does there.
-        let slope = f32x4::new((friction * slope).to_array().map(|d| d.max(0.0)));
+        let slope = (friction * slope).to_array();
+        let slope = f32x4::new(array4(|k| slope[k].max(0.0)));
         let (lat, _) = self.lateral_table.eval4(rho * peak_angle);
         let at_rest = rho.simd_lt(f32x4::splat(1.0e-9));
         let fx = friction * (long * sx / rho);
