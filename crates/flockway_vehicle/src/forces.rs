@@ -18,7 +18,6 @@ use flockway_core::DT_S;
 use flockway_core::arrays::{array2, array4};
 use flockway_road::{RoadFrame, RoadNetwork};
 use glam::{Quat, Vec3};
-use multiversion::multiversion;
 use wide::f32x4;
 
 /// Stiffness of the bump stop relative to the spring.
@@ -104,7 +103,7 @@ pub(crate) struct TyrePatches {
 
 /// Stage 1, gearbox and clutch: shifts follow the wheels' speed through the gear, not the
 /// (possibly slipping) engine; pulling away, the clutch slips in proportion to the accelerator.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn gearbox_and_clutch(
     t: &VehicleType,
@@ -142,7 +141,7 @@ pub(crate) fn gearbox_and_clutch(
 
 /// Stage 2, steering: the wheel moves towards the input at the steering rate, and the road
 /// wheels take their Ackermann angles (the rear wheels never steer).
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn steer_wheels(
     p: &VehicleParams,
@@ -162,7 +161,7 @@ pub(crate) fn steer_wheels(
 /// The exact road cross-sections under the axles `offsets_m` ahead of the centre of mass: stepped
 /// from the vehicle's road cursor (the two together), or through a connection onto the next road
 /// near an end.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 fn axle_frames(
     network: &RoadNetwork,
@@ -186,7 +185,7 @@ fn axle_frames(
 /// each), each wheel's suspension line meeting that banked, sloped surface, rapier's ground
 /// where no road is under a wheel, and the spring, damper and bump stop along the surface normal,
 /// with anti-roll bars moving load from the less to the more compressed side of an axle.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn wheel_contact(
     physics: &Physics,
@@ -279,7 +278,7 @@ pub(crate) fn wheel_contact(
 /// like static friction against the slope), the longitudinal one linearised in wheel speed for
 /// the implicit spin update. Returns each tyre's patch and gravity's pull along the road summed
 /// over the grounded wheels' shares; writes each wheel's steer, load, slips and lateral force.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn tyre_forces(
     t: &VehicleType,
@@ -396,7 +395,7 @@ pub(crate) fn tyre_forces(
 /// Stage 5, brakes and ABS: the torque holding each wheel (brake, handbrake on the rear,
 /// rolling resistance) and the wheel speeds after it, which brakes bring towards zero but never
 /// past it. ABS holds the slip near the tyre's peak.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn brakes_and_abs(
     t: &VehicleType,
@@ -435,7 +434,7 @@ pub(crate) fn brakes_and_abs(
 /// Stage 6, driveline: wheel spin, engine and clutch solved implicitly together with the
 /// tyres; while shifting, the gearbox synchronises the engine to the gear it shifts into, so
 /// the clutch closes without a jolt.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn driveline(
     t: &VehicleType,
@@ -484,7 +483,7 @@ pub(crate) fn driveline(
 /// carry none of it). A wheel whose brake cannot carry its share drops out and the others share
 /// more; four rounds settle any combination of four wheels. Returns the holding wheels and how
 /// many share the pull (at least one).
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn standstill_hold(
     p: &VehicleParams,
@@ -531,7 +530,7 @@ pub(crate) struct Hold {
 /// in one step (what the wheel did not pass to the road stays in its spin), or holding the
 /// wheel still; the load, longitudinal and lateral forces summed into a force and a torque
 /// about the centre of mass. Writes each wheel's final spin, drive torque and force.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn contact_forces(
     t: &VehicleType,
@@ -595,7 +594,7 @@ pub(crate) fn contact_forces(
 }
 
 /// Stage 9, drag: ½ ρ Cd A v² against the velocity, at the centre of mass.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 pub(crate) fn drag(p: &VehicleParams, v: Vec3) -> Vec3 {
     let ch = &p.chassis;
@@ -605,9 +604,9 @@ pub(crate) fn drag(p: &VehicleParams, v: Vec3) -> Vec3 {
 
 /// The force and torque on one vehicle's body this tick (suspension, tyres, drag), advancing
 /// its wheels, engine, gearbox and steering: the stages above, in order. Reads the physics world
-/// only, so vehicles can be computed in parallel. Built twice, for x86-64 and for AVX2 (taken at
-/// run time where the CPU has it; the same results to the bit: see `multiversion` in Cargo.toml).
-#[multiversion(targets("x86_64+avx2"))]
+/// only, so vehicles can be computed in parallel.
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
+#[inline(always)]
 pub(crate) fn vehicle_forces(
     physics: &Physics,
     network: &RoadNetwork,
@@ -651,7 +650,7 @@ pub(crate) fn vehicle_forces(
 }
 
 /// [`clamp_towards`] on four wheels at once.
-// Inlined into both builds of `vehicle_forces` (x86-64 and AVX2).
+// Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 fn clamp_towards4(force: f32x4, stop: f32x4) -> f32x4 {
     let ahead = stop.simd_ge(f32x4::ZERO);

@@ -62,6 +62,8 @@ impl FreeBody {
 
     /// The body's pose, linear and angular velocity now: its own while free, else rapier's;
     /// `None` if rapier has no such body.
+    // Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
+    #[inline(always)]
     pub(crate) fn state(&self, physics: &Physics, chassis: &Chassis) -> Option<(Pose, Vec3, Vec3)> {
         if self.free {
             return Some((self.pose, self.linvel, self.angvel));
@@ -93,6 +95,8 @@ impl FreeBody {
     /// gravity, exactly as rapier's solver advances a dynamic body with no contacts and one
     /// substep: forces into velocities, rapier's gyroscopic correction, its speed caps, then
     /// the linearised rotation and the translation.
+    // Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
+    #[inline(always)]
     pub(crate) fn step(&mut self, force: Vec3, torque: Vec3, settings: &StepSettings) {
         let m = &self.mass;
         let dt = settings.dt;
@@ -143,6 +147,7 @@ impl FreeBody {
 
 /// rapier's explicit gyroscopic correction of a world-space angular velocity (angular momentum
 /// kept), in the world's principal-inertia frame `principal_axes`.
+#[inline(always)]
 fn gyroscopic_corrected_angvel(
     angvel: Vec3,
     principal_axes: Quat,

@@ -11,6 +11,7 @@ use bevy_ecs::prelude::*;
 use flockway_core::{DT_S, for_each_car};
 use flockway_road::RoadNetwork;
 use glam::{DVec3, Vec3};
+use multiversion::multiversion;
 use rapier3d::prelude::RigidBody;
 
 /// From this many vehicles the per-car passes (forces, read-back, decisions, the junction
@@ -52,22 +53,15 @@ pub fn drive_vehicles(
         Mut<'a, FreeBody>,
     );
     let run = |(controls, model, chassis, track, mut state, mut out, mut body): Item| {
-        let Some((pose, v, w)) = body.state(physics, chassis) else {
-            *out = BodyForces::default();
-            return;
+        let car = Car {
+            controls,
+            model,
+            chassis,
+            track,
         };
-        let kin = Kinematics {
-            com: pose.translation,
-            rot: pose.rotation,
-            v,
-            w,
-        };
-        let (force, torque) =
-            vehicle_forces(physics, network, controls, model, &kin, track, &mut state);
-        *out = BodyForces { force, torque };
-        if body.free {
-            body.step(force, torque, &settings);
-        }
+        drive_one(
+            physics, network, &settings, &car, &mut state, &mut out, &mut body,
+        );
     };
     for_each_car(
         &mut vehicles,
@@ -75,6 +69,53 @@ pub fn drive_vehicles(
         || (),
         move |_, item| run(item),
     );
+}
+
+/// What the force pass reads of one car.
+struct Car<'a> {
+    controls: &'a Controls,
+    model: &'a VehicleModel,
+    chassis: &'a Chassis,
+    track: &'a RoadTrack,
+}
+
+/// One car's forces and, while its body is out of rapier, its integration under them. Built
+/// twice, for x86-64 and for AVX2 (taken at run time where the CPU has it; the same results to
+/// the bit: see `multiversion` in Cargo.toml), with the force stages, the road frames under the
+/// axles and the body's integration inlined into each.
+#[multiversion(targets("x86_64+avx2"))]
+fn drive_one(
+    physics: &Physics,
+    network: &RoadNetwork,
+    settings: &StepSettings,
+    car: &Car,
+    state: &mut VehicleState,
+    out: &mut BodyForces,
+    body: &mut FreeBody,
+) {
+    let Some((pose, v, w)) = body.state(physics, car.chassis) else {
+        *out = BodyForces::default();
+        return;
+    };
+    let kin = Kinematics {
+        com: pose.translation,
+        rot: pose.rotation,
+        v,
+        w,
+    };
+    let (force, torque) = vehicle_forces(
+        physics,
+        network,
+        car.controls,
+        car.model,
+        &kin,
+        car.track,
+        state,
+    );
+    *out = BodyForces { force, torque };
+    if body.free {
+        body.step(force, torque, settings);
+    }
 }
 
 /// Replaces the forces of every vehicle body in rapier with this tick's (rapier keeps user forces
