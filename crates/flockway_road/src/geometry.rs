@@ -468,7 +468,12 @@ impl RoadGeometry {
         cursor_s_m: f64,
         ds_m: [f64; 2],
     ) -> [Option<RoadFrame>; 2] {
-        let params = array2(|i| self.param_near(cursor, ds_m[i]));
+        // Two calls written out, not a closure over the two: a closure is built for the
+        // baseline target, and this large one stayed a call from the AVX2 build.
+        let params = [
+            self.param_near(cursor, ds_m[0]),
+            self.param_near(cursor, ds_m[1]),
+        ];
         let s = array2(|i| self.normalize_s(cursor_s_m + ds_m[i]));
         match params {
             [Some(p0), Some(p1)] => {
@@ -509,24 +514,41 @@ impl RoadGeometry {
         }
         .normalize_or(DVec3::Y);
         let up0 = tangent.cross(left0);
-        array2(|i| {
-            let (left, up) = if bank[i] == 0.0 {
+        // Each frame by a function inlined into the caller's build (a closure would be built for
+        // the baseline target and, this large, stay a call from the AVX2 build).
+        #[inline(always)]
+        fn frame(
+            i: usize,
+            s_m: f64,
+            pos: &V2,
+            tangent: &V2,
+            axes: (&V2, &V2),
+            bank: f64,
+            width: f64,
+        ) -> RoadFrame {
+            let (left0, up0) = axes;
+            let (left, up) = if bank == 0.0 {
                 (left0.lane(i), up0.lane(i))
             } else {
-                let (sin, cos) = libm::sincos(bank[i]);
+                let (sin, cos) = libm::sincos(bank);
                 let (l, u) = (left0.lane(i), up0.lane(i));
                 (l * cos + u * sin, u * cos - l * sin)
             };
             RoadFrame {
-                s_m: s_m[i],
+                s_m,
                 pos: pos.lane(i),
                 tangent: tangent.lane(i),
                 left,
                 up,
-                bank_rad: bank[i],
-                width_m: width[i],
+                bank_rad: bank,
+                width_m: width,
             }
-        })
+        }
+        let axes = (&left0, &up0);
+        [
+            frame(0, s_m[0], &pos, &tangent, axes, bank[0], width[0]),
+            frame(1, s_m[1], &pos, &tangent, axes, bank[1], width[1]),
+        ]
     }
 
     /// Where `ds_m` along the road from the cursor falls on the spline ([`frame_near`]'s
