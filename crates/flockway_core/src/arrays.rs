@@ -1,11 +1,12 @@
 //! Small fixed-size arrays built element by element, for the per-car code that is built twice
 //! (for x86-64 and for AVX2, chosen at run time).
 //!
-//! `std::array::from_fn` and `<[T; N]>::map` stay out-of-line calls in the AVX2 build: a closure
-//! written there carries the build's target features and core's loop does not, so the closure
-//! cannot be inlined into that loop, and the loop is then not worth inlining either. These spell
-//! the elements out, so once inlined the closure's calls sit in the caller and inline too. The
-//! elements are made in index order, as `from_fn` makes them.
+//! `std::array::from_fn` and `<[T; N]>::map` go through core's generic `try_from_fn` loop, which
+//! the compiler left out of line in the AVX2 build (callgrind counted five such calls a car and
+//! step), and code out of line runs the baseline build, not the caller's. These are always
+//! inlined and spell the elements out, so a small closure's calls sit in the caller and inline
+//! into its build too; a large closure called twice may still stay a call, so such calls are
+//! better written out. The elements are made in index order, as `from_fn` makes them.
 
 /// `[f(0), f(1)]`, made in that order.
 #[inline(always)]
