@@ -337,6 +337,10 @@ pub struct RunArgs {
     /// level's, e.g. `controller=WaveDamper` on a challenge. Repeatable.
     #[arg(long = "driver", value_name = "PROFILE=MODEL", value_parser = flockway::run::parse_driver)]
     pub drivers: Vec<(String, flockway::drivers::BuiltinModel)>,
+    /// Every driver decides every S seconds (a whole number of 1/120 s ticks up to 1 s; 0:
+    /// every tick), holding its target in between, instead of each profile's `action_step_s`.
+    #[arg(long, value_name = "S")]
+    pub action_step: Option<f32>,
     /// Print nothing but errors; the exit status tells the outcome.
     #[arg(long, short)]
     pub quiet: bool,

@@ -85,6 +85,14 @@ fn missing_files_and_bad_arguments_exit_2() {
     );
     let out = flockway(&["run", "levels/dense_road.ron", "--seed", "not-a-number"]);
     assert_eq!(out.status.code(), Some(2));
+    // An action step that is not a whole number of ticks says what one is.
+    let out = flockway(&["run", "levels/dense_road.ron", "--action-step", "0.013"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--action-step 0.013") && stderr.contains("whole number"),
+        "{stderr}"
+    );
     let out = flockway(&["check"]);
     assert_eq!(out.status.code(), Some(2));
     // compare: a missing level, a missing network, no SUMO where it is said to be.
@@ -149,6 +157,7 @@ fn help_documents_every_run_option() {
         "--seed",
         "--csv",
         "--summary",
+        "--action-step",
         "--quiet",
         "LEVEL",
         "Exit status",

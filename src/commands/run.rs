@@ -30,6 +30,7 @@ pub fn run(args: RunArgs) -> ExitCode {
         external: false,
         drivers: args.drivers.iter().cloned().collect(),
         trips: false,
+        action_step_s: args.action_step,
     };
     let score = level.score.clone();
     let mut runner = match Runner::new(level, &name, &options) {

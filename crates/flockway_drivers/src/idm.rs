@@ -50,6 +50,8 @@ pub struct IdmParams {
     /// Where it gives way at a junction, the least time after the car before it entered the
     /// same path that it follows it through the same gap, s (its follow-up time).
     pub follow_up_s: f32,
+    /// How often it decides, s (see [`FlockParams::action_step_s`]).
+    pub action_step_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Its braking envelope (see [`FlockParams::safety`]).
@@ -81,6 +83,7 @@ impl Default for IdmParams {
             courtesy_decel_mps2: flock.courtesy_decel_mps2,
             critical_gap_s: flock.critical_gap_s,
             follow_up_s: flock.follow_up_s,
+            action_step_s: flock.action_step_s,
             road_ahead: flock.road_ahead,
             safety: flock.safety,
             speed_factor: flock.speed_factor,

@@ -49,8 +49,8 @@ pub use models::{
 };
 pub use perception::{LaneEntry, LaneIndex, LaneSignal, Seen, rebuild_lane_index};
 pub use pipeline::{
-    DrivingModel, LANE_END_DECEL_MPS2, LaneChoice, LaneStyle, Longitudinal, Proposal, Situation,
-    add_custom_model, add_model, desired_speed_mps, drive,
+    ActionStep, DrivingModel, LANE_END_DECEL_MPS2, LaneChoice, LaneStyle, Longitudinal,
+    MAX_ACTION_STEP_S, Proposal, Situation, add_custom_model, add_model, desired_speed_mps, drive,
 };
 pub use profile::{BuiltinModel, DriverLabel, DriverParamsError, DriverSpec};
 pub use route::{

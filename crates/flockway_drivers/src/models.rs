@@ -56,6 +56,10 @@ pub struct FlockParams {
     /// Where it gives way at a junction, the least time after the car before it entered the
     /// same path that it follows it through the same gap, s (its follow-up time).
     pub follow_up_s: f32,
+    /// How often it decides (its action step, as SUMO's `actionStepLength`), s: a whole number
+    /// of ticks; 0 decides every tick. Between decisions it holds its target, while the
+    /// controller, the junction gates and the safety layer still act every tick.
+    pub action_step_s: f32,
     /// How it slows for bends and slippery stretches ahead.
     pub road_ahead: RoadAheadParams,
     /// Its braking envelope: the safety layer never lets it close on a vehicle ahead faster
@@ -149,6 +153,7 @@ impl Default for FlockParams {
             time_gap_s: 0.0,
             critical_gap_s: crate::junction::CRITICAL_GAP_S as f32,
             follow_up_s: crate::junction::FOLLOW_UP_S as f32,
+            action_step_s: 0.0,
             road_ahead: RoadAheadParams::default(),
             safety: SafetyParams::default(),
             speed_factor: SpeedFactorParams::default(),
@@ -460,24 +465,25 @@ impl HumanDriver {
         self
     }
 
-    /// Advances the wander by one tick and returns it, m/s. An Ornstein–Uhlenbeck step with a
-    /// unit-variance uniform kick (cheaper than a Gaussian, the same variance).
-    pub fn wander(&mut self) -> f32 {
+    /// Advances the wander by one decision, `step_s` seconds (a tick, or the driver's action
+    /// step), and returns it, m/s. An Ornstein–Uhlenbeck step with a unit-variance uniform kick
+    /// (cheaper than a Gaussian, the same variance).
+    pub fn wander(&mut self, step_s: f32) -> f32 {
         let Some(rng) = &mut self.rng else {
             return 0.0;
         };
-        let dt = DT_S as f32;
         let kick = (rng.unit_f64() as f32 * 2.0 - 1.0) * 3f32.sqrt();
-        let decay = dt / self.noise_time_s;
+        // At most the whole way back to zero in one step, however long the step.
+        let decay = (step_s / self.noise_time_s).min(1.0);
         self.noise_mps +=
             -self.noise_mps * decay + self.speed_noise_mps * (2.0 * decay).sqrt() * kick;
         self.noise_mps
     }
 
-    /// Queues this tick's decision and returns the one made a reaction time ago (the oldest
-    /// while the queue fills).
-    pub fn react(&mut self, decided: DriveTarget) -> DriveTarget {
-        let delay = (self.reaction_time_s.max(0.0) / DT_S as f32).round() as usize;
+    /// Queues this decision (one every `step_s` seconds: a tick, or the driver's action step)
+    /// and returns the one made a reaction time ago (the oldest while the queue fills).
+    pub fn react(&mut self, decided: DriveTarget, step_s: f32) -> DriveTarget {
+        let delay = (self.reaction_time_s.max(0.0) / step_s).round() as usize;
         self.pending.push_back(decided);
         while self.pending.len() > delay + 1 {
             self.pending.pop_front();
@@ -664,7 +670,7 @@ mod tests {
         };
         let mut h = HumanDriver::new(0.0).with_noise(1.0, 4.0, rng());
         let n = 120 * 4000;
-        let xs: Vec<f32> = (0..n).map(|_| h.wander()).collect();
+        let xs: Vec<f32> = (0..n).map(|_| h.wander(DT_S as f32)).collect();
         let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n as f64;
         let var = xs
             .iter()
@@ -686,8 +692,12 @@ mod tests {
         );
         // The same stream gives the same wander; no noise gives none.
         let mut again = HumanDriver::new(0.0).with_noise(1.0, 4.0, rng());
-        assert!(xs.iter().take(1000).all(|&x| x == again.wander()));
-        assert_eq!(HumanDriver::new(0.0).wander(), 0.0);
+        assert!(
+            xs.iter()
+                .take(1000)
+                .all(|&x| x == again.wander(DT_S as f32))
+        );
+        assert_eq!(HumanDriver::new(0.0).wander(DT_S as f32), 0.0);
     }
 
     #[test]
@@ -701,10 +711,10 @@ mod tests {
         };
         let delay = (0.5 / DT_S).round() as usize;
         for i in 0..delay {
-            assert_eq!(h.react(t(i as f32 + 1.0)).speed_mps, 1.0);
+            assert_eq!(h.react(t(i as f32 + 1.0), DT_S as f32).speed_mps, 1.0);
         }
         // Tick `delay` returns what was decided `delay` ticks before.
-        assert_eq!(h.react(t(100.0)).speed_mps, 1.0);
-        assert_eq!(h.react(t(101.0)).speed_mps, 2.0);
+        assert_eq!(h.react(t(100.0), DT_S as f32).speed_mps, 1.0);
+        assert_eq!(h.react(t(101.0), DT_S as f32).speed_mps, 2.0);
     }
 }

@@ -28,7 +28,7 @@ use bevy_ecs::component::Mutable;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleConfigs;
 use bevy_ecs::system::ScheduleSystem;
-use flockway_core::{Sim, for_each_car};
+use flockway_core::{DT_S, Sim, SimClock, Tick, for_each_car};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork};
 use flockway_vehicle::{Motion, PARALLEL_MIN_VEHICLES, RoadTrack, VehicleModel};
 use glam::Vec3;
@@ -159,6 +159,73 @@ impl Longitudinal {
     }
 }
 
+/// Longest action step a driver may take, s: a decision held longer than this is no longer
+/// driving.
+pub const MAX_ACTION_STEP_S: f32 = 1.0;
+
+/// How often a driver decides when not every tick (its action step, as SUMO's
+/// `actionStepLength`): at the first tick it drives, then every `every` ticks, holding its
+/// [`DriveTarget`] in between. Only the decision waits: the controller, the junction gates and
+/// the safety layer act on the held target every tick.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+pub struct ActionStep {
+    every: u64,
+    next: Option<Tick>,
+    /// The speed its lane following aimed at when it last decided, m/s.
+    v_target_mps: f32,
+    /// Whether it last steered along its lane (not along a velocity of its law's own).
+    lane_kept: bool,
+}
+
+impl ActionStep {
+    /// A driver deciding every `every_ticks` ticks (at least 1).
+    pub fn new(every_ticks: u32) -> ActionStep {
+        ActionStep {
+            every: u64::from(every_ticks.max(1)),
+            next: None,
+            v_target_mps: 0.0,
+            lane_kept: false,
+        }
+    }
+
+    /// The ticks of an action step of `step_s` seconds (0: every tick, 1), or why it is not
+    /// one: a whole number of ticks from 0 to [`MAX_ACTION_STEP_S`].
+    pub fn ticks_of(step_s: f32) -> Result<u32, String> {
+        let ticks = f64::from(step_s) / DT_S;
+        let whole = ticks.round();
+        let fits = step_s.is_finite()
+            && (0.0..=MAX_ACTION_STEP_S).contains(&step_s)
+            && (ticks - whole).abs() <= 1.0e-3;
+        if !fits {
+            return Err(format!(
+                "action_step_s must be 0 (every tick) or a whole number of {} s ticks up to {} s, \
+                 not {step_s}",
+                DT_S, MAX_ACTION_STEP_S
+            ));
+        }
+        Ok((whole as u32).max(1))
+    }
+
+    /// Ticks between its decisions.
+    pub fn every_ticks(&self) -> u64 {
+        self.every
+    }
+
+    /// Whether it decides at `tick` (and if so, when next): at its step, or now if `now`.
+    fn due(&mut self, tick: Tick, now: bool) -> bool {
+        if !now && self.next.is_some_and(|next| tick < next) {
+            return false;
+        }
+        self.next = Some(Tick(tick.0 + self.every));
+        true
+    }
+
+    /// How long one decision holds, s.
+    fn step_s(&self) -> f32 {
+        (self.every as f64 * DT_S) as f32
+    }
+}
+
 /// What a model's law decides this tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Proposal {
@@ -211,6 +278,8 @@ pub struct Situation<'a> {
     pub base: Vec3,
     /// The lane's curvature a little ahead, 1/m.
     pub curvature_per_m: f32,
+    /// How long this decision holds, s: one tick, or the driver's [`ActionStep`].
+    pub step_s: f32,
 }
 
 impl Situation<'_> {
@@ -320,6 +389,7 @@ type Item<'a, M> = (
     Option<Mut<'a, HumanDriver>>,
     Mut<'a, DriveTarget>,
     (Option<&'a Route>, Option<Mut<'a, LaneSignal>>),
+    Option<Mut<'a, ActionStep>>,
 );
 
 /// The pipeline for every vehicle driven by model `M`: writes its [`DriveTarget`].
@@ -328,6 +398,7 @@ pub fn drive<M: DrivingModel>(
     network: Res<RoadNetwork>,
     index: Res<LaneIndex>,
     ahead: Res<RoadAhead>,
+    clock: Res<SimClock>,
     mut vehicles: Query<(
         Entity,
         &RoadTrack,
@@ -339,10 +410,13 @@ pub fn drive<M: DrivingModel>(
         Option<&mut HumanDriver>,
         &mut DriveTarget,
         Wayfinding,
+        Option<&mut ActionStep>,
     )>,
 ) {
-    let run =
-        |seen: &mut Vec<Seen>, item: Item<M>| decide_one(&network, &index, &ahead, seen, item);
+    let tick = clock.tick();
+    let run = |seen: &mut Vec<Seen>, item: Item<M>| {
+        decide_one(&network, &index, &ahead, tick, seen, item);
+    };
     // Each car reads the shared index and road network and writes only its own components,
     // so the decisions are the same whichever thread makes them.
     for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, Vec::new, run);
@@ -356,8 +430,21 @@ fn decide_one<M: DrivingModel>(
     network: &RoadNetwork,
     index: &LaneIndex,
     ahead: &RoadAhead,
+    tick: Tick,
     seen: &mut Vec<Seen>,
-    (me, track, motion, model, desired, mut law, mut choice, human, mut target, (route, signal)): Item<M>,
+    (
+        me,
+        track,
+        motion,
+        model,
+        desired,
+        mut law,
+        mut choice,
+        human,
+        mut target,
+        (route, signal),
+        step,
+    ): Item<M>,
 ) {
     let Some(geometry) = network.get(track.road) else {
         return;
@@ -367,6 +454,35 @@ fn decide_one<M: DrivingModel>(
     let length = chassis.length_m;
     let v = motion.forward_mps;
     let style = law.style();
+    // Between its decisions a driver holds its target, but keeps its lane as the road is now
+    // (lane keeping is a continuous skill); onto another road, it decides afresh.
+    let mut step = step.filter(|s| s.every_ticks() > 1);
+    if let Some(held) = step.as_mut()
+        && !held.due(tick, choice.road != Some(track.road))
+    {
+        if held.lane_kept {
+            let (dir, base, curvature) = lane_following(
+                geometry,
+                track,
+                choice.lane.min(lanes - 1),
+                v,
+                held.v_target_mps,
+                style.speed_weight,
+                style.road_weight_per_s,
+                style.max_lateral_mps,
+                style.lookahead_s,
+            );
+            let heading = if base.truncate().length() > 1.0e-3 {
+                base
+            } else {
+                dir
+            };
+            target.heading_rad = libm::atan2f(heading.y, heading.x);
+            target.curvature_per_m = curvature;
+        }
+        return;
+    }
+    let step_s = step.as_ref().map_or(DT_S as f32, |s| s.step_s());
     if choice.road != Some(track.road) {
         let lane = carry_lane(network, choice.road, track.road, choice.lane, track.lane);
         let target = carry_lane(network, choice.road, track.road, choice.target_lane, lane);
@@ -464,6 +580,7 @@ fn decide_one<M: DrivingModel>(
         dir,
         base,
         curvature_per_m: curvature,
+        step_s,
     };
     let proposal = law.decide(&at, seen);
     let mut command = proposal.longitudinal;
@@ -490,6 +607,10 @@ fn decide_one<M: DrivingModel>(
             MergeSpeed::Pull(pull) => command.pull(v, pull.min(v_target + MERGE_PULL_MPS).min(cap)),
         }
     }
+    if let Some(held) = step.as_mut() {
+        held.v_target_mps = v_target;
+        held.lane_kept = proposal.steer_by.is_none();
+    }
     let steer_by = proposal.steer_by.unwrap_or(base);
     let heading = if steer_by.truncate().length() > 1.0e-3 {
         steer_by
@@ -506,14 +627,14 @@ fn decide_one<M: DrivingModel>(
         // The reaction delay is on the response to traffic (the speed); lane keeping is a
         // continuous skill and follows the road as it is now.
         Some(mut h) => {
-            let wander = h.wander();
+            let wander = h.wander(step_s);
             let chosen = DriveTarget {
                 speed_mps: (decided.speed_mps + wander).max(0.0),
                 ..decided
             };
             // A bend is seen long before it is reached: what the road ahead allows binds
             // without the delay.
-            let reacted = h.react(chosen);
+            let reacted = h.react(chosen, step_s);
             DriveTarget {
                 speed_mps: reacted.speed_mps.min(cap),
                 accel_mps2: reacted.accel_mps2,
@@ -904,9 +1025,33 @@ fn merge_speed(
 #[cfg(test)]
 mod tests {
     use super::*;
-
     use crate::perception::fixtures::split_with;
     use flockway_road::RoadId;
+
+    #[test]
+    fn an_action_step_is_a_whole_number_of_ticks_and_decides_once_per_step() {
+        assert_eq!(ActionStep::ticks_of(0.0), Ok(1));
+        assert_eq!(ActionStep::ticks_of((DT_S) as f32), Ok(1));
+        // 1/30 s as a user writes it, and SUMO's usual steps.
+        assert_eq!(ActionStep::ticks_of(0.033_333), Ok(4));
+        assert_eq!(ActionStep::ticks_of(0.1), Ok(12));
+        assert_eq!(ActionStep::ticks_of(1.0), Ok(120));
+        for bad in [0.01, -0.1, 1.5, f32::NAN, f32::INFINITY] {
+            let err = ActionStep::ticks_of(bad).expect_err("not a step");
+            assert!(err.contains("action_step_s"), "{err}");
+        }
+        // The first tick it drives decides, then every fourth.
+        let mut step = ActionStep::new(4);
+        let decided: Vec<u64> = (10..24).filter(|&t| step.due(Tick(t), false)).collect();
+        assert_eq!(decided, [10, 14, 18, 22]);
+        // Told to decide now (onto another road), it counts its step from there.
+        assert!(step.due(Tick(23), true));
+        assert!(!step.due(Tick(26), false));
+        assert!(step.due(Tick(27), false));
+        assert_eq!(step.step_s(), (4.0 * DT_S) as f32);
+        // Every tick: the step a driver without one takes, to the bit.
+        assert_eq!(ActionStep::new(1).step_s(), DT_S as f32);
+    }
 
     const APPROACH: RoadId = RoadId(0);
 

@@ -5,7 +5,7 @@ use crate::ahead::ReadsRoad;
 use crate::control::{DriveTarget, TargetController};
 use crate::idm::{IdmDriver, IdmParams};
 use crate::models::{FlockDriver, FlockParams, HumanDriver, HumanParams, SpeedFactor, SpeedLimit};
-use crate::pipeline::LaneChoice;
+use crate::pipeline::{ActionStep, LaneChoice};
 use crate::safety::SafetyParams;
 use crate::wave_damper::{WaveDamper, WaveDamperParams};
 use bevy_ecs::prelude::*;
@@ -200,14 +200,19 @@ impl DriverSpec {
         params: Option<(&str, &str)>,
         overrides: &BTreeMap<String, f64>,
     ) -> Result<DriverSpec, DriverParamsError> {
+        let base: FlockParams = load(
+            BuiltinModel::FlockLanes,
+            params,
+            overrides,
+            FlockParams::lanes(),
+        )?;
+        ActionStep::ticks_of(base.action_step_s).map_err(|message| DriverParamsError::Invalid {
+            model: BuiltinModel::FlockLanes.name(),
+            message,
+        })?;
         Ok(DriverSpec::Custom {
             name: std::sync::Arc::from(name),
-            base: load(
-                BuiltinModel::FlockLanes,
-                params,
-                overrides,
-                FlockParams::lanes(),
-            )?,
+            base,
         })
     }
 
@@ -238,11 +243,24 @@ impl DriverSpec {
         };
         spec.safety()
             .validate()
+            .and_then(|()| ActionStep::ticks_of(spec.action_step_s()).map(|_| ()))
             .map_err(|message| DriverParamsError::Invalid {
                 model: model.name(),
                 message,
             })?;
         Ok(spec)
+    }
+
+    /// How often it decides, s (0: every tick); see [`FlockParams::action_step_s`].
+    pub fn action_step_s(&self) -> f32 {
+        match self {
+            DriverSpec::Flock(p)
+            | DriverSpec::FlockLanes(p)
+            | DriverSpec::Custom { base: p, .. } => p.action_step_s,
+            DriverSpec::Human(h) => h.flock.action_step_s,
+            DriverSpec::Idm(p) => p.action_step_s,
+            DriverSpec::WaveDamper(p) => p.flock.action_step_s,
+        }
     }
 
     /// How strongly a vehicle close behind pushes this driver on (the flocking rule; 0 for a
@@ -362,6 +380,14 @@ impl DriverSpec {
                 )
             }
         };
+        // A driver deciding every tick carries no action step (nor pays for one); a driver
+        // put in another's place (a trigger's new profile) does not keep the old one's.
+        let every = ActionStep::ticks_of(self.action_step_s()).unwrap_or(1);
+        if every > 1 {
+            entity.insert(ActionStep::new(every));
+        } else if entity.contains::<ActionStep>() {
+            entity.remove::<ActionStep>();
+        }
         entity.insert((
             SpeedFactor(factor),
             safety,
@@ -529,6 +555,27 @@ mod tests {
             text.contains("detection_rnage_m") && text.contains("detection_range_m"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn every_model_takes_an_action_step_by_name_and_refuses_one_that_is_not_whole_ticks() {
+        for model in BuiltinModel::ALL {
+            let name = match model {
+                BuiltinModel::Human | BuiltinModel::WaveDamper => "flock.action_step_s",
+                _ => "action_step_s",
+            };
+            let set = BTreeMap::from([(name.to_owned(), 0.1)]);
+            let spec = DriverSpec::build(model, None, &set).expect("valid");
+            assert_eq!(spec.action_step_s(), 0.1, "{}", model.name());
+            let default = DriverSpec::build(model, None, &BTreeMap::new()).expect("valid");
+            assert_eq!(default.action_step_s(), 0.0, "{}", model.name());
+            let bad = BTreeMap::from([(name.to_owned(), 0.013)]);
+            let err = DriverSpec::build(model, None, &bad).expect_err("not whole ticks");
+            assert!(err.to_string().contains("action_step_s"), "{err}");
+        }
+        let bad = BTreeMap::from([("action_step_s".to_owned(), 2.0)]);
+        let err = DriverSpec::custom("mine", None, &bad).expect_err("longer than a second");
+        assert!(err.to_string().contains("action_step_s"), "{err}");
     }
 
     #[test]

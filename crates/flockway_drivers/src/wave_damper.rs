@@ -6,7 +6,6 @@ use crate::models::{FlockParams, flock_law};
 use crate::perception::Seen;
 use crate::pipeline::{DrivingModel, LaneStyle, Proposal, Situation};
 use bevy_ecs::prelude::*;
-use flockway_core::DT_S;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the wave-damping autonomous car: lane following and a safety backstop from
@@ -89,11 +88,12 @@ impl WaveDamper {
         self.mean_mps
     }
 
-    /// This tick's speed command, m/s, for own speed `v`, at most `v_max`, behind a leader at
-    /// bumper gap `gap_m` driving at `v_lead` (if any within range).
-    pub fn command(&mut self, v: f32, v_max: f32, leader: Option<(f32, f32)>) -> f32 {
+    /// This decision's speed command, m/s, for own speed `v`, at most `v_max`, behind a leader
+    /// at bumper gap `gap_m` driving at `v_lead` (if any within range); `step_s` since the last
+    /// (a tick, or its action step).
+    pub fn command(&mut self, v: f32, v_max: f32, leader: Option<(f32, f32)>, step_s: f32) -> f32 {
         let p = &self.params;
-        let dt = DT_S as f32;
+        let dt = step_s;
         let mean = match self.mean_mps {
             Some(m) => m + (v - m) * (dt / p.average_time_s.max(dt)),
             None => v,
@@ -140,7 +140,7 @@ impl DrivingModel for WaveDamper {
             .leader(f64::from(self.params.leader_range_m))
             .map(|(gap, v_leader)| (gap.max(0.0), v_leader));
         let me_speed = at.motion.linvel.dot(at.track.tangent);
-        let command = self.command(me_speed, at.v_target, leader);
+        let command = self.command(me_speed, at.v_target, leader, at.step_s);
         target.speed_mps = command.min(target.speed_mps);
     }
 }
@@ -149,22 +149,25 @@ impl DrivingModel for WaveDamper {
 mod tests {
     use super::*;
 
+    /// One tick, s: the step of a driver deciding every tick.
+    const DT: f32 = flockway_core::DT_S as f32;
+
     #[test]
     fn wave_damper_holds_the_mean_through_a_wave_and_matches_a_leader_too_close() {
         let mut d = WaveDamper::new(WaveDamperParams::default());
         // No leader: the limit.
-        assert_eq!(d.command(3.0, 8.0, None), 8.0);
+        assert_eq!(d.command(3.0, 8.0, None, DT), 8.0);
         let mut d = WaveDamper::new(WaveDamperParams::default());
         // At the settled gap it drives the running mean of its own speed, which starts at 3.
-        let v = d.command(3.0, 8.0, Some((18.0, 3.0)));
+        let v = d.command(3.0, 8.0, Some((18.0, 3.0)), DT);
         assert!((v - 3.0).abs() < 0.01, "{v}");
         // A long gap: at most catch_up faster than the mean, approached smoothly (half the
         // step each tick).
-        let first = d.command(3.0, 8.0, Some((40.0, 3.0)));
+        let first = d.command(3.0, 8.0, Some((40.0, 3.0)), DT);
         assert!((first - 3.15).abs() < 0.01, "{first}");
         let mut v = first;
         for _ in 0..20 {
-            v = d.command(3.0, 8.0, Some((40.0, 3.0)));
+            v = d.command(3.0, 8.0, Some((40.0, 3.0)), DT);
         }
         assert!((v - 3.3).abs() < 0.01, "{v}");
         // The leader stops and starts (±2.8 m/s every 40 s) while the gap stays above the safe
@@ -175,7 +178,7 @@ mod tests {
             let t = tick as f32 / 120.0;
             let lead = 3.0 + 2.8 * (std::f32::consts::TAU * t / 40.0).sin();
             let gap = 18.0 + 17.8 * (1.0 - (std::f32::consts::TAU * t / 40.0).cos()) - 8.0;
-            let v = d.command(3.0, 8.0, Some((gap, lead)));
+            let v = d.command(3.0, 8.0, Some((gap, lead)), DT);
             if t > 60.0 {
                 lo = lo.min(v);
                 hi = hi.max(v);
@@ -183,9 +186,9 @@ mod tests {
         }
         assert!(hi - lo < 0.35, "{lo}..{hi}");
         // Closer than the safe gap (4 m, or 2 s per m/s of closing): its leader's speed.
-        let v = d.command(5.0, 8.0, Some((3.0, 1.0)));
+        let v = d.command(5.0, 8.0, Some((3.0, 1.0)), DT);
         assert!((v - 1.0).abs() < 1e-6, "{v}");
-        let v = d.command(5.0, 8.0, Some((7.0, 1.0)));
+        let v = d.command(5.0, 8.0, Some((7.0, 1.0)), DT);
         assert!((v - 1.0).abs() < 1e-6, "closing at 4 m/s needs 8 m: {v}");
     }
 }

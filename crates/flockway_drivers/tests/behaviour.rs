@@ -167,6 +167,53 @@ fn ten_lane_keeping_cars_hold_their_lanes_through_a_curve() {
     assert!(speed <= 3.0, "speed strayed {speed} km/h from 60");
 }
 
+#[test]
+fn a_driver_with_an_action_step_holds_its_speed_between_decisions_and_keeps_its_lane() {
+    // An IDM car deciding every 0.1 s (12 ticks) through the 200 m curve: its asked-for
+    // acceleration changes at most once per step, while its heading follows the lane each tick.
+    let mut sim = world_with(vec![curved(3, 60.0)], 2);
+    let set = std::collections::BTreeMap::from([("action_step_s".to_owned(), 0.1)]);
+    let spec = DriverSpec::build(BuiltinModel::Idm, None, &set).expect("valid");
+    let me = car_with(&mut sim, spec, 1, 100.0, 40.0, 0);
+    let target = |sim: &Sim| {
+        *sim.world()
+            .get::<flockway_drivers::DriveTarget>(me)
+            .expect("target")
+    };
+    let (mut accel_changes, mut heading_changes, mut worst_lane) = (0, 0, 0.0f64);
+    let mut last = target(&sim);
+    let n = ticks(40.0);
+    for _ in 0..n {
+        sim.step();
+        let now = target(&sim);
+        accel_changes += usize::from(now.accel_mps2 != last.accel_mps2);
+        heading_changes += usize::from(now.heading_rad != last.heading_rad);
+        worst_lane = worst_lane.max(lane_error(&sim, me, 1));
+        last = now;
+    }
+    let steps = n as usize / 12;
+    eprintln!(
+        "action step: {accel_changes} speed decisions, {heading_changes} heading updates in {n} \
+         ticks; lane error {worst_lane} m"
+    );
+    assert!(
+        accel_changes <= steps + 1,
+        "{accel_changes} changes of its decision in {steps} steps"
+    );
+    assert!(
+        heading_changes > 5 * steps,
+        "its heading held between decisions ({heading_changes} updates)"
+    );
+    assert!(
+        worst_lane <= 0.5,
+        "strayed {worst_lane} m from the lane centre"
+    );
+    assert!(
+        (motion(&sim, me).forward_mps * 3.6 - 60.0).abs() < 3.0,
+        "not at the limit"
+    );
+}
+
 /// A scripted leader braking from 60 km/h to a stop at 6 m/s², and a follower driven by `model`
 /// settled behind it: the smallest bumper gap (m) and whether the two bodies ever touched.
 fn brake_test(model: BuiltinModel) -> (f32, bool, f32) {

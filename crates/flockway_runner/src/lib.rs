@@ -36,7 +36,9 @@ pub use detectors::{
 };
 pub use flockway_analysis::{ExpectationResult, Summary};
 pub use routes::{Heading, route_from};
-pub use runner::{MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_models, parse_driver};
+pub use runner::{
+    MAX_RUN_SECONDS, RunError, RunOptions, Runner, assign_action_step, assign_models, parse_driver,
+};
 pub use session::{
     LEADER_RANGE_M, Leaders, Override, Session, SessionError, VehicleColumns, apply_overrides,
 };

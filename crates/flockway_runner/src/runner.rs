@@ -102,6 +102,9 @@ pub struct RunOptions {
     /// Keep every vehicle's trip and every road's counts ([`Runner::scenario_run`]): what a
     /// comparison with SUMO reads.
     pub trips: bool,
+    /// Every driver profile's action step, s, instead of its own (`action_step_s`; 0 decides
+    /// every tick): SUMO's `--default.action-step-length`.
+    pub action_step_s: Option<f32>,
 }
 
 /// Gives each profile named in `drivers` — by its name, or by its custom model's name (every
@@ -134,6 +137,25 @@ pub fn assign_models(
             p.params = Some(model.default_params_path().to_owned());
             p.set.clear();
         }
+    }
+    Ok(())
+}
+
+/// Sets every driver profile's action step to `step_s` seconds (an override in its `set`, by
+/// the name its model gives the parameter); a step that is not a whole number of ticks up to
+/// [`MAX_ACTION_STEP_S`](flockway_drivers::MAX_ACTION_STEP_S) is an error.
+pub fn assign_action_step(level: &mut Level, step_s: f32) -> Result<(), RunError> {
+    flockway_drivers::ActionStep::ticks_of(step_s)
+        .map_err(|message| RunError::Argument(format!("--action-step {step_s}: {message}")))?;
+    for p in &mut level.driver_profiles {
+        let name = match p.model {
+            // Their flocking parameters sit under `flock`.
+            flockway_level::DriverModel::Human | flockway_level::DriverModel::WaveDamper => {
+                "flock.action_step_s"
+            }
+            _ => "action_step_s",
+        };
+        p.set.insert(name.to_owned(), f64::from(step_s));
     }
     Ok(())
 }
@@ -231,6 +253,9 @@ impl Runner {
     /// Sets up a run of `level` (named `name` in reports).
     pub fn new(mut level: Level, name: &str, options: &RunOptions) -> Result<Runner, RunError> {
         assign_models(&mut level, &options.drivers)?;
+        if let Some(step_s) = options.action_step_s {
+            assign_action_step(&mut level, step_s)?;
+        }
         let seconds = options.seconds.unwrap_or(level.duration_s);
         if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_RUN_SECONDS) {
             return Err(RunError::Argument(format!(
