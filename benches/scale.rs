@@ -6,6 +6,8 @@
 //! of the run (spawners, signals, junction rules, destroyers, telemetry into the trace) after 10
 //! simulated seconds. Criterion reports the time per step; the real-time factor is 1/120 s
 //! divided by it. The city prints its vehicles alive on average and µs per vehicle-step.
+//! `ring_step_action_1_30s/10000` is the ring of 10 000 with its drivers deciding every 1/30 s
+//! (their action step) instead of every tick.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 mod common;
@@ -19,6 +21,7 @@ use flockway::road::RoadNetwork;
 use flockway::run::{RunOptions, Runner};
 use flockway::traffic::spawn_driven;
 use flockway::vehicle::{VehicleSpawn, VehicleType};
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
@@ -78,6 +81,16 @@ fn bench(c: &mut Criterion) {
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function(BenchmarkId::new("ring_step", n), |b| b.iter(|| sim.step()));
     }
+    // The 10 000 with their drivers deciding every 1/30 s (the action step) instead of every
+    // tick: the physics, the controller and the safety layer still every tick.
+    let set = BTreeMap::from([("action_step_s".to_owned(), 1.0 / 30.0)]);
+    let driver =
+        DriverSpec::build(BuiltinModel::FlockLanes, None, &set).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = common::ring_driven(10_000, 120, &driver);
+    group.throughput(Throughput::Elements(10_000));
+    group.bench_function(BenchmarkId::new("ring_step_action_1_30s", 10_000), |b| {
+        b.iter(|| sim.step());
+    });
     group.finish();
     grid_step(c, "city", CITY_SIDE, CITY_SPACING_M);
     grid_step(c, "town", TOWN_SIDE, TOWN_SPACING_M);

@@ -10,6 +10,15 @@ use std::sync::Arc;
 
 /// `cars` autonomous cars on a 4-lane ring, 40 m apart per lane at 60 km/h, after `ticks` steps.
 pub fn ring(cars: usize, ticks: u64) -> Sim {
+    ring_driven(
+        cars,
+        ticks,
+        &DriverSpec::default_for(BuiltinModel::FlockLanes),
+    )
+}
+
+/// The same ring with every car driven by `driver`.
+pub fn ring_driven(cars: usize, ticks: u64, driver: &DriverSpec) -> Sim {
     let length = cars as f64 / 4.0 * 40.0;
     let mut sim = Sim::new(1);
     sim.add_plugin(TrafficPlugin);
@@ -31,7 +40,6 @@ pub fn ring(cars: usize, ticks: u64) -> Sim {
         .unwrap_or_else(|| panic!("ring"))
         .clone();
     let model = Arc::new(VehicleType::default());
-    let driver = DriverSpec::default_for(BuiltinModel::FlockLanes);
     // One name shared by every car, as a level's spawners share their profile's.
     let profile: Arc<str> = Arc::from("autonomous");
     for i in 0..cars {
@@ -41,7 +49,7 @@ pub fn ring(cars: usize, ticks: u64) -> Sim {
         let at = VehicleSpawn::new(model.clone(), RoadId(0), s)
             .lateral(lateral)
             .speed(16.7);
-        spawn_driven(sim.world_mut(), at, &driver, lane, profile.clone())
+        spawn_driven(sim.world_mut(), at, driver, lane, profile.clone())
             .unwrap_or_else(|e| panic!("{e}"));
     }
     sim.run_ticks(ticks);
