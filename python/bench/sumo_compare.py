@@ -6,7 +6,8 @@ netconvert builds the road from the same shape; a flow per lane, one car a secon
 simulated vehicle-seconds per wall second (the vehicles on the road summed over the steps,
 times the step, over the wall time of the run; SUMO's from its summary output, its wall time
 the whole process; Flockway's stepping time and vehicle-steps as ``flockway run`` prints
-them).
+them). ``--action-step S`` (repeatable) adds Flockway with its drivers deciding every ``S``
+seconds (``flockway run --action-step``) beside it.
 
     python python/bench/sumo_compare.py --flockway target/release/flockway --repeat 3
 
@@ -88,10 +89,17 @@ def sumo_run(net: Path, rou: Path, step_s: float, d: Path) -> tuple[float, float
     return wall, sum(running) * step_s, len(running)
 
 
-def flockway_run(binary: str) -> tuple[float, float]:
-    """Stepping wall seconds and simulated vehicle-seconds of `flockway run dense_road`."""
-    out = subprocess.run([binary, "run", str(ROOT / "levels" / "dense_road.ron")], check=True,
-                         capture_output=True, text=True).stdout
+def flockway_run(binary: str, action_step_s: float = 0.0) -> tuple[float, float]:
+    """Stepping wall seconds and simulated vehicle-seconds of `flockway run dense_road`, its
+    drivers deciding every `action_step_s` (0: every tick)."""
+    out = subprocess.run([binary, "run", str(ROOT / "levels" / "dense_road.ron"),
+                          "--action-step", repr(action_step_s)],
+                         capture_output=True, text=True)
+    # Exit 1 is a failed expectation (deciding every 0.1 s, fewer cars get on than the level
+    # expects): the run itself is whole. Anything else is an error.
+    if out.returncode not in (0, 1):
+        raise subprocess.CalledProcessError(out.returncode, out.args, out.stdout, out.stderr)
+    out = out.stdout
     wall = float(re.search(r"wall\s+([\d.]+) s", out).group(1))
     vehicle_steps = int(re.search(r"vehicle-steps\s+(\d+)", out).group(1))
     return wall, vehicle_steps / 120.0
@@ -101,6 +109,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--flockway", default=str(ROOT / "target" / "release" / "flockway"))
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--action-step", type=float, action="append", default=[], metavar="S",
+                    help="also run Flockway with its drivers deciding every S s (repeatable)")
     args = ap.parse_args()
     version = subprocess.run([tool("sumo"), "--version"], capture_output=True,
                              text=True).stdout.splitlines()[0]
@@ -111,10 +121,13 @@ def main() -> None:
         d = Path(tmp)
         net, rou = write_scenario(d)
         for _ in range(args.repeat):
-            wall, vs = flockway_run(args.flockway)
-            name = "Flockway, 1/120 s (rigid bodies, tyres)"
-            rows.setdefault(name, []).append(vs / wall)
-            mean[name] = vs / 120.0
+            for action_step in [0.0, *args.action_step]:
+                wall, vs = flockway_run(args.flockway, action_step)
+                name = "Flockway, 1/120 s (rigid bodies, tyres)"
+                if action_step > 0.0:
+                    name += f", deciding every {action_step:g} s"
+                rows.setdefault(name, []).append(vs / wall)
+                mean[name] = vs / 120.0
             for step in STEPS_S:
                 wall, vs, _ = sumo_run(net, rou, step, d)
                 name = f"SUMO, {'1/120' if step < 0.01 else f'{step:g}'} s (Krauss)"
