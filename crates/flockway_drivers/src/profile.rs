@@ -84,6 +84,15 @@ impl BuiltinModel {
         .ok()
     }
 
+    /// The name a profile's `set` gives its action step (see [`FlockParams::action_step_s`]):
+    /// under `flock.` where the model's flocking parameters are nested.
+    pub fn action_step_parameter(self) -> &'static str {
+        match self {
+            BuiltinModel::Human | BuiltinModel::WaveDamper => "flock.action_step_s",
+            BuiltinModel::Flock | BuiltinModel::FlockLanes | BuiltinModel::Idm => "action_step_s",
+        }
+    }
+
     /// The model with this name (as levels write it: `FlockLanes`, `Human`, …).
     pub fn from_name(name: &str) -> Option<BuiltinModel> {
         BuiltinModel::ALL.into_iter().find(|m| m.name() == name)
@@ -560,10 +569,8 @@ mod tests {
     #[test]
     fn every_model_takes_an_action_step_by_name_and_refuses_one_that_is_not_whole_ticks() {
         for model in BuiltinModel::ALL {
-            let name = match model {
-                BuiltinModel::Human | BuiltinModel::WaveDamper => "flock.action_step_s",
-                _ => "action_step_s",
-            };
+            let name = model.action_step_parameter();
+            assert!(model.parameter_names().iter().any(|n| n == name), "{name}");
             let set = BTreeMap::from([(name.to_owned(), 0.1)]);
             let spec = DriverSpec::build(model, None, &set).expect("valid");
             assert_eq!(spec.action_step_s(), 0.1, "{}", model.name());

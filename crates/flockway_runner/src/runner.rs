@@ -1,7 +1,9 @@
 //! A run in progress: a level's world stepped at the fixed step, its telemetry streamed to CSV,
 //! and at the end its summary measured and its expectations checked.
 
-use crate::assets::{DriverProfiles, VehicleTypes, find_assets_dir, load_vehicle_types};
+use crate::assets::{
+    DriverProfiles, VehicleTypes, builtin_model, find_assets_dir, load_vehicle_types,
+};
 use crate::summary::measure;
 use crate::world::{build_sim, populate};
 use flockway_analysis::compare::{EdgeCounts, ScenarioRun, Trip};
@@ -148,14 +150,10 @@ pub fn assign_action_step(level: &mut Level, step_s: f32) -> Result<(), RunError
     flockway_drivers::ActionStep::ticks_of(step_s)
         .map_err(|message| RunError::Argument(format!("--action-step {step_s}: {message}")))?;
     for p in &mut level.driver_profiles {
-        let name = match p.model {
-            // Their flocking parameters sit under `flock`.
-            flockway_level::DriverModel::Human | flockway_level::DriverModel::WaveDamper => {
-                "flock.action_step_s"
-            }
-            _ => "action_step_s",
-        };
-        p.set.insert(name.to_owned(), f64::from(step_s));
+        // A custom model's parameters are the lane-keeping car's.
+        let model = builtin_model(&p.model).unwrap_or(BuiltinModel::FlockLanes);
+        p.set
+            .insert(model.action_step_parameter().to_owned(), f64::from(step_s));
     }
     Ok(())
 }
