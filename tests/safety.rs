@@ -56,7 +56,13 @@ fn level_path(name: &str) -> PathBuf {
 
 /// Collisions of `level` with every profile driven by `model`: (vehicle contacts, guardrail
 /// hits, vehicles spawned).
-fn collisions(name: &str, model: BuiltinModel, seed: u64, seconds: Option<f64>) -> (f64, f64, f64) {
+fn collisions(
+    name: &str,
+    model: BuiltinModel,
+    seed: u64,
+    seconds: Option<f64>,
+    action_step_s: Option<f32>,
+) -> (f64, f64, f64) {
     // One thread per run: the test harness already runs a cell per core, and runs split over
     // threads that other runs share wait on each other (the cells of 64 cars or more took about
     // a quarter longer so). The answers are the same bytes on any number of threads.
@@ -73,6 +79,7 @@ fn collisions(name: &str, model: BuiltinModel, seed: u64, seconds: Option<f64>) 
         seed: Some(seed),
         assets: Some(find_assets_dir(Some(&path))),
         drivers,
+        action_step_s,
         ..RunOptions::default()
     };
     let label = level.name.clone();
@@ -99,7 +106,7 @@ fn drives_safely(name: &str, model: BuiltinModel) {
     let mut failures = Vec::new();
     for seed in [1, short_seed(name, index)] {
         let seconds = (seed > 1).then_some(SHORT_S);
-        let (contacts, guardrail, spawned) = collisions(name, model, seed, seconds);
+        let (contacts, guardrail, spawned) = collisions(name, model, seed, seconds, None);
         assert!(
             spawned > 0.0,
             "{name} {} seed {seed}: nothing ran",
@@ -211,4 +218,56 @@ matrix! {
     sumo_grid_demand => "sumo_grid_demand.ron",
     damp_the_wave => "challenges/damp_the_wave.ron",
     merge_smoothly => "challenges/merge_smoothly.ron",
+}
+
+/// The merge on seeds the matrix never meets, for the drivers that touched there: a car
+/// standing at the acceleration lane's end pulls out into a gap it judged, and the car closing
+/// behind must respect it from its first move, not once their bodies overlap (seed 8 deciding
+/// every 1/30 s, and pure flocking seed 9, touched so). Each run is the level's whole 600 s;
+/// `(seed, action step)`. Human-like seed 15 is left out: it still touches once (the car
+/// pulling out wound its steering up while it stood; see the changelog).
+fn merges_on_untuned_seeds(model: BuiltinModel, runs: &[(u64, Option<f32>)]) {
+    let failures: Vec<String> = runs
+        .iter()
+        .filter_map(|&(seed, step)| {
+            let (contacts, guardrail, spawned) = collisions("on_ramp.ron", model, seed, None, step);
+            assert!(spawned > 0.0, "seed {seed}: nothing ran");
+            (contacts > 0.0 || guardrail > 0.0).then(|| {
+                format!(
+                    "seed {seed} step {step:?}: {contacts} contacts, {guardrail} guardrail hits"
+                )
+            })
+        })
+        .collect();
+    assert!(
+        failures.is_empty(),
+        "on_ramp.ron {}:\n{}",
+        model.name(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn on_ramp_human_untuned_seeds() {
+    merges_on_untuned_seeds(
+        BuiltinModel::Human,
+        &[(8, Some(1.0 / 30.0)), (8, None), (21, None)],
+    );
+}
+
+#[test]
+fn on_ramp_human_untuned_seeds_deciding_every_1_30_s() {
+    let step = Some(1.0 / 30.0);
+    merges_on_untuned_seeds(
+        BuiltinModel::Human,
+        &[(11, step), (17, step), (23, step), (29, step)],
+    );
+}
+
+#[test]
+fn on_ramp_flock_untuned_seeds() {
+    merges_on_untuned_seeds(
+        BuiltinModel::Flock,
+        &[(9, None), (9, Some(1.0 / 30.0)), (12, None)],
+    );
 }

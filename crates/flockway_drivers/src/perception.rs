@@ -50,13 +50,16 @@ struct RoadLanes {
     beside: Vec<Beside>,
 }
 
-/// How the vehicles of one lane spread sideways: the least and the greatest lateral offset, and
-/// whether any is not a number (then nothing can be said of how far aside they all are).
+/// How the vehicles of one lane spread sideways: the least and the greatest lateral offset,
+/// whether any is not a number (then nothing can be said of how far aside they all are), and
+/// whether any is moving across into the lane left (signal +2) or right (−2) of it.
 #[derive(Debug, Clone, Copy)]
 struct Spread {
     least_m: f32,
     most_m: f32,
     any_nan: bool,
+    crossing_left: bool,
+    crossing_right: bool,
 }
 
 impl Default for Spread {
@@ -65,15 +68,19 @@ impl Default for Spread {
             least_m: f32::INFINITY,
             most_m: f32::NEG_INFINITY,
             any_nan: false,
+            crossing_left: false,
+            crossing_right: false,
         }
     }
 }
 
 impl Spread {
-    fn add(&mut self, lateral_m: f32) {
+    fn add(&mut self, lateral_m: f32, signal: i8) {
         self.least_m = self.least_m.min(lateral_m);
         self.most_m = self.most_m.max(lateral_m);
         self.any_nan |= lateral_m.is_nan();
+        self.crossing_left |= signal == 2;
+        self.crossing_right |= signal == -2;
     }
 }
 
@@ -226,7 +233,7 @@ impl LaneIndex {
             self.signalling += usize::from(signal != 0);
             let lateral_m = track.lateral_m as f32;
             if let Some(spread) = road.spread.get_mut(track.lane as usize) {
-                spread.add(lateral_m);
+                spread.add(lateral_m, signal);
             }
             lane.push(LaneEntry {
                 entity,
@@ -337,6 +344,19 @@ impl LaneIndex {
     /// Number of lanes of a road in the index.
     pub fn lanes(&self, road: RoadId) -> u32 {
         self.road(road).map_or(0, |r| r.lanes.len() as u32)
+    }
+
+    /// Whether any vehicle in `lane` of `road` is moving across into the lane beside it on the
+    /// side `signal` tells (+2 left, −2 right; see [`LaneEntry::signal`]). `false` for any
+    /// other signal, or a lane not in the index.
+    pub fn any_crossing(&self, road: RoadId, lane: u32, signal: i8) -> bool {
+        self.road(road)
+            .and_then(|r| r.spread.get(lane as usize))
+            .is_some_and(|s| match signal {
+                2 => s.crossing_left,
+                -2 => s.crossing_right,
+                _ => false,
+            })
     }
 
     /// Whether every vehicle [`visit_within`](Self::visit_within) would hand over for the same

@@ -150,10 +150,11 @@ pub struct Ahead {
     pub speed_mps: f32,
 }
 
-/// The nearest vehicle ahead of the car's body within its reach: the leader in the lane under it (across links onto its next road, and on a
-/// junction path sharing its lane), the leader in the lane it is moving into, and any vehicle
-/// on this road in a lane either side whose body overlaps its own sideways (one of the two
-/// partly across).
+/// The nearest vehicle ahead of the car's body within its reach: the leader in the lane under
+/// it (across links onto its next road, and on a junction path sharing its lane), the leader in
+/// the lane it is moving into, and any vehicle on this road in a lane either side whose body
+/// overlaps its own sideways (one of the two partly across) or that, wholly ahead, is moving
+/// across into its lane.
 pub fn nearest_ahead(
     network: &RoadNetwork,
     index: &LaneIndex,
@@ -236,25 +237,37 @@ fn search(network: &RoadNetwork, index: &LaneIndex, view: &SafetyView, range: f6
     // Half the loop, not all of it: flagged whenever the lane index's window could have taken
     // the whole loop, whatever rounding its length carries.
     found.whole_loop = geometry.is_closed() && ahead >= 0.5 * geometry.length_m();
+    // The signal of a car in `lane` beside this one moving across into this car's lane: left
+    // (+2) from the lane to its right, right (−2) from the lane to its left.
+    let into_mine = |lane: u32| if lane < t.lane { 2 } else { -2 };
     let overlap = view.width_m + LATERAL_MARGIN_M;
-    // Few of the cars beside overlap this one sideways: each is judged as the index walks it.
+    // Few of the cars beside overlap this one sideways: each is judged as the index walks it. A
+    // car wholly ahead moving across into this car's lane counts however far aside it still
+    // is: it is pulling out in front of it (and may have judged its gap before this car sped
+    // up). One still alongside is not: it is for that car to wait (braking to let it in would
+    // be an emergency stop for every car that moves over beside another).
     let mut beside = |s: Seen| {
-        if s.gap_m <= 0.0 || (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap {
+        let aside = (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap;
+        let pulling_out = s.entry.signal == into_mine(s.lane) && ahead_of(&s).gap_m > 0.0;
+        if s.gap_m <= 0.0 || (aside && !pulling_out) {
             return;
         }
         count(&mut found, &s);
     };
-    // A lane whose every car is that far aside has none to count: its walk is skipped.
+    // A lane whose every car is that far aside, none moving across into this one, has none to
+    // count: its walk is skipped.
     let me_lateral = t.lateral_m as f32;
-    let apart =
-        |lane: u32| index.window_apart(t.road, lane, t.s_m, 0.0, ahead, me_lateral, overlap);
+    let apart = |lane: u32| {
+        index.window_apart(t.road, lane, t.s_m, 0.0, ahead, me_lateral, overlap)
+            && !index.any_crossing(t.road, lane, into_mine(lane))
+    };
     if t.lane > 0 && !apart(t.lane - 1) {
-        let left = t.lane - 1;
-        index.visit_within(t.road, left, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
+        let right = t.lane - 1;
+        index.visit_within(t.road, right, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
     if t.lane + 1 < lanes && !apart(t.lane + 1) {
-        let right = t.lane + 1;
-        index.visit_within(t.road, right, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
+        let left = t.lane + 1;
+        index.visit_within(t.road, left, t.s_m, 0.0, ahead, Some(view.me), &mut beside);
     }
     found
 }
@@ -482,6 +495,55 @@ mod tests {
             }
         }
         assert!(answered * 5 >= asked * 4, "{answered} of {asked}");
+    }
+
+    /// A car in a lane beside, ahead, at its lane's centre (far aside) is the one ahead only
+    /// while it moves across into this car's lane: not waiting to, not moving away, not behind,
+    /// not alongside.
+    #[test]
+    fn a_car_moving_across_into_the_lane_counts_however_far_aside() {
+        let road = RoadSpec::through("a", 3, 50.0, &[DVec3::ZERO, DVec3::new(400.0, 0.0, 0.0)]);
+        let network = RoadNetwork::build(&[road]).expect("valid road");
+        let g = network.get(RoadId(0)).expect("road");
+        let lane_w = g.frame_at(0.0).width_m / 3.0;
+        let mut world = World::new();
+        let me = world.spawn_empty().id();
+        let other = world.spawn_empty().id();
+        let mine = RoadTrack::new(RoadId(0), g, 100.0, 0.0);
+        assert_eq!(mine.lane, 1);
+        let view = SafetyView {
+            me,
+            track: &mine,
+            speed_mps: 20.0,
+            length_m: 4.6,
+            width_m: 1.8,
+            signal: 0,
+        };
+        for (lateral, s, signal, counted) in [
+            (-lane_w, 130.0, 2i8, true),
+            (-lane_w, 103.0, 2, false),
+            (-lane_w, 130.0, 0, false),
+            (-lane_w, 130.0, 1, false),
+            (-lane_w, 130.0, -2, false),
+            (-lane_w, 90.0, 2, false),
+            (lane_w, 130.0, -2, true),
+            (lane_w, 130.0, 2, false),
+        ] {
+            let theirs = RoadTrack::new(RoadId(0), g, s, lateral);
+            let mut index = LaneIndex::default();
+            let cars = [(me, &mine, 4.6f32, 0i8), (other, &theirs, 4.6, signal)];
+            index.rebuild(&network, cars.into_iter());
+            let got = nearest_ahead(&network, &index, &view, 60.0);
+            assert_eq!(
+                got.map(|a| a.entity),
+                counted.then_some(other),
+                "at {lateral} m across, {s} m, signal {signal}"
+            );
+            if counted {
+                let a = got.expect("counted");
+                assert!((a.gap_m - (30.0 - 4.6)).abs() < 1e-3, "{}", a.gap_m);
+            }
+        }
     }
 
     #[test]
