@@ -246,10 +246,10 @@ fn search(network: &RoadNetwork, index: &LaneIndex, view: &SafetyView, range: f6
     // is: it is pulling out in front of it (and may have judged its gap before this car sped
     // up). One still alongside is not: it is for that car to wait (braking to let it in would
     // be an emergency stop for every car that moves over beside another).
+    let pulling_out = |s: &Seen| s.entry.signal == into_mine(s.lane) && ahead_of(s).gap_m > 0.0;
     let mut beside = |s: Seen| {
         let aside = (s.entry.lateral_m - t.lateral_m as f32).abs() >= overlap;
-        let pulling_out = s.entry.signal == into_mine(s.lane) && ahead_of(&s).gap_m > 0.0;
-        if s.gap_m <= 0.0 || (aside && !pulling_out) {
+        if s.gap_m <= 0.0 || (aside && !pulling_out(&s)) {
             return;
         }
         count(&mut found, &s);
