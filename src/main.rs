@@ -34,11 +34,15 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
-    // A bad thread count or parallel threshold is bad input, said before anything runs.
+    // A bad thread count, parallel threshold or split choice is bad input, said before anything
+    // runs.
     if let Err(message) = flockway::core::threads_from_env() {
         return commands::fail(message);
     }
     if let Err(message) = flockway::core::parallel_min_from_env() {
+        return commands::fail(message);
+    }
+    if let Err(message) = flockway::core::split_always_from_env() {
         return commands::fail(message);
     }
     match cli.command {

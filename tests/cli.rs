@@ -1068,7 +1068,8 @@ fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
         outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &env));
     }
     // And with the passes' own thresholds, which split its hundred-odd cars over the join pool
-    // (in two parts, and in three on three threads).
+    // (in two parts, and in three on three threads): as the step's timing chooses, switching
+    // between split and one thread every few steps while it times both, and always.
     let csv = dir.path().join("run_default.csv");
     outputs.push(csv_of_run("levels/dense_road.ron", "30", &csv, &[]));
     let csv = dir.path().join("run_default_3.csv");
@@ -1076,7 +1077,7 @@ fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
         "levels/dense_road.ron",
         "30",
         &csv,
-        &[("FLOCKWAY_THREADS", "3")],
+        &[("FLOCKWAY_THREADS", "3"), ("FLOCKWAY_SPLIT", "always")],
     ));
     assert!(outputs[0].len() > 10_000);
     assert!(
@@ -1095,4 +1096,14 @@ fn the_thread_count_changes_no_byte_of_a_run_and_a_bad_one_is_refused() {
     );
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("FLOCKWAY_PARALLEL_MIN=\"0\""));
+    let out = flockway_with(
+        &["check", "levels/dense_road.ron"],
+        &[("FLOCKWAY_SPLIT", "sometimes")],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("FLOCKWAY_SPLIT=\"sometimes\": expected auto or always"),
+        "{err}"
+    );
 }

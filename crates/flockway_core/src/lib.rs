@@ -11,6 +11,7 @@ mod ids;
 mod parallel;
 mod rng;
 mod sim;
+mod split;
 mod stats;
 mod stepper;
 mod units;
@@ -20,10 +21,11 @@ pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use parallel::{
     JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, for_each_car, map_in_order, parallel_min,
-    parallel_min_from_env, task_threads,
+    parallel_min_from_env, pool_threads, task_threads,
 };
 pub use rng::{EntityRng, RngStreams};
 pub use sim::{FixedStep, Sim, SimPlugin, StepSet, THREADS_ENV, init_task_pool, threads_from_env};
+pub use split::{SPLIT_ENV, SplitTuner, split_always_from_env};
 pub use stats::{RunStats, Vehicle, count_vehicles};
 pub use stepper::{FixedStepper, SpeedSetting};
 pub use units::{Speed, kmh_to_mps, mps_to_kmh};

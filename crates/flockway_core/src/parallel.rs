@@ -33,8 +33,18 @@ pub fn parallel_min(default: usize) -> usize {
 }
 
 /// How many threads the task pool has (1 before it is started).
-pub fn task_threads() -> usize {
+pub fn pool_threads() -> usize {
     ComputeTaskPool::try_get().map_or(1, |pool| pool.thread_num())
+}
+
+/// How many threads a pass started on this thread splits over: the task pool's, or 1 while the
+/// step stepping on this thread keeps its passes on one thread ([`SplitTuner`](crate::SplitTuner)).
+pub fn task_threads() -> usize {
+    if crate::split::split_allowed() {
+        pool_threads()
+    } else {
+        1
+    }
 }
 
 /// `f` over `items` (each call with the scratch space its thread made by `scratch`), the
@@ -54,11 +64,13 @@ where
     let threads = task_threads();
     if items.len() < min_parallel.max(1) || threads < 2 {
         if threads >= 2 && items.len() >= parallel_min(JOIN_MIN_ITEMS.min(min_parallel)) {
+            crate::split::note_split();
             return join_map(items, threads, &scratch, &f);
         }
         let mut s = scratch();
         return items.iter().map(|item| f(&mut s, item)).collect();
     }
+    crate::split::note_split();
     let pool = ComputeTaskPool::get();
     // Two parts per thread, so a thread that finishes early takes another; each part is a task
     // handed over, which costs about as much as a few cars' work.
@@ -104,8 +116,10 @@ pub fn for_each_car<'a, 's, D, F, S>(
     let threads = task_threads();
     let len = query.iter().len();
     if threads >= 2 && len >= parallel_min(pool_min) {
+        crate::split::note_split();
         query.par_iter_mut().for_each_init(init, f);
     } else if threads >= 2 && len >= parallel_min(JOIN_MIN_ITEMS.min(pool_min)) {
+        crate::split::note_split();
         let items: Vec<QueryItem<'a, 's, D>> = query.iter_mut().collect();
         join_parts(items, threads, &init, &f);
     } else {

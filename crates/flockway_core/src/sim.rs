@@ -1,6 +1,6 @@
 //! The simulation: a world, the fixed-step schedule and the plugins that fill it.
 
-use crate::{RngStreams, RunStats, SimClock, Tick, count_vehicles};
+use crate::{RngStreams, RunStats, SimClock, SplitTuner, Tick, count_vehicles};
 use bevy_ecs::{
     schedule::{
         IntoScheduleConfigs, LogLevel, Schedule, ScheduleBuildSettings, ScheduleLabel,
@@ -70,6 +70,8 @@ pub struct Sim {
     world: World,
     schedule: Schedule,
     plugins: Vec<String>,
+    /// Whether the step's passes split over the threads, timed as the run goes.
+    split: SplitTuner,
 }
 
 /// The environment variable that sets how many threads the task pool has (one per core
@@ -162,6 +164,7 @@ impl Sim {
             world,
             schedule,
             plugins: Vec::new(),
+            split: SplitTuner::for_pool(),
         }
     }
 
@@ -210,6 +213,12 @@ impl Sim {
         self.world.resource::<RngStreams>().seed()
     }
 
+    /// The share of the steps run whose per-car passes were allowed to split over the threads
+    /// (1 when every step was, or none ran; see [`SplitTuner`]).
+    pub fn split_share(&self) -> f64 {
+        self.split.split_share()
+    }
+
     /// The tick the next step will simulate.
     pub fn tick(&self) -> Tick {
         self.world.resource::<SimClock>().tick()
@@ -229,7 +238,8 @@ impl Sim {
     /// # Panics
     /// If the schedule cannot be built; call [`Sim::prepare`] first to get that as an error.
     pub fn step(&mut self) {
-        self.schedule.run(&mut self.world);
+        let (schedule, world) = (&mut self.schedule, &mut self.world);
+        self.split.run(|| schedule.run(world));
         self.world.resource_mut::<SimClock>().advance();
     }
 

@@ -1,0 +1,289 @@
+//! Whether a step's per-car passes split over the threads, decided by timing the step both ways
+//! as the run goes.
+//!
+//! Two threads pay only when moving each car's data between the cores costs less than the work
+//! they share. On a machine whose two cores share a cache they do (dense_road about 1.4× one
+//! thread's speed); where the two cores sit far apart (a virtual machine's two cores placed on
+//! different dies by its host, a handover round trip ten times as long) the same step on two
+//! threads ran slower than on one, and the host may move them while a run goes. So the step
+//! is timed in short blocks with the split allowed and not, alternated, and the faster way is
+//! kept for a while before the next trial. Which thread does a car's work never changes a
+//! result (see [`for_each_car`](crate::for_each_car)), so the choice touches only the wall time.
+
+use std::cell::Cell;
+use std::time::{Duration, Instant};
+
+/// The environment variable that chooses how the step decides to split its passes: `auto` (the
+/// default) times both ways as the run goes, `always` splits every pass as its thresholds say
+/// (for timing the split itself, and for tests of it).
+pub const SPLIT_ENV: &str = "FLOCKWAY_SPLIT";
+
+/// How [`SPLIT_ENV`] asks the step to split: `Ok(true)` for `always`, `Ok(false)` for `auto` or
+/// not set, an error that says why for anything else.
+pub fn split_always_from_env() -> Result<bool, String> {
+    match std::env::var(SPLIT_ENV) {
+        Err(std::env::VarError::NotPresent) => Ok(false),
+        Ok(v) if v.trim() == "auto" => Ok(false),
+        Ok(v) if v.trim() == "always" => Ok(true),
+        Ok(v) => Err(format!("{SPLIT_ENV}={v:?}: expected auto or always")),
+        Err(std::env::VarError::NotUnicode(v)) => {
+            Err(format!("{SPLIT_ENV}={v:?}: expected auto or always"))
+        }
+    }
+}
+
+thread_local! {
+    /// Whether passes started on this thread may split (what the step stepping on it chose).
+    static ALLOWED: Cell<bool> = const { Cell::new(true) };
+    /// How many passes started on this thread have split, to tell a trial that split nothing.
+    static SPLITS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// Whether a pass started on this thread may split over the threads.
+pub(crate) fn split_allowed() -> bool {
+    ALLOWED.with(Cell::get)
+}
+
+/// Notes that a pass started on this thread split.
+pub(crate) fn note_split() {
+    SPLITS.with(|s| s.set(s.get() + 1));
+}
+
+/// Steps timed in a row one way before the trial switches to the other.
+const BLOCK_STEPS: u32 = 8;
+
+/// The ways of a trial's blocks, split (`true`) or not: each way first as often as last, so a
+/// step time that drifts through a trial weighs on both alike.
+const TRIAL: [bool; 8] = [true, false, false, true, false, true, true, false];
+
+/// Steps the faster way is kept before the next trial: long enough that the trial's steps the
+/// slower way cost little (1.5 % of the steps), short enough to follow a machine that changes
+/// while a run goes.
+const KEEP_STEPS: u32 = 2048;
+/// Steps the split is kept allowed after a trial in which no pass split (a level still filling
+/// up, or one too small for its passes to split): the next trial comes soon.
+const KEEP_SPLITLESS_STEPS: u32 = 256;
+
+/// Where the tuner is: timing a trial's blocks, or keeping what one chose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// In block `block` of the trial, `step` steps into it.
+    Trial { block: usize, step: u32 },
+    /// Keeping `split` for `left` more steps.
+    Keep { split: bool, left: u32 },
+}
+
+/// Chooses, step by step, whether a [`Sim`](crate::Sim)'s passes split over the threads, from
+/// the wall time of its steps (see the module's documentation).
+#[derive(Debug, Clone)]
+pub struct SplitTuner {
+    /// `false` when the passes always split as their thresholds say (one thread, or
+    /// [`SPLIT_ENV`]`=always`, or a forced threshold): nothing is timed.
+    tuning: bool,
+    phase: Phase,
+    /// The trial's time with the split allowed and without.
+    with: Duration,
+    without: Duration,
+    /// The thread's count of passes that split, when the trial began.
+    splits_at_trial: u64,
+    /// Steps run, and of them with the split allowed.
+    steps: u64,
+    split_steps: u64,
+}
+
+impl SplitTuner {
+    /// A tuner that times the step both ways when `tuning`, and otherwise always allows the
+    /// split.
+    pub fn new(tuning: bool) -> SplitTuner {
+        SplitTuner {
+            tuning,
+            phase: Phase::Trial { block: 0, step: 0 },
+            with: Duration::ZERO,
+            without: Duration::ZERO,
+            splits_at_trial: 0,
+            steps: 0,
+            split_steps: 0,
+        }
+    }
+
+    /// The tuner for a step on this process's pool: timing when the pool has two threads or
+    /// more, unless [`SPLIT_ENV`] or [`PARALLEL_MIN_ENV`](crate::PARALLEL_MIN_ENV) (which asks
+    /// for every pass to split) says otherwise.
+    pub fn for_pool() -> SplitTuner {
+        let forced = split_always_from_env().unwrap_or(false)
+            || std::env::var_os(crate::PARALLEL_MIN_ENV).is_some();
+        SplitTuner::new(crate::pool_threads() >= 2 && !forced)
+    }
+
+    /// Whether the coming step's passes may split.
+    fn split_now(&self) -> bool {
+        match self.phase {
+            _ if !self.tuning => true,
+            Phase::Trial { block, .. } => TRIAL[block],
+            Phase::Keep { split, .. } => split,
+        }
+    }
+
+    /// Whether the coming step belongs to a trial.
+    #[cfg(test)]
+    fn timing(&self) -> bool {
+        self.tuning && matches!(self.phase, Phase::Trial { .. })
+    }
+
+    /// Runs `step` with this thread's passes split or not as the tuner chooses, timing it.
+    pub fn run(&mut self, step: impl FnOnce()) {
+        self.run_timed(|| {
+            // Wall time, read only to choose between two ways that give the same bytes.
+            let started = Instant::now();
+            step();
+            started.elapsed()
+        });
+    }
+
+    /// [`run`](Self::run) with `step` returning its own time.
+    fn run_timed(&mut self, step: impl FnOnce() -> Duration) {
+        let split = self.split_now();
+        if matches!(self.phase, Phase::Trial { block: 0, step: 0 }) {
+            self.splits_at_trial = SPLITS.with(Cell::get);
+        }
+        let before = ALLOWED.with(|a| a.replace(split));
+        let elapsed = step();
+        ALLOWED.with(|a| a.set(before));
+        self.steps += 1;
+        self.split_steps += u64::from(split);
+        self.record(elapsed, SPLITS.with(Cell::get) > self.splits_at_trial);
+    }
+
+    /// Takes a step's time into account: `split_any` tells whether any pass has split since
+    /// the trial began.
+    fn record(&mut self, elapsed: Duration, split_any: bool) {
+        if !self.tuning {
+            return;
+        }
+        match &mut self.phase {
+            Phase::Trial { block, step } => {
+                let d = elapsed;
+                if TRIAL[*block] {
+                    self.with += d;
+                } else {
+                    self.without += d;
+                }
+                *step += 1;
+                if *step < BLOCK_STEPS {
+                    return;
+                }
+                *step = 0;
+                *block += 1;
+                if *block < TRIAL.len() {
+                    return;
+                }
+                let (with, without) = (self.with.as_secs_f64(), self.without.as_secs_f64());
+                // Nothing split: the two ways ran the same step; keep the split allowed (the
+                // way without a tuner) and look again soon.
+                let split = !split_any || with <= without;
+                tracing::debug!(
+                    "split trial: {:.3} ms with the passes split, {:.3} ms on one thread \
+                     ({} steps each{}): {}",
+                    with * 1e3,
+                    without * 1e3,
+                    TRIAL.len() as u32 / 2 * BLOCK_STEPS,
+                    if split_any { "" } else { ", nothing split" },
+                    if split { "split" } else { "one thread" },
+                );
+                self.phase = Phase::Keep {
+                    split,
+                    left: if split_any {
+                        KEEP_STEPS
+                    } else {
+                        KEEP_SPLITLESS_STEPS
+                    },
+                };
+            }
+            Phase::Keep { left, .. } => {
+                *left -= 1;
+                if *left == 0 {
+                    self.phase = Phase::Trial { block: 0, step: 0 };
+                    self.with = Duration::ZERO;
+                    self.without = Duration::ZERO;
+                }
+            }
+        }
+    }
+
+    /// The share of the steps run so far whose passes were allowed to split (1 when nothing ran).
+    pub fn split_share(&self) -> f64 {
+        if self.steps == 0 {
+            1.0
+        } else {
+            self.split_steps as f64 / self.steps as f64
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Steps `tuner` `n` times, each step taking `with` or `without` milliseconds as its
+    /// passes may split or not (and splitting when allowed, as `splits` says); returns how many
+    /// were allowed to split.
+    fn drive(tuner: &mut SplitTuner, n: usize, with: u64, without: u64, splits: bool) -> usize {
+        let mut allowed = 0;
+        for _ in 0..n {
+            tuner.run_timed(|| {
+                let split = split_allowed();
+                if split && splits {
+                    note_split();
+                }
+                allowed += usize::from(split);
+                Duration::from_millis(if split { with } else { without })
+            });
+        }
+        allowed
+    }
+
+    const TRIAL_STEPS: usize = TRIAL.len() * BLOCK_STEPS as usize;
+
+    #[test]
+    fn the_faster_way_is_kept_until_the_next_trial_and_the_choice_follows_the_machine() {
+        let mut tuner = SplitTuner::new(true);
+        // Splitting is faster: after the trial (half of it split), every step splits.
+        assert_eq!(drive(&mut tuner, TRIAL_STEPS, 6, 10, true), TRIAL_STEPS / 2);
+        assert!(!tuner.timing());
+        let keep = KEEP_STEPS as usize;
+        assert_eq!(drive(&mut tuner, keep, 6, 10, true), keep);
+        // The machine changes: one thread is faster now; the next trial sees it.
+        assert!(tuner.timing());
+        assert_eq!(
+            drive(&mut tuner, TRIAL_STEPS, 12, 10, true),
+            TRIAL_STEPS / 2
+        );
+        assert_eq!(drive(&mut tuner, keep, 12, 10, true), 0);
+        // The passes are restored to their default once a step is over.
+        assert!(split_allowed());
+    }
+
+    #[test]
+    fn a_splitless_trial_keeps_the_split_allowed_only_briefly() {
+        // Nothing split in the trial (a level too small): the split stays allowed, as without
+        // a tuner, whatever the noise said, and the next trial comes soon.
+        let mut tuner = SplitTuner::new(true);
+        drive(&mut tuner, TRIAL_STEPS, 20, 10, false);
+        let splitless = KEEP_SPLITLESS_STEPS as usize;
+        assert_eq!(drive(&mut tuner, splitless, 20, 10, false), splitless);
+        assert!(tuner.timing());
+        // A close trial is decided all the same: the faster way, kept as long as any.
+        drive(&mut tuner, TRIAL_STEPS, 103, 100, true);
+        let keep = KEEP_STEPS as usize;
+        assert_eq!(drive(&mut tuner, keep, 103, 100, true), 0);
+        assert!(tuner.timing());
+    }
+
+    #[test]
+    fn without_tuning_every_step_may_split_and_nothing_is_timed() {
+        let mut tuner = SplitTuner::new(false);
+        assert!(!tuner.timing());
+        assert_eq!(drive(&mut tuner, 5_000, 20, 10, true), 5_000);
+        assert_eq!(tuner.split_share(), 1.0);
+    }
+}
