@@ -49,20 +49,28 @@ pub(crate) fn note_split() {
     SPLITS.with(|s| s.set(s.get() + 1));
 }
 
-/// Steps timed in a row one way before the trial switches to the other.
+/// The most steps timed in a row one way before the trial switches to the other.
 const BLOCK_STEPS: u32 = 8;
+
+/// How long a trial's block should last at least: steps of a large level (milliseconds each)
+/// are timed one at a time, those of a small one in runs long enough to time.
+const BLOCK_TIME: Duration = Duration::from_micros(500);
 
 /// The ways of a trial's blocks, split (`true`) or not: each way first as often as last, so a
 /// step time that drifts through a trial weighs on both alike.
 const TRIAL: [bool; 8] = [true, false, false, true, false, true, true, false];
 
-/// Steps the faster way is kept before the next trial: long enough that the trial's steps the
-/// slower way cost little (1.5 % of the steps), short enough to follow a machine that changes
-/// while a run goes.
-const KEEP_STEPS: u32 = 2048;
-/// Steps the split is kept allowed after a trial in which no pass split (a level still filling
-/// up, or one too small for its passes to split): the next trial comes soon.
-const KEEP_SPLITLESS_STEPS: u32 = 256;
+/// Trials' lengths the faster way is kept for before the next trial: long enough that the
+/// trial's steps the slower way cost little (1.5 % of the steps), short enough to follow a
+/// machine that changes while a run goes (2 048 steps with blocks of 8, 256 with blocks of one).
+const KEEP_TRIALS: u32 = 32;
+/// Trials' lengths the split is kept allowed for after a trial in which no pass split (a level
+/// still filling up, or one too small for its passes to split): the next trial comes soon.
+const KEEP_SPLITLESS_TRIALS: u32 = 4;
+/// Steps the split is allowed before the first trial: a run's first steps do one-off work
+/// (the first search of every car's road, the pools' threads starting) that says nothing of
+/// the steps after.
+const WARM_STEPS: u32 = 120;
 
 /// Where the tuner is: timing a trial's blocks, or keeping what one chose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,9 +89,13 @@ pub struct SplitTuner {
     /// [`SPLIT_ENV`]`=always`, or a forced threshold): nothing is timed.
     tuning: bool,
     phase: Phase,
-    /// The trial's time with the split allowed and without.
-    with: Duration,
-    without: Duration,
+    /// Steps in each block of the current trial.
+    block_steps: u32,
+    /// The time of each block of the current trial.
+    blocks: [Duration; TRIAL.len()],
+    /// The time and the count of the steps kept since the last trial, to size the next one's
+    /// blocks.
+    kept: (Duration, u32),
     /// The thread's count of passes that split, when the trial began.
     splits_at_trial: u64,
     /// Steps run, and of them with the split allowed.
@@ -97,9 +109,13 @@ impl SplitTuner {
     pub fn new(tuning: bool) -> SplitTuner {
         SplitTuner {
             tuning,
-            phase: Phase::Trial { block: 0, step: 0 },
-            with: Duration::ZERO,
-            without: Duration::ZERO,
+            phase: Phase::Keep {
+                split: true,
+                left: WARM_STEPS,
+            },
+            block_steps: BLOCK_STEPS,
+            blocks: [Duration::ZERO; TRIAL.len()],
+            kept: (Duration::ZERO, 0),
             splits_at_trial: 0,
             steps: 0,
             split_steps: 0,
@@ -162,14 +178,9 @@ impl SplitTuner {
         }
         match &mut self.phase {
             Phase::Trial { block, step } => {
-                let d = elapsed;
-                if TRIAL[*block] {
-                    self.with += d;
-                } else {
-                    self.without += d;
-                }
+                self.blocks[*block] += elapsed;
                 *step += 1;
-                if *step < BLOCK_STEPS {
+                if *step < self.block_steps {
                     return;
                 }
                 *step = 0;
@@ -177,37 +188,72 @@ impl SplitTuner {
                 if *block < TRIAL.len() {
                     return;
                 }
-                let (with, without) = (self.with.as_secs_f64(), self.without.as_secs_f64());
+                let (with, without) = self.way_times();
                 // Nothing split: the two ways ran the same step; keep the split allowed (the
                 // way without a tuner) and look again soon.
                 let split = !split_any || with <= without;
                 tracing::debug!(
                     "split trial: {:.3} ms with the passes split, {:.3} ms on one thread \
-                     ({} steps each{}): {}",
-                    with * 1e3,
-                    without * 1e3,
-                    TRIAL.len() as u32 / 2 * BLOCK_STEPS,
+                     (blocks of {} steps, the middle two of four each way{}): {}",
+                    with.as_secs_f64() * 1e3,
+                    without.as_secs_f64() * 1e3,
+                    self.block_steps,
                     if split_any { "" } else { ", nothing split" },
                     if split { "split" } else { "one thread" },
                 );
+                let trial_steps = TRIAL.len() as u32 * self.block_steps;
+                let trials = if split_any {
+                    KEEP_TRIALS
+                } else {
+                    KEEP_SPLITLESS_TRIALS
+                };
                 self.phase = Phase::Keep {
                     split,
-                    left: if split_any {
-                        KEEP_STEPS
-                    } else {
-                        KEEP_SPLITLESS_STEPS
-                    },
+                    left: trials * trial_steps,
                 };
+                self.kept = (Duration::ZERO, 0);
             }
             Phase::Keep { left, .. } => {
+                self.kept.0 += elapsed;
+                self.kept.1 += 1;
                 *left -= 1;
                 if *left == 0 {
-                    self.phase = Phase::Trial { block: 0, step: 0 };
-                    self.with = Duration::ZERO;
-                    self.without = Duration::ZERO;
+                    self.begin_trial();
                 }
             }
         }
+    }
+
+    /// Starts a trial, its blocks as long as [`BLOCK_TIME`] at the speed the steps were kept at.
+    fn begin_trial(&mut self) {
+        let (time, steps) = self.kept;
+        let step = time / steps.max(1);
+        self.block_steps = if step.is_zero() {
+            BLOCK_STEPS
+        } else {
+            // Rounded up, so a block never lasts less than BLOCK_TIME.
+            let n = BLOCK_TIME.as_nanos().div_ceil(step.as_nanos().max(1));
+            n.clamp(1, u128::from(BLOCK_STEPS)) as u32
+        };
+        self.blocks = [Duration::ZERO; TRIAL.len()];
+        self.phase = Phase::Trial { block: 0, step: 0 };
+    }
+
+    /// The trial's time each way, split and on one thread: the sum of the middle two of its
+    /// four blocks, so one step slowed by something else (a page fault, the host taking the
+    /// core) does not decide the trial.
+    fn way_times(&self) -> (Duration, Duration) {
+        let way = |split: bool| {
+            let mut times: Vec<Duration> = TRIAL
+                .iter()
+                .zip(&self.blocks)
+                .filter(|(w, _)| **w == split)
+                .map(|(_, t)| *t)
+                .collect();
+            times.sort_unstable();
+            times[1] + times[2]
+        };
+        (way(true), way(false))
     }
 
     /// The share of the steps run so far whose passes were allowed to split (1 when nothing ran).
@@ -224,10 +270,15 @@ impl SplitTuner {
 mod tests {
     use super::*;
 
-    /// Steps `tuner` `n` times, each step taking `with` or `without` milliseconds as its
-    /// passes may split or not (and splitting when allowed, as `splits` says); returns how many
-    /// were allowed to split.
-    fn drive(tuner: &mut SplitTuner, n: usize, with: u64, without: u64, splits: bool) -> usize {
+    /// Steps `tuner` `n` times, each step taking what `time` says for whether its passes may
+    /// split (and splitting when allowed, as `splits` says); returns how many were allowed to
+    /// split.
+    fn drive_with(
+        tuner: &mut SplitTuner,
+        n: usize,
+        splits: bool,
+        mut time: impl FnMut(bool) -> Duration,
+    ) -> usize {
         let mut allowed = 0;
         for _ in 0..n {
             tuner.run_timed(|| {
@@ -236,31 +287,76 @@ mod tests {
                     note_split();
                 }
                 allowed += usize::from(split);
-                Duration::from_millis(if split { with } else { without })
+                time(split)
             });
         }
         allowed
     }
 
-    const TRIAL_STEPS: usize = TRIAL.len() * BLOCK_STEPS as usize;
+    /// [`drive_with`], each step taking `with` or `without` milliseconds.
+    fn drive(tuner: &mut SplitTuner, n: usize, with: u64, without: u64, splits: bool) -> usize {
+        drive_with(tuner, n, splits, |split| {
+            Duration::from_millis(if split { with } else { without })
+        })
+    }
+
+    /// A trial's steps once the steps are long enough to be timed one at a time.
+    const TRIAL_STEPS: usize = TRIAL.len();
+    const KEEP: usize = KEEP_TRIALS as usize * TRIAL_STEPS;
 
     #[test]
     fn the_faster_way_is_kept_until_the_next_trial_and_the_choice_follows_the_machine() {
         let mut tuner = SplitTuner::new(true);
+        // A run's first steps split, untimed.
+        let warm = WARM_STEPS as usize;
+        assert_eq!(drive(&mut tuner, warm, 6, 10, true), warm);
         // Splitting is faster: after the trial (half of it split), every step splits.
+        assert!(tuner.timing());
         assert_eq!(drive(&mut tuner, TRIAL_STEPS, 6, 10, true), TRIAL_STEPS / 2);
         assert!(!tuner.timing());
-        let keep = KEEP_STEPS as usize;
-        assert_eq!(drive(&mut tuner, keep, 6, 10, true), keep);
+        assert_eq!(drive(&mut tuner, KEEP, 6, 10, true), KEEP);
         // The machine changes: one thread is faster now; the next trial sees it.
         assert!(tuner.timing());
         assert_eq!(
             drive(&mut tuner, TRIAL_STEPS, 12, 10, true),
             TRIAL_STEPS / 2
         );
-        assert_eq!(drive(&mut tuner, keep, 12, 10, true), 0);
+        assert_eq!(drive(&mut tuner, KEEP, 12, 10, true), 0);
         // The passes are restored to their default once a step is over.
         assert!(split_allowed());
+    }
+
+    #[test]
+    fn one_slow_step_does_not_decide_a_trial() {
+        let mut tuner = SplitTuner::new(true);
+        drive(&mut tuner, WARM_STEPS as usize, 5, 10, true);
+        // The trial's first step (split) is held up a second; the split still wins.
+        let mut first = true;
+        drive_with(&mut tuner, TRIAL_STEPS, true, |split| {
+            let ms = match split {
+                true if std::mem::take(&mut first) => 1_000,
+                true => 5,
+                false => 10,
+            };
+            Duration::from_millis(ms)
+        });
+        assert_eq!(drive(&mut tuner, KEEP, 5, 10, true), KEEP);
+    }
+
+    #[test]
+    fn short_steps_are_timed_in_blocks_long_enough_to_time() {
+        // 100 µs a step: blocks of five; 10 µs: of eight, the most.
+        for (us, block) in [(100, 5), (10, BLOCK_STEPS)] {
+            let mut tuner = SplitTuner::new(true);
+            let step = |split: bool| Duration::from_micros(if split { us } else { 2 * us });
+            drive_with(&mut tuner, WARM_STEPS as usize, true, step);
+            let trial = TRIAL.len() * block as usize;
+            assert_eq!(drive_with(&mut tuner, trial, true, step), trial / 2);
+            assert!(!tuner.timing(), "{us} µs a step");
+            let keep = KEEP_TRIALS as usize * trial;
+            assert_eq!(drive_with(&mut tuner, keep, true, step), keep);
+            assert!(tuner.timing());
+        }
     }
 
     #[test]
@@ -268,14 +364,14 @@ mod tests {
         // Nothing split in the trial (a level too small): the split stays allowed, as without
         // a tuner, whatever the noise said, and the next trial comes soon.
         let mut tuner = SplitTuner::new(true);
+        drive(&mut tuner, WARM_STEPS as usize, 20, 10, false);
         drive(&mut tuner, TRIAL_STEPS, 20, 10, false);
-        let splitless = KEEP_SPLITLESS_STEPS as usize;
+        let splitless = KEEP_SPLITLESS_TRIALS as usize * TRIAL_STEPS;
         assert_eq!(drive(&mut tuner, splitless, 20, 10, false), splitless);
         assert!(tuner.timing());
         // A close trial is decided all the same: the faster way, kept as long as any.
         drive(&mut tuner, TRIAL_STEPS, 103, 100, true);
-        let keep = KEEP_STEPS as usize;
-        assert_eq!(drive(&mut tuner, keep, 103, 100, true), 0);
+        assert_eq!(drive(&mut tuner, KEEP, 103, 100, true), 0);
         assert!(tuner.timing());
     }
 
