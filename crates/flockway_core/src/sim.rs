@@ -213,12 +213,6 @@ impl Sim {
         self.world.resource::<RngStreams>().seed()
     }
 
-    /// The share of the steps run whose per-car passes were allowed to split over the threads
-    /// (1 when every step was, or none ran; see [`SplitTuner`]).
-    pub fn split_share(&self) -> f64 {
-        self.split.split_share()
-    }
-
     /// The tick the next step will simulate.
     pub fn tick(&self) -> Tick {
         self.world.resource::<SimClock>().tick()

@@ -98,9 +98,6 @@ pub struct SplitTuner {
     kept: (Duration, u32),
     /// The thread's count of passes that split, when the trial began.
     splits_at_trial: u64,
-    /// Steps run, and of them with the split allowed.
-    steps: u64,
-    split_steps: u64,
 }
 
 impl SplitTuner {
@@ -117,8 +114,6 @@ impl SplitTuner {
             blocks: [Duration::ZERO; TRIAL.len()],
             kept: (Duration::ZERO, 0),
             splits_at_trial: 0,
-            steps: 0,
-            split_steps: 0,
         }
     }
 
@@ -149,7 +144,8 @@ impl SplitTuner {
     /// Runs `step` with this thread's passes split or not as the tuner chooses, timing it.
     pub fn run(&mut self, step: impl FnOnce()) {
         self.run_timed(|| {
-            // Wall time, read only to choose between two ways that give the same bytes.
+            // Wall time, read only to choose between two ways that give the same bytes: it
+            // decides which thread does a car's work, never what the work computes.
             let started = Instant::now();
             step();
             started.elapsed()
@@ -165,8 +161,6 @@ impl SplitTuner {
         let before = ALLOWED.with(|a| a.replace(split));
         let elapsed = step();
         ALLOWED.with(|a| a.set(before));
-        self.steps += 1;
-        self.split_steps += u64::from(split);
         self.record(elapsed, SPLITS.with(Cell::get) > self.splits_at_trial);
     }
 
@@ -254,15 +248,6 @@ impl SplitTuner {
             times[1] + times[2]
         };
         (way(true), way(false))
-    }
-
-    /// The share of the steps run so far whose passes were allowed to split (1 when nothing ran).
-    pub fn split_share(&self) -> f64 {
-        if self.steps == 0 {
-            1.0
-        } else {
-            self.split_steps as f64 / self.steps as f64
-        }
     }
 }
 
@@ -380,6 +365,5 @@ mod tests {
         let mut tuner = SplitTuner::new(false);
         assert!(!tuner.timing());
         assert_eq!(drive(&mut tuner, 5_000, 20, 10, true), 5_000);
-        assert_eq!(tuner.split_share(), 1.0);
     }
 }
