@@ -34,6 +34,18 @@ pub struct Pid {
 impl Pid {
     /// One update with this error; returns the clamped output.
     pub fn update(&mut self, gains: &PidGains, error: f32, dt_s: f32) -> f32 {
+        self.update_integrating(gains, error, dt_s, 1.0)
+    }
+
+    /// [`update`](Self::update) with the error integrated at `rate` (0..1) of the full rate:
+    /// for a loop whose error the plant can only correct part of the time.
+    pub fn update_integrating(
+        &mut self,
+        gains: &PidGains,
+        error: f32,
+        dt_s: f32,
+        rate: f32,
+    ) -> f32 {
         let error = if error.is_finite() { error } else { 0.0 };
         let derivative = self.last_error.map_or(0.0, |e| (error - e) / dt_s);
         self.last_error = Some(error);
@@ -41,7 +53,12 @@ impl Pid {
         // Integrate only while that does not push a saturated output further.
         let saturated = unclamped.abs() >= 1.0 && unclamped.signum() == error.signum();
         if !saturated {
-            self.integral += error * dt_s;
+            let rate = if rate.is_nan() {
+                0.0
+            } else {
+                rate.clamp(0.0, 1.0)
+            };
+            self.integral += error * dt_s * rate;
         }
         (gains.kp * error + gains.ki * self.integral + gains.kd * derivative).clamp(-1.0, 1.0)
     }
@@ -57,6 +74,13 @@ pub fn wrap_angle(rad: f32) -> f32 {
     let w = flockway_core::wrap::rem_euclid_f32(rad + PI, TAU) - PI;
     if w <= -PI { w + TAU } else { w }
 }
+
+/// From this speed, m/s, the steering loop integrates its heading error at the full rate; slower,
+/// in proportion, and not at all at a standstill. Steering turns a car only as it rolls, so an
+/// error held while it waits (mid-turn at a junction, at a lane's end) is not the steering's to
+/// remove: integrated over the wait, it would turn the wheels to full lock and the car would pull
+/// away cutting across its path.
+pub const STEER_INTEGRATE_FULL_MPS: f32 = 2.0;
 
 /// Below this target speed, m/s, the controller only brakes (a stop, not a crawl).
 pub const STOP_BELOW_MPS: f32 = 0.3;
@@ -74,6 +98,31 @@ pub const ACCEL_REFERENCE_BAND_MPS: f32 = 0.5;
 /// safety envelope) it is above or about to pass, s: the acceleration asked for is at most the
 /// cap's distance over this time.
 pub const CAP_RESPONSE_S: f32 = 0.5;
+
+/// The angle, rad, by which a car's centre of mass moves to the left of where its body points
+/// when it drives steadily round a curve of `curvature_per_m` (positive left) at `speed_mps`:
+/// `atan(κ · (l_r − v² / (μ B C g)))`, the linear single-track model's. At a crawl the body
+/// turns about its rear axle, so the centre (`l_r` ahead of it) moves into the bend and the
+/// nose must point out of it for the centre to keep to the path; faster, the rear tyres need
+/// slip angle to hold the car in the bend (their cornering stiffness is `μ B C` times their
+/// load, from the lateral magic formula), and the nose turns in. Steering the body's heading
+/// onto the path's instead, a car turning at a junction cuts inside its path.
+pub fn steady_sideslip_rad(vehicle: &VehicleType, speed_mps: f32, curvature_per_m: f32) -> f32 {
+    if curvature_per_m == 0.0 {
+        return 0.0;
+    }
+    let p = &vehicle.params;
+    let behind_m = 0.5 * p.wheels.wheelbase_m + p.chassis.com_forward_m;
+    let lateral = &p.tyres.lateral;
+    let cornering =
+        (p.tyres.friction * lateral.b * lateral.c * -flockway_vehicle::GRAVITY.z).max(1.0);
+    // Bounded for a curvature no car drives (a lane's sharp kink seen over a short look-ahead).
+    let slip = curvature_per_m * (behind_m - speed_mps * speed_mps / cornering);
+    libm::atanf(slip.clamp(-MAX_SIDESLIP_TAN, MAX_SIDESLIP_TAN))
+}
+
+/// The largest tangent of [`steady_sideslip_rad`]'s angle (about 27°).
+const MAX_SIDESLIP_TAN: f32 = 0.5;
 
 /// What a driver wants: the speed along its heading and the heading, for the shared controller.
 #[derive(Component, Debug, Clone, Copy, Default, PartialEq)]
@@ -132,7 +181,9 @@ impl TargetController {
         let h = DT_S as f32;
         let f = motion.forward();
         let heading = libm::atan2f(f.y, f.x);
-        let heading_error = wrap_angle(target.heading_rad - heading);
+        // The target is the way the car should go; its body points off that by its sideslip.
+        let sideslip = steady_sideslip_rad(vehicle, motion.forward_mps, target.curvature_per_m);
+        let heading_error = wrap_angle(target.heading_rad - sideslip - heading);
         let (throttle, stopped) = match target.accel_mps2 {
             Some(accel) => self.track_accel(accel, motion, vehicle, state),
             None => self.track_speed(target.speed_mps, motion),
@@ -143,7 +194,10 @@ impl TargetController {
             .center_angle_rad(1.0, motion.forward_mps.abs() * 3.6)
             .max(1.0e-3);
         let feed_forward = libm::atanf(params.wheels.wheelbase_m * target.curvature_per_m) / lock;
-        let correction = self.steering_pid.update(&self.steering, heading_error, h);
+        let rolling = motion.forward_mps.abs() / STEER_INTEGRATE_FULL_MPS;
+        let correction =
+            self.steering_pid
+                .update_integrating(&self.steering, heading_error, h, rolling);
         Controls {
             throttle,
             steering: (feed_forward + correction).clamp(-1.0, 1.0),
@@ -365,6 +419,110 @@ mod tests {
         let out = pid.update(&gains, -0.5, 0.01);
         assert!(out < 0.0, "{out}");
         assert!(pid.update(&gains, f32::NAN, 0.01).is_finite());
+    }
+
+    #[test]
+    fn pid_integrates_at_the_rate_it_is_given() {
+        let gains = PidGains {
+            kp: 0.1,
+            ki: 0.5,
+            kd: 0.0,
+        };
+        let (mut full, mut none, mut half) = (Pid::default(), Pid::default(), Pid::default());
+        for _ in 0..100 {
+            full.update_integrating(&gains, 0.2, 0.01, 1.0);
+            none.update_integrating(&gains, 0.2, 0.01, 0.0);
+            half.update_integrating(&gains, 0.2, 0.01, 0.5);
+        }
+        // Proportional 0.02 alone; with the integral of 0.2 over 1.01 s (or half of it) × 0.5.
+        assert_eq!(none.update_integrating(&gains, 0.2, 0.01, 0.0), 0.1 * 0.2);
+        let full_out = full.update_integrating(&gains, 0.2, 0.01, 1.0);
+        let half_out = half.update_integrating(&gains, 0.2, 0.01, 0.5);
+        assert!((full_out - (0.02 + 0.5 * 0.202)).abs() < 1e-4, "{full_out}");
+        assert!((half_out - (0.02 + 0.5 * 0.101)).abs() < 1e-4, "{half_out}");
+        // The full rate is `update` to the bit.
+        let mut plain = Pid::default();
+        let mut rated = Pid::default();
+        for k in 0..50 {
+            let e = (k as f32 * 0.37).sin();
+            assert_eq!(
+                plain.update(&gains, e, 0.01).to_bits(),
+                rated.update_integrating(&gains, e, 0.01, 1.0).to_bits()
+            );
+        }
+    }
+
+    /// A car standing still with its heading off its target's (waiting mid-turn for oncoming
+    /// traffic) keeps the steering it started with: the loop's integral does not creep it to
+    /// full lock over the wait.
+    #[test]
+    fn a_waiting_car_does_not_wind_its_steering_up() {
+        let vehicle = VehicleType::default();
+        let state = VehicleState {
+            wheels: Default::default(),
+            gearbox: flockway_vehicle::Gearbox::for_speed(
+                &vehicle.params.gearbox,
+                0.0,
+                vehicle.params.wheels.radius_m,
+            ),
+            engine_omega: 0.0,
+            clutch: 0.0,
+            steer: 0.0,
+            pedals: Default::default(),
+        };
+        let motion = |speed: f32| Motion {
+            position: glam::Vec3::ZERO,
+            rotation: glam::Quat::IDENTITY,
+            linvel: glam::Vec3::X * speed,
+            angvel: glam::Vec3::ZERO,
+            forward_mps: speed,
+            accel_mps2: 0.0,
+        };
+        let target = DriveTarget {
+            speed_mps: 0.0,
+            heading_rad: 0.15,
+            curvature_per_m: 0.0,
+            accel_mps2: Some(0.0),
+        };
+        let mut waiting = TargetController::default();
+        let first = waiting
+            .control(&target, &motion(0.0), &vehicle, &state)
+            .steering;
+        let mut last = first;
+        for _ in 0..(20 * 120) {
+            last = waiting
+                .control(&target, &motion(0.0), &vehicle, &state)
+                .steering;
+        }
+        assert!(first > 0.0, "{first}");
+        assert_eq!(last, first);
+        // Rolling, the same error is integrated away as before.
+        let mut rolling = TargetController::default();
+        let start = rolling
+            .control(&target, &motion(5.0), &vehicle, &state)
+            .steering;
+        for _ in 0..120 {
+            last = rolling
+                .control(&target, &motion(5.0), &vehicle, &state)
+                .steering;
+        }
+        assert!(last > start + 0.01, "{start} -> {last}");
+    }
+
+    #[test]
+    fn the_body_points_out_of_a_bend_at_a_crawl_and_into_it_fast() {
+        let sedan = VehicleType::default();
+        assert_eq!(steady_sideslip_rad(&sedan, 10.0, 0.0), 0.0);
+        // Turning left at a junction (radius 10 m) at a crawl: the centre of mass, half the
+        // wheelbase ahead of the rear axle, moves that far into the bend's angle.
+        let half = 0.5 * sedan.params.wheels.wheelbase_m;
+        let crawl = steady_sideslip_rad(&sedan, 0.0, 0.1);
+        assert!((crawl - (half * 0.1).atan()).abs() < 1e-6, "{crawl}");
+        assert_eq!(steady_sideslip_rad(&sedan, 0.0, -0.1), -crawl);
+        // Fast, the rear tyres' slip angle turns the nose into the bend: on a 150 m curve at
+        // 60 km/h, a few tenths of a degree.
+        let fast = steady_sideslip_rad(&sedan, 60.0 / 3.6, 1.0 / 150.0);
+        assert!(fast < 0.0 && fast > -0.01, "{fast}");
     }
 
     #[test]

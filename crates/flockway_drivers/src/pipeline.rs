@@ -611,7 +611,9 @@ fn decide_one<M: DrivingModel>(
         held.v_target_mps = v_target;
         held.lane_kept = proposal.steer_by.is_none();
     }
-    let steer_by = proposal.steer_by.unwrap_or(base);
+    let steer_by = proposal
+        .steer_by
+        .unwrap_or_else(|| lane_kept_heading(base, dir));
     let heading = if steer_by.truncate().length() > 1.0e-3 {
         steer_by
     } else {
@@ -866,6 +868,22 @@ const LANE_CHANGE_ENVELOPE: SafetyParams = SafetyParams {
 /// ([`LANE_CHANGE_LEAST_GAP`](crate::LANE_CHANGE_LEAST_GAP)).
 const COURTESY_GAP_SHARE: f32 = 0.7;
 
+/// The least speed along the lane, m/s, at which a lane-keeping car's pull towards its lane
+/// centre is turned into a heading: slowing to a stop (a light, a conflict mid-turn), its
+/// desired velocity is all pull, and taken as it is the heading would swing to across the lane.
+pub const LANE_STEER_MIN_MPS: f32 = 2.0;
+
+/// The velocity a lane-keeping car steers along: its desired velocity `base`, with the part
+/// along its lane direction `dir` raised to [`LANE_STEER_MIN_MPS`] where it is less.
+fn lane_kept_heading(base: Vec3, dir: Vec3) -> Vec3 {
+    let along = base.dot(dir);
+    if along < LANE_STEER_MIN_MPS {
+        base + dir * (LANE_STEER_MIN_MPS - along)
+    } else {
+        base
+    }
+}
+
 /// How far ahead a driver looks for a car signalling to merge into its lane, m.
 const COURTESY_RANGE_M: f64 = 80.0;
 
@@ -1025,6 +1043,19 @@ fn merge_speed(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lane_keeping_car_slowing_to_a_stop_heads_along_its_lane() {
+        let (dir, left) = (Vec3::X, Vec3::Y);
+        // Stopping 0.2 m right of its lane centre: the desired velocity is all pull.
+        let pull = left * 0.2;
+        let heading = lane_kept_heading(pull, dir);
+        assert_eq!(heading, dir * LANE_STEER_MIN_MPS + pull);
+        assert!(libm::atan2f(heading.y, heading.x) < 0.1);
+        // Driving, the desired velocity is the heading as it is, to the bit.
+        let base = dir * 12.5 + left * 0.2;
+        assert_eq!(lane_kept_heading(base, dir), base);
+    }
     use crate::perception::fixtures::split_with;
     use flockway_road::RoadId;
 

@@ -215,6 +215,10 @@ pub const BODY_LENGTH_M: f64 = 4.8;
 pub const BODY_WIDTH_M: f64 = 1.9;
 /// Room a body on one path keeps from the traffic of another, beyond half a car's width, m.
 pub const CONFLICT_CLEARANCE_M: f64 = 0.3;
+/// How far the body conflicts are found for has its centre ahead of its rear axle, m (half a
+/// sedan's wheelbase): turning at a crawl, the body turns about that axle, and its nose points
+/// out of the bend by `atan(κ · this)` while its centre keeps to the path.
+pub const BODY_CENTRE_AHEAD_OF_REAR_AXLE_M: f64 = 1.35;
 
 /// A point along a path with the corners of a car centred there.
 #[derive(Debug, Clone, Copy)]
@@ -223,16 +227,43 @@ struct Sample {
     pos: DVec3,
     /// The body's corners and the middle of its front and rear, in the plane.
     outline: [DVec3; 6],
+    /// How far the body's ends stand out sideways from the path beyond half its width, for
+    /// the car here turned off the path's heading (its sideslip in a bend), m.
+    overhang_m: f64,
 }
 
 impl Sample {
+    /// A car centred at `pos` heading along `tangent`.
     fn new(s: f64, pos: DVec3, tangent: DVec3) -> Self {
-        let t = flat(tangent);
+        Self::turned(s, pos, tangent, 0.0)
+    }
+
+    /// A car centred at `pos` on a path heading along `tangent` that bends with curvature
+    /// `curvature_per_m` there: its body turned out of the bend as a car's is at a crawl.
+    fn in_bend(s: f64, pos: DVec3, tangent: DVec3, curvature_per_m: f64) -> Self {
+        let slip = libm::atan(BODY_CENTRE_AHEAD_OF_REAR_AXLE_M * curvature_per_m);
+        Self::turned(s, pos, tangent, slip)
+    }
+
+    /// A car centred at `pos` whose body points `slip_rad` right of `tangent`.
+    fn turned(s: f64, pos: DVec3, tangent: DVec3, slip_rad: f64) -> Self {
+        let along = flat(tangent);
+        let (sin, cos) = libm::sincos(-slip_rad);
+        let t = if slip_rad == 0.0 {
+            along
+        } else {
+            DVec3::new(
+                along.x * cos - along.y * sin,
+                along.x * sin + along.y * cos,
+                0.0,
+            )
+        };
         let n = DVec3::new(-t.y, t.x, 0.0);
         let (l, w) = (0.5 * BODY_LENGTH_M * t, 0.5 * BODY_WIDTH_M * n);
         Self {
             s,
             pos,
+            overhang_m: 0.5 * BODY_LENGTH_M * sin.abs(),
             outline: [
                 pos + l + w,
                 pos + l - w,
@@ -245,9 +276,8 @@ impl Sample {
     }
 
     /// Whether a car here comes within the clearance of a car on the path `other` (its centre
-    /// line plus half a car's width).
+    /// line plus half a car's width, and what that car's ends stand out in a bend).
     fn touches(&self, other: &Swept) -> bool {
-        let reach = REACH_M;
         self.outline.iter().any(|&p| {
             // Outside every run's box at once: most of a junction's pairs of paths never meet.
             other.whole.near(p)
@@ -260,6 +290,7 @@ impl Sample {
                                 ((p - q0).dot(d) / d.length_squared().max(1e-12)).clamp(0.0, 1.0);
                             let q = q0 + u * d;
                             let (dx, dy) = (p.x - q.x, p.y - q.y);
+                            let reach = REACH_M + seg[0].overhang_m.max(seg[1].overhang_m);
                             dx * dx + dy * dy < reach * reach
                         })
                 })
@@ -303,7 +334,8 @@ impl Run {
 impl Swept {
     fn new(samples: Vec<Sample>) -> Self {
         // A hair beyond the reach, so that rounding in the measured distance cannot matter.
-        let grow = DVec3::splat(REACH_M + 1e-6);
+        let overhang = samples.iter().map(|x| x.overhang_m).fold(0.0, f64::max);
+        let grow = DVec3::splat(REACH_M + overhang + 1e-6);
         let segments = samples.len().saturating_sub(1);
         let mut runs = Vec::new();
         let mut first = 0;
@@ -648,7 +680,8 @@ impl Junction {
                         (0..=n)
                             .map(|i| {
                                 let s = g.length_m() * i as f64 / n as f64;
-                                Sample::new(s, g.pos_at(s), g.frame_at(s).tangent)
+                                let tangent = g.frame_at(s).tangent;
+                                Sample::in_bend(s, g.pos_at(s), tangent, g.curvature_at(s))
                             })
                             .collect(),
                     )
@@ -773,6 +806,12 @@ impl Junction {
                 let oncoming = a.heading_in.dot(b.heading_in) < -0.5;
                 if oncoming && a.turn.across() != b.turn.across() {
                     return a.turn.across();
+                }
+                if oncoming && a.turn.across() {
+                    // Two turns across facing each other (opposing left turns) that pass too
+                    // close for both at once: neither comes from the other's right, so one
+                    // must wait, always the same one (the later connection).
+                    return i > j;
                 }
                 if a.turn != Turn::Straight
                     && b.turn == Turn::Straight
@@ -1206,6 +1245,10 @@ mod tests {
         assert!(x.gives_way(W_LEFT, E_STRAIGHT, None));
         assert!(!x.gives_way(E_STRAIGHT, W_LEFT, None));
         assert!(!x.must_stop(S_STRAIGHT));
+        // Of the two opposing left turns there, exactly one waits for the other.
+        const E_LEFT: usize = 4;
+        assert!(x.gives_way(E_LEFT, W_LEFT, None));
+        assert!(!x.gives_way(W_LEFT, E_LEFT, None));
 
         let net = crossroads(Control::RightBeforeLeft);
         let x = &net.junctions()[0];
