@@ -933,8 +933,11 @@ fn decide_at_line(
     match own {
         Some(SignalState::Red) => hold = true,
         Some(SignalState::Amber) => {
-            // Stop if it can do so comfortably (or was already stopping); else go on.
-            let need = f64::from(a.speed_mps).powi(2) / (2.0 * a.to_line_m.max(0.1));
+            // Stop if it can do so comfortably where it waits (or was already stopping); else
+            // go on. Short of the line but past where it waits (a tight corner's hold-back), it
+            // would stand where another lane's turning cars swing by.
+            let wait_m = a.to_line_m - path.hold_back_m;
+            let need = f64::from(a.speed_mps).powi(2) / (2.0 * wait_m.max(0.1));
             hold = a.held || need <= f64::from(AMBER_DECEL_MPS2);
         }
         _ => {}

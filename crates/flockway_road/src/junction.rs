@@ -220,6 +220,92 @@ pub const CONFLICT_CLEARANCE_M: f64 = 0.3;
 /// out of the bend by `atan(κ · this)` while its centre keeps to the path.
 pub const BODY_CENTRE_AHEAD_OF_REAR_AXLE_M: f64 = 1.35;
 
+/// The tightest bend the centre of the body conflicts are found for can follow, 1/m: a sedan
+/// with its rear axle [`BODY_CENTRE_AHEAD_OF_REAR_AXLE_M`] behind the centre and as far again
+/// to the front axle, at 35° of lock, turns its rear axle on a radius of 2.7 m / tan 35° =
+/// 3.856 m and its centre on √(3.856² + 1.35²) = 4.086 m.
+pub const FULL_LOCK_CURVATURE_PER_M: f64 = 0.2448;
+
+/// Gain of [`driven`]'s steering on the car's distance from the path, 1/m².
+const DRIVEN_OFFSET_GAIN: f64 = 0.36;
+/// Gain of [`driven`]'s steering on the sine of its heading off the path's, 1/m.
+const DRIVEN_HEADING_GAIN: f64 = 1.2;
+/// Travel over which [`driven`]'s steering reaches the bend it asks for (a first-order lag),
+/// m: a driver's steering turns into a tightening bend about a metre late (a sedan taking a
+/// netconvert right turn at a crawl has half the lock the path's curvature asks for where the
+/// path has already tightened a metre further).
+const DRIVEN_STEER_LAG_M: f64 = 1.0;
+/// Step of [`driven`]'s integration, m of travel.
+const DRIVEN_STEP_M: f64 = 0.05;
+
+/// Where a car's body goes on a path with a bend tighter than it can turn
+/// ([`FULL_LOCK_CURVATURE_PER_M`]; netconvert draws a right turn inside a small junction on a
+/// radius of 2.5 m): its centre steered onto the path at no more than full lock, turning in a
+/// little late, it runs wide of the bend and comes back to the path, or to the next lane's line
+/// past the path's end, later. Samples every [`SAMPLE_M`] of travel, each at its nearest point's distance along the
+/// path (the path's length once past its end), the body turned out of the bend it drives.
+fn driven(g: &RoadGeometry) -> Vec<Sample> {
+    let length = g.length_m();
+    let end = g.pos_at(length);
+    let end_tangent = flat(g.frame_at(length).tangent);
+    // The path, and past its end the straight on along its last heading: point, unit
+    // tangent, curvature.
+    let path = |s: f64| {
+        if s < length {
+            (g.pos_at(s), flat(g.frame_at(s).tangent), g.curvature_at(s))
+        } else {
+            (end + end_tangent * (s - length), end_tangent, 0.0)
+        }
+    };
+    let (mut centre, mut heading, _) = path(0.0);
+    let mut s = 0.0;
+    let mut travelled = 0.0;
+    let mut next_sample = 0.0;
+    let mut bend = 0.0;
+    let mut samples = Vec::new();
+    // Bounded for a path that loops back on itself: by then it is far past any conflict.
+    let farthest = 2.0 * length + 4.0 * BODY_LENGTH_M;
+    while travelled <= farthest {
+        // The nearest point of the path, from the last one on (two Newton steps suffice at
+        // this step length).
+        for _ in 0..2 {
+            let (p, t, _) = path(s);
+            s = (s + (centre - p).dot(t)).max(0.0);
+        }
+        let (p, t, k) = path(s);
+        let offset = (centre - p).dot(DVec3::new(-t.y, t.x, 0.0));
+        let off_heading = t.x * heading.y - t.y * heading.x;
+        let asked = (k - DRIVEN_OFFSET_GAIN * offset - DRIVEN_HEADING_GAIN * off_heading)
+            .clamp(-FULL_LOCK_CURVATURE_PER_M, FULL_LOCK_CURVATURE_PER_M);
+        bend += (asked - bend) * (DRIVEN_STEP_M / DRIVEN_STEER_LAG_M);
+        let back_on = s >= length && offset.abs() < 0.05 && off_heading.abs() < 0.02;
+        if travelled >= next_sample || back_on {
+            samples.push(Sample::in_bend(s.min(length), centre, heading, bend));
+            next_sample += SAMPLE_M;
+        }
+        if back_on {
+            break;
+        }
+        // Along the arc of this step, by its middle heading.
+        let (sin, cos) = libm::sincos(0.5 * bend * DRIVEN_STEP_M);
+        let mid = DVec3::new(
+            heading.x * cos - heading.y * sin,
+            heading.x * sin + heading.y * cos,
+            0.0,
+        );
+        centre += mid * DRIVEN_STEP_M;
+        let (sin, cos) = libm::sincos(bend * DRIVEN_STEP_M);
+        heading = DVec3::new(
+            heading.x * cos - heading.y * sin,
+            heading.x * sin + heading.y * cos,
+            0.0,
+        )
+        .normalize();
+        travelled += DRIVEN_STEP_M;
+    }
+    samples
+}
+
 /// A point along a path with the corners of a car centred there.
 #[derive(Debug, Clone, Copy)]
 struct Sample {
@@ -273,6 +359,37 @@ impl Sample {
                 pos - l,
             ],
         }
+    }
+
+    /// Whether the body here, grown by the clearance, overlaps the body of `other`: what
+    /// [`touches`](Self::touches) misses where the other's body is turned in a bend and its
+    /// nose stands out sideways a body's length from its centre.
+    fn overlaps(&self, other: &Sample) -> bool {
+        let (dx, dy) = (self.pos.x - other.pos.x, self.pos.y - other.pos.y);
+        let apart = BODY_LENGTH_M + 2.0 * CONFLICT_CLEARANCE_M;
+        if dx * dx + dy * dy > apart * apart {
+            return false;
+        }
+        // Separating axes: the sides of either body. No gap along one of them is an overlap.
+        let axes = [self.axes(), other.axes()];
+        axes.iter().flatten().all(|axis| {
+            let span = |x: &Sample| {
+                x.outline[..4]
+                    .iter()
+                    .map(|p| p.x * axis.x + p.y * axis.y)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
+                        (lo.min(d), hi.max(d))
+                    })
+            };
+            let (a, b) = (span(self), span(other));
+            a.0 - CONFLICT_CLEARANCE_M < b.1 && b.0 < a.1 + CONFLICT_CLEARANCE_M
+        })
+    }
+
+    /// The unit directions of the body's length and width in the plane.
+    fn axes(&self) -> [DVec3; 2] {
+        let along = (self.outline[4] - self.outline[5]).normalize_or_zero();
+        [along, DVec3::new(-along.y, along.x, 0.0)]
     }
 
     /// Whether a car here comes within the clearance of a car on the path `other` (its centre
@@ -676,15 +793,21 @@ impl Junction {
             .map(|p| match RoadGeometry::new(&p.spec) {
                 Ok(g) => {
                     let n = (g.length_m() / SAMPLE_M).ceil().max(1.0) as usize;
-                    Swept::new(
-                        (0..=n)
-                            .map(|i| {
-                                let s = g.length_m() * i as f64 / n as f64;
-                                let tangent = g.frame_at(s).tangent;
-                                Sample::in_bend(s, g.pos_at(s), tangent, g.curvature_at(s))
-                            })
-                            .collect(),
-                    )
+                    let along: Vec<Sample> = (0..=n)
+                        .map(|i| {
+                            let s = g.length_m() * i as f64 / n as f64;
+                            let tangent = g.frame_at(s).tangent;
+                            Sample::in_bend(s, g.pos_at(s), tangent, g.curvature_at(s))
+                        })
+                        .collect();
+                    let tightest = (0..=n)
+                        .map(|i| g.curvature_at(g.length_m() * i as f64 / n as f64).abs())
+                        .fold(0.0, f64::max);
+                    if tightest > FULL_LOCK_CURVATURE_PER_M {
+                        Swept::new(driven(&g))
+                    } else {
+                        Swept::new(along)
+                    }
                 }
                 Err(_) => Swept::new(Vec::new()),
             })
@@ -705,7 +828,10 @@ impl Junction {
             while back < MAX_HOLD_BACK_M {
                 let s = -0.5 * BODY_LENGTH_M - back;
                 let waiting = Sample::new(s, start + heading * s, heading);
-                if !foes.iter().any(|b| waiting.touches(b)) {
+                if !foes
+                    .iter()
+                    .any(|b| waiting.touches(b) || b.samples.iter().any(|f| waiting.overlaps(f)))
+                {
                     break;
                 }
                 back += SAMPLE_M;
@@ -1004,6 +1130,12 @@ mod tests {
     /// A crossroads 16 m across: one lane in and one out on each arm (right-hand traffic),
     /// arms `w`, `e`, `s`, `n`, roads `w in`, `w out`, …; 100 m each.
     fn arms() -> Vec<RoadSpec> {
+        arms_ending(8.0)
+    }
+
+    /// [`arms`], their ends `half` m from the centre.
+    fn arms_ending(half: f64) -> Vec<RoadSpec> {
+        let far = half + 100.0;
         let road = |name: &str, a: (f64, f64), b: (f64, f64)| {
             RoadSpec::through(
                 name,
@@ -1013,15 +1145,64 @@ mod tests {
             )
         };
         vec![
-            road("w in", (-108.0, -1.5), (-8.0, -1.5)),
-            road("e out", (8.0, -1.5), (108.0, -1.5)),
-            road("e in", (108.0, 1.5), (8.0, 1.5)),
-            road("w out", (-8.0, 1.5), (-108.0, 1.5)),
-            road("s in", (1.5, -108.0), (1.5, -8.0)),
-            road("n out", (1.5, 8.0), (1.5, 108.0)),
-            road("n in", (-1.5, 108.0), (-1.5, 8.0)),
-            road("s out", (-1.5, -8.0), (-1.5, -108.0)),
+            road("w in", (-far, -1.5), (-half, -1.5)),
+            road("e out", (half, -1.5), (far, -1.5)),
+            road("e in", (far, 1.5), (half, 1.5)),
+            road("w out", (-half, 1.5), (-far, 1.5)),
+            road("s in", (1.5, -far), (1.5, -half)),
+            road("n out", (1.5, half), (1.5, far)),
+            road("n in", (-1.5, far), (-1.5, half)),
+            road("s out", (-1.5, -half), (-1.5, -far)),
         ]
+    }
+
+    #[test]
+    fn a_bend_tighter_than_full_lock_is_driven_wide_and_back_onto_the_lane_after() {
+        // Arms 4 m from the centre: the right turn from `n in` to `w out` bends on about
+        // 2.5 m, no car's lock.
+        let junction = JunctionSpec {
+            name: "x".into(),
+            control: priority(),
+            connections: movements(),
+            signal: None,
+        };
+        let net = RoadNetwork::build_with(&arms_ending(4.0), &[junction]).expect("valid");
+        let right = net
+            .get(net.path_road(0, N_RIGHT).expect("path"))
+            .expect("geometry");
+        let tightest = (0..=40)
+            .map(|i| {
+                right
+                    .curvature_at(right.length_m() * f64::from(i) / 40.0)
+                    .abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(tightest > 1.5 * FULL_LOCK_CURVATURE_PER_M, "{tightest}");
+        let driven = driven(right);
+        // Out of the bend: the path turns right from south to west and keeps north of `w
+        // out`'s line (y = 1.5); the car runs south of it, and is back on it by the last
+        // sample.
+        // At least what full lock's radius (4.1 m) has over the path's, at most a metre
+        // more for turning in late.
+        let wide = driven.iter().map(|x| 1.5 - x.pos.y).fold(0.0, f64::max);
+        assert!(wide > 1.0 && wide < 3.0, "{wide}");
+        let last = driven.last().expect("samples");
+        assert!((last.pos.y - 1.5).abs() < 0.06, "{:?}", last.pos);
+        assert!(
+            last.pos.x < right.pos_at(right.length_m()).x,
+            "{:?}",
+            last.pos
+        );
+        // A car waiting on `w in` (heading east at y = -1.5) just before where the right
+        // turner runs wide holds back from the line; in the 16 m crossroads it need not.
+        let x = &net.junctions()[0];
+        assert!(
+            x.paths[W_STRAIGHT].hold_back_m >= 1.0,
+            "{}",
+            x.paths[W_STRAIGHT].hold_back_m
+        );
+        let roomy = crossroads(priority());
+        assert_eq!(roomy.junctions()[0].paths[W_STRAIGHT].hold_back_m, 0.0);
     }
 
     /// Every movement of [`arms`]: straight, left and right from each arm, in that order per arm
@@ -1055,6 +1236,7 @@ mod tests {
     const E_STRAIGHT: usize = 3;
     const S_STRAIGHT: usize = 6;
     const N_STRAIGHT: usize = 9;
+    const N_RIGHT: usize = 11;
 
     fn crossroads(control: Control) -> RoadNetwork {
         crossroads_with(control, None)
