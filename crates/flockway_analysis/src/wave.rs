@@ -282,8 +282,13 @@ struct Grid<'a> {
 
 impl Grid<'_> {
     /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
+    ///
+    /// The sums run over the rows in order and along each row in cell order, as a plain walk
+    /// of every cell would take them: only the cells whose moved neighbours lie off an open
+    /// road (which add nothing) are not visited, so the answer is that walk's to the bit.
     fn correlation(&self, c_kmh: f64) -> f64 {
         let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        let n = self.cells;
         for lag_s in LAGS_S {
             let lag = (lag_s / self.dt).round() as usize;
             if lag == 0 || lag >= self.rows {
@@ -294,27 +299,42 @@ impl Grid<'_> {
             let shift_cells = c_kmh / 3.6 * lag as f64 * self.dt / self.cell_m;
             let k = shift_cells.floor();
             let f = shift_cells - k;
-            let (k, n) = (k as i64, self.cells as i64);
-            for row in 0..self.rows - lag {
-                let here = &self.field[row * self.cells..(row + 1) * self.cells];
-                let there = &self.field[(row + lag) * self.cells..(row + lag + 1) * self.cells];
-                for (i, &a) in here.iter().enumerate() {
-                    if !a.is_finite() {
-                        continue;
-                    }
-                    let (j0, j1) = (i as i64 + k, i as i64 + k + 1);
-                    let (j0, j1) = if self.closed {
-                        (j0.rem_euclid(n), j1.rem_euclid(n))
-                    } else if j0 >= 0 && j1 < n {
-                        (j0, j1)
-                    } else {
-                        continue;
-                    };
-                    let b = there[j0 as usize] * (1.0 - f) + there[j1 as usize] * f;
+            let (k, keep) = (k as i64, 1.0 - f);
+            // On an open road, the cells `i` whose neighbours `i + k` and `i + k + 1` are both
+            // on it; on a loop every cell, its neighbours wrapping round.
+            let (from, to) = if self.closed {
+                (0, n)
+            } else {
+                let from = (-k).clamp(0, n as i64) as usize;
+                let to = (n as i64 - 1 - k).clamp(0, n as i64) as usize;
+                (from, to.max(from))
+            };
+            let mut add = |a: f64, b0: f64, b1: f64| {
+                if a.is_finite() {
+                    let b = b0 * keep + b1 * f;
                     if b.is_finite() {
                         ab += a * b;
                         aa += a * a;
                         bb += b * b;
+                    }
+                }
+            };
+            for row in 0..self.rows - lag {
+                let here = &self.field[row * n..(row + 1) * n];
+                let there = &self.field[(row + lag) * n..(row + lag + 1) * n];
+                if self.closed {
+                    let mut j0 = k.rem_euclid(n as i64) as usize;
+                    for &a in here {
+                        let j1 = if j0 + 1 == n { 0 } else { j0 + 1 };
+                        add(a, there[j0], there[j1]);
+                        j0 = j1;
+                    }
+                } else if from < to {
+                    let j = (from as i64 + k) as usize;
+                    let len = to - from;
+                    let pairs = there[j..j + len].iter().zip(&there[j + 1..j + 1 + len]);
+                    for (&a, (&b0, &b1)) in here[from..to].iter().zip(pairs) {
+                        add(a, b0, b1);
                     }
                 }
             }
@@ -458,5 +478,86 @@ mod tests {
             measure_wave(&trace, &BTreeMap::new(), &WaveSettings::default()),
             None
         );
+    }
+
+    /// Every cell visited in turn, as the correlation was first written: what it must match.
+    fn correlation_cell_by_cell(grid: &Grid, c_kmh: f64) -> f64 {
+        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        for lag_s in LAGS_S {
+            let lag = (lag_s / grid.dt).round() as usize;
+            if lag == 0 || lag >= grid.rows {
+                continue;
+            }
+            let shift_cells = c_kmh / 3.6 * lag as f64 * grid.dt / grid.cell_m;
+            let k = shift_cells.floor();
+            let f = shift_cells - k;
+            let (k, n) = (k as i64, grid.cells as i64);
+            for row in 0..grid.rows - lag {
+                let here = &grid.field[row * grid.cells..(row + 1) * grid.cells];
+                let there = &grid.field[(row + lag) * grid.cells..(row + lag + 1) * grid.cells];
+                for (i, &a) in here.iter().enumerate() {
+                    if !a.is_finite() {
+                        continue;
+                    }
+                    let (j0, j1) = (i as i64 + k, i as i64 + k + 1);
+                    let (j0, j1) = if grid.closed {
+                        (j0.rem_euclid(n), j1.rem_euclid(n))
+                    } else if j0 >= 0 && j1 < n {
+                        (j0, j1)
+                    } else {
+                        continue;
+                    };
+                    let b = there[j0 as usize] * (1.0 - f) + there[j1 as usize] * f;
+                    if b.is_finite() {
+                        ab += a * b;
+                        aa += a * a;
+                        bb += b * b;
+                    }
+                }
+            }
+        }
+        if aa > 0.0 && bb > 0.0 {
+            ab / (aa * bb).sqrt()
+        } else {
+            f64::NEG_INFINITY
+        }
+    }
+
+    #[test]
+    fn the_correlation_is_the_cell_by_cell_walk_s_to_the_bit() {
+        // A field with gaps (NaN cells and a missing row), on a loop and on an open road, moved
+        // at speeds that shift it by less than a cell up to more than the whole road.
+        for (cells, rows) in [(1, 30), (7, 40), (64, 90)] {
+            let field: Vec<f64> = (0..rows * cells)
+                .map(|i| {
+                    let (row, cell) = (i / cells, i % cells);
+                    if row == 17 || (i * 7919) % 13 == 0 {
+                        f64::NAN
+                    } else {
+                        libm::sin(i as f64 * 0.37) * 9.0 + (cell as f64) * 0.1
+                    }
+                })
+                .collect();
+            for closed in [false, true] {
+                let grid = Grid {
+                    field: &field,
+                    rows,
+                    cells,
+                    cell_m: 5.0,
+                    dt: 0.5,
+                    closed,
+                };
+                let mut c = -300.0;
+                while c <= 300.0 {
+                    let (fast, walk) = (grid.correlation(c), correlation_cell_by_cell(&grid, c));
+                    assert_eq!(
+                        fast.to_bits(),
+                        walk.to_bits(),
+                        "{cells} cells, closed {closed}, {c} km/h: {fast} against {walk}"
+                    );
+                    c += 3.7;
+                }
+            }
+        }
     }
 }
