@@ -87,6 +87,17 @@ impl Wave {
     }
 }
 
+/// How many threads the wave measurement's trial speeds are split over: `FLOCKWAY_THREADS` where
+/// it is a whole number (as for the simulation's own passes), else one per core.
+fn analysis_threads() -> usize {
+    std::env::var("FLOCKWAY_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n >= 1)
+        .or_else(|| std::thread::available_parallelism().ok().map(usize::from))
+        .unwrap_or(1)
+}
+
 /// Lags the pattern is followed over, seconds.
 const LAGS_S: [f64; 4] = [2.0, 4.0, 6.0, 8.0];
 
@@ -180,19 +191,22 @@ pub fn measure_wave(
         dt,
         closed,
     };
+    let threads = analysis_threads();
     let mut best = (-60.0, f64::NEG_INFINITY);
+    let mut speeds = Vec::new();
     let mut c = -60.0;
     while c <= hi + 1e-9 {
-        let r = grid.correlation(c);
+        speeds.push(c);
+        c += 0.5;
+    }
+    for (&c, r) in speeds.iter().zip(grid.correlations(&speeds, threads)) {
         if r > best.1 {
             best = (c, r);
         }
-        c += 0.5;
     }
     let coarse = best.0;
-    for k in -10..=10 {
-        let c = coarse + f64::from(k) * 0.05;
-        let r = grid.correlation(c);
+    let fine: Vec<f64> = (-10..=10).map(|k| coarse + f64::from(k) * 0.05).collect();
+    for (&c, r) in fine.iter().zip(grid.correlations(&fine, threads)) {
         if r > best.1 {
             best = (c, r);
         }
@@ -281,6 +295,38 @@ struct Grid<'a> {
 }
 
 impl Grid<'_> {
+    /// [`correlation`](Self::correlation) at each of `speeds`, in their order, split over up to
+    /// `threads` threads: each is computed alone, so the answers are the same on any number.
+    fn correlations(&self, speeds: &[f64], threads: usize) -> Vec<f64> {
+        let threads = threads.min(speeds.len());
+        if threads < 2 {
+            return speeds.iter().map(|&c| self.correlation(c)).collect();
+        }
+        let part = speeds.len().div_ceil(threads);
+        std::thread::scope(|scope| {
+            let mut chunks = speeds.chunks(part);
+            let first = chunks.next().unwrap_or_default();
+            let others: Vec<_> = chunks
+                .map(|chunk| {
+                    scope.spawn(move || {
+                        chunk
+                            .iter()
+                            .map(|&c| self.correlation(c))
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            let mut out: Vec<f64> = first.iter().map(|&c| self.correlation(c)).collect();
+            for other in others {
+                match other.join() {
+                    Ok(part) => out.extend(part),
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            }
+            out
+        })
+    }
+
     /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
     ///
     /// The sums run over the rows in order and along each row in cell order, as a plain walk
@@ -524,7 +570,7 @@ mod tests {
     }
 
     #[test]
-    fn the_correlation_is_the_cell_by_cell_walk_s_to_the_bit() {
+    fn the_correlation_is_the_cell_by_cell_walk_s_to_the_bit_on_any_number_of_threads() {
         // A field with gaps (NaN cells and a missing row), on a loop and on an open road, moved
         // at speeds that shift it by less than a cell up to more than the whole road.
         for (cells, rows) in [(1, 30), (7, 40), (64, 90)] {
@@ -547,6 +593,16 @@ mod tests {
                     dt: 0.5,
                     closed,
                 };
+                let speeds: Vec<f64> = (0..40).map(|i| -70.0 + 3.3 * f64::from(i)).collect();
+                let alone = grid.correlations(&speeds, 1);
+                for threads in [2, 3, 64] {
+                    let split = grid.correlations(&speeds, threads);
+                    assert_eq!(
+                        alone.iter().map(|r| r.to_bits()).collect::<Vec<_>>(),
+                        split.iter().map(|r| r.to_bits()).collect::<Vec<_>>(),
+                        "{threads} threads"
+                    );
+                }
                 let mut c = -300.0;
                 while c <= 300.0 {
                     let (fast, walk) = (grid.correlation(c), correlation_cell_by_cell(&grid, c));
