@@ -88,12 +88,13 @@ impl Wave {
 }
 
 /// How many threads the wave measurement's trial speeds are split over: `FLOCKWAY_THREADS` where
-/// it is a whole number (as for the simulation's own passes), else one per core.
+/// it is a whole number from 1 to 1024 (the count the simulation's passes accept; the command line
+/// refuses any other before a run starts), else one per core.
 fn analysis_threads() -> usize {
     std::env::var("FLOCKWAY_THREADS")
         .ok()
         .and_then(|v| v.trim().parse::<usize>().ok())
-        .filter(|&n| n >= 1)
+        .filter(|n| (1..=1024).contains(n))
         .or_else(|| std::thread::available_parallelism().ok().map(usize::from))
         .unwrap_or(1)
 }
@@ -353,7 +354,7 @@ impl Grid<'_> {
             } else {
                 let from = (-k).clamp(0, n as i64) as usize;
                 let to = (n as i64 - 1 - k).clamp(0, n as i64) as usize;
-                (from, to.max(from))
+                (from, to)
             };
             let mut add = |a: f64, b0: f64, b1: f64| {
                 if a.is_finite() {
