@@ -19,7 +19,9 @@
 //! stand still on the road (braking for a bend), are not stop-and-go waves.
 
 use crate::Trace;
+use multiversion::multiversion;
 use std::collections::BTreeMap;
+use wide::f64x4;
 
 /// Tuning of [`measure_wave`]; the defaults are the documented method.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,6 +193,7 @@ pub fn measure_wave(
         cell_m,
         dt,
         closed,
+        moderate: moderate(&field),
     };
     let threads = analysis_threads();
     let mut best = (-60.0, f64::NEG_INFINITY);
@@ -213,7 +216,7 @@ pub fn measure_wave(
         }
     }
     let (best_speed_kmh, correlation) = best;
-    let best_period_s = grid.period_s();
+    let best_period_s = grid.period_s(threads);
     let detected = amplitude_kmh >= settings.min_relative_amplitude * mean_speed_kmh
         && correlation >= settings.min_correlation
         && best_speed_kmh <= -settings.min_speed_kmh;
@@ -293,31 +296,27 @@ struct Grid<'a> {
     cell_m: f64,
     dt: f64,
     closed: bool,
+    /// Whether every value of `field` is NaN or at most [`MODERATE_ABS`] across.
+    moderate: bool,
 }
 
 impl Grid<'_> {
-    /// [`correlation`](Self::correlation) at each of `speeds`, in their order, split over up to
-    /// `threads` threads: each is computed alone, so the answers are the same on any number.
+    /// The normalised correlation of the pattern with itself moved at each of `speeds`, over all
+    /// lags, in their order, split over up to `threads` threads: each speed's sums are its own,
+    /// so the answers are the same on any number.
     fn correlations(&self, speeds: &[f64], threads: usize) -> Vec<f64> {
         let threads = threads.min(speeds.len());
         if threads < 2 {
-            return speeds.iter().map(|&c| self.correlation(c)).collect();
+            return self.correlations_here(speeds);
         }
         let part = speeds.len().div_ceil(threads);
         std::thread::scope(|scope| {
             let mut chunks = speeds.chunks(part);
             let first = chunks.next().unwrap_or_default();
             let others: Vec<_> = chunks
-                .map(|chunk| {
-                    scope.spawn(move || {
-                        chunk
-                            .iter()
-                            .map(|&c| self.correlation(c))
-                            .collect::<Vec<_>>()
-                    })
-                })
+                .map(|chunk| scope.spawn(move || self.correlations_here(chunk)))
                 .collect();
-            let mut out: Vec<f64> = first.iter().map(|&c| self.correlation(c)).collect();
+            let mut out = self.correlations_here(first);
             for other in others {
                 match other.join() {
                     Ok(part) => out.extend(part),
@@ -329,13 +328,22 @@ impl Grid<'_> {
     }
 
     /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
-    ///
-    /// The sums run over the rows in order and along each row in cell order, as a plain walk
-    /// of every cell would take them: only the cells whose moved neighbours lie off an open
-    /// road (which add nothing) are not visited, so the answer is that walk's to the bit.
+    #[cfg(test)]
     fn correlation(&self, c_kmh: f64) -> f64 {
-        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-        let n = self.cells;
+        self.correlations_here(&[c_kmh])[0]
+    }
+
+    /// The correlations of [`correlations`](Self::correlations) at each of `speeds`, on this
+    /// thread.
+    ///
+    /// Each speed's sums run over the lags in order, the rows in order and along each row in
+    /// cell order, as a plain walk of every cell would take them: only the cells whose moved
+    /// neighbours lie off an open road (which add nothing) are not visited, so each answer is
+    /// that walk's to the bit. Speeds whose pattern moves by the same whole number of cells at a
+    /// lag (neighbouring trial speeds often do) read the same cells: up to [`SPEED_LANES`] of
+    /// them are summed side by side in one walk, each in its own sums.
+    fn correlations_here(&self, speeds: &[f64]) -> Vec<f64> {
+        let mut sums = vec![[0.0; 3]; speeds.len()];
         for lag_s in LAGS_S {
             let lag = (lag_s / self.dt).round() as usize;
             if lag == 0 || lag >= self.rows {
@@ -343,79 +351,45 @@ impl Grid<'_> {
             }
             // The pattern moves by the same distance at every cell, so the interpolation
             // weights are the same along a row: only the indices move.
-            let shift_cells = c_kmh / 3.6 * lag as f64 * self.dt / self.cell_m;
-            let k = shift_cells.floor();
-            let f = shift_cells - k;
-            let (k, keep) = (k as i64, 1.0 - f);
-            // On an open road, the cells `i` whose neighbours `i + k` and `i + k + 1` are both
-            // on it; on a loop every cell, its neighbours wrapping round.
-            let (from, to) = if self.closed {
-                (0, n)
-            } else {
-                let from = (-k).clamp(0, n as i64) as usize;
-                let to = (n as i64 - 1 - k).clamp(0, n as i64) as usize;
-                (from, to)
-            };
-            let mut add = |a: f64, b0: f64, b1: f64| {
-                if a.is_finite() {
-                    let b = b0 * keep + b1 * f;
-                    if b.is_finite() {
-                        ab += a * b;
-                        aa += a * a;
-                        bb += b * b;
-                    }
+            let shifts: Vec<(i64, f64)> = speeds
+                .iter()
+                .map(|&c_kmh| {
+                    let shift_cells = c_kmh / 3.6 * lag as f64 * self.dt / self.cell_m;
+                    let k = shift_cells.floor();
+                    (k as i64, shift_cells - k)
+                })
+                .collect();
+            let mut start = 0;
+            while start < speeds.len() {
+                let k = shifts[start].0;
+                let end = start
+                    + shifts[start..]
+                        .iter()
+                        .take(SPEED_LANES)
+                        .take_while(|s| s.0 == k)
+                        .count();
+                let mut moved = [0.0; SPEED_LANES];
+                for (m, s) in moved.iter_mut().zip(&shifts[start..end]) {
+                    *m = s.1;
                 }
-            };
-            for row in 0..self.rows - lag {
-                let here = &self.field[row * n..(row + 1) * n];
-                let there = &self.field[(row + lag) * n..(row + lag + 1) * n];
-                if self.closed {
-                    let mut j0 = k.rem_euclid(n as i64) as usize;
-                    for &a in here {
-                        let j1 = if j0 + 1 == n { 0 } else { j0 + 1 };
-                        add(a, there[j0], there[j1]);
-                        j0 = j1;
-                    }
-                } else if from < to {
-                    let j = (from as i64 + k) as usize;
-                    let len = to - from;
-                    let pairs = there[j..j + len].iter().zip(&there[j + 1..j + 1 + len]);
-                    for (&a, (&b0, &b1)) in here[from..to].iter().zip(pairs) {
-                        add(a, b0, b1);
-                    }
-                }
+                add_moved_lag(self, lag, k, &moved, &mut sums[start..end]);
+                start = end;
             }
         }
-        if aa > 0.0 && bb > 0.0 {
-            ab / (aa * bb).sqrt()
-        } else {
-            f64::NEG_INFINITY
-        }
+        sums.iter()
+            .map(|&[ab, aa, bb]| {
+                if aa > 0.0 && bb > 0.0 {
+                    ab / (aa * bb).sqrt()
+                } else {
+                    f64::NEG_INFINITY
+                }
+            })
+            .collect()
     }
 
     /// The first peak of the fixed-point autocorrelation after it has turned negative.
-    fn period_s(&self) -> Option<f64> {
-        let max_lag = self.rows * 3 / 4;
-        let mut r = Vec::with_capacity(max_lag + 1);
-        for lag in 0..=max_lag {
-            let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-            for row in 0..self.rows - lag {
-                for i in 0..self.cells {
-                    let a = self.field[row * self.cells + i];
-                    let b = self.field[(row + lag) * self.cells + i];
-                    if a.is_finite() && b.is_finite() {
-                        ab += a * b;
-                        aa += a * a;
-                        bb += b * b;
-                    }
-                }
-            }
-            r.push(if aa > 0.0 && bb > 0.0 {
-                ab / (aa * bb).sqrt()
-            } else {
-                f64::NAN
-            });
-        }
+    fn period_s(&self, threads: usize) -> Option<f64> {
+        let r = self.autocorrelations(threads);
         let first_negative = r.iter().position(|v| *v < 0.0)?;
         (first_negative.max(1)..r.len().saturating_sub(1)).find_map(|k| {
             let (a, b, c) = (r[k - 1], r[k], r[k + 1]);
@@ -430,6 +404,314 @@ impl Grid<'_> {
                 (k as f64 + offset) * self.dt
             })
         })
+    }
+
+    /// The normalised autocorrelation at a fixed point for every lag from 0 to three quarters of
+    /// the rows (NaN where a lag has nothing to compare), each lag's sums over the rows in order
+    /// and along each row in cell order. [`LANES`] consecutive lags are summed side by side, read
+    /// from a copy of the field laid out cell by cell, where a cell's later rows lie next to each
+    /// other; the blocks of lags are dealt out over up to `threads` threads in turn (the short
+    /// lags, with the most rows to compare, are the most work). Each lag's sums are its own: the
+    /// same answers on any number of threads.
+    fn autocorrelations(&self, threads: usize) -> Vec<f64> {
+        let lags = self.rows * 3 / 4 + 1;
+        // Each cell's rows, then LANES missing ones so that every lane of a block reads inside.
+        let stride = self.rows + LANES;
+        let mut by_cell = vec![f64::NAN; self.cells * stride];
+        for (row, values) in self.field.chunks_exact(self.cells).enumerate() {
+            for (i, &v) in values.iter().enumerate() {
+                by_cell[i * stride + row] = v;
+            }
+        }
+        let blocks = lags.div_ceil(LANES);
+        let threads = threads.clamp(1, blocks.max(1));
+        let by_cell = by_cell.as_slice();
+        let work = |t: usize| -> Vec<[f64; LANES]> {
+            (t..blocks)
+                .step_by(threads)
+                .map(|b| autocorrelation_block(self, by_cell, stride, b * LANES))
+                .collect()
+        };
+        let dealt: Vec<Vec<[f64; LANES]>> = if threads < 2 {
+            vec![work(0)]
+        } else {
+            std::thread::scope(|scope| {
+                let others: Vec<_> = (1..threads).map(|t| scope.spawn(move || work(t))).collect();
+                let mut dealt = vec![work(0)];
+                for other in others {
+                    match other.join() {
+                        Ok(part) => dealt.push(part),
+                        Err(panic) => std::panic::resume_unwind(panic),
+                    }
+                }
+                dealt
+            })
+        };
+        let mut r = Vec::with_capacity(blocks * LANES);
+        for b in 0..blocks {
+            r.extend_from_slice(&dealt[b % threads][b / threads]);
+        }
+        r.truncate(lags);
+        r
+    }
+}
+
+/// How many lags of the fixed-point autocorrelation are summed side by side in one walk.
+const LANES: usize = 8;
+
+/// Adds one lag of the moved-pattern correlation to the sums (`ab`, `aa`, `bb`) of up to
+/// [`SPEED_LANES`] trial speeds that move the pattern by `k` whole cells and the share `moved[l]`
+/// of the next, exactly as each speed alone would: a cell adds only where it and its
+/// interpolated partner are finite. Built twice, for x86-64 and for AVX2 (taken at run time
+/// where the CPU has it; the same IEEE operations in the same order, so the same answers to the
+/// bit).
+#[multiversion(targets("x86_64+avx2"))]
+fn add_moved_lag(
+    grid: &Grid,
+    lag: usize,
+    k: i64,
+    moved: &[f64; SPEED_LANES],
+    sums: &mut [[f64; 3]],
+) {
+    let n = grid.cells;
+    let keep = [f64x4::new(moved.map(|f| 1.0 - f))];
+    let moved = [f64x4::new(*moved)];
+    let mut acc = Lanes::<1>::from_sums(sums);
+    // On an open road, the cells `i` whose neighbours `i + k` and `i + k + 1` are both on it; on
+    // a loop every cell, its neighbours wrapping round.
+    let (from, to) = if grid.closed {
+        (0, n)
+    } else {
+        let from = (-k).clamp(0, n as i64) as usize;
+        let to = (n as i64 - 1 - k).clamp(0, n as i64) as usize;
+        (from, to)
+    };
+    if grid.moderate {
+        walk_moved_lag::<true>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
+    } else {
+        walk_moved_lag::<false>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
+    }
+    for (s, lane) in sums.iter_mut().zip(acc.sums()) {
+        *s = lane;
+    }
+}
+
+/// The walk of [`add_moved_lag`] over the rows, cells `from..to` of each (see
+/// [`Lanes::add_moved`] for `MODERATE`).
+#[inline(always)]
+fn walk_moved_lag<const MODERATE: bool>(
+    grid: &Grid,
+    lag: usize,
+    k: i64,
+    (from, to): (usize, usize),
+    keep: &[f64x4; 1],
+    moved: &[f64x4; 1],
+    acc: &mut Lanes<1>,
+) {
+    let n = grid.cells;
+    for row in 0..grid.rows - lag {
+        let here = &grid.field[row * n..(row + 1) * n];
+        let there = &grid.field[(row + lag) * n..(row + lag + 1) * n];
+        if grid.closed {
+            let mut j0 = k.rem_euclid(n as i64) as usize;
+            for &a in here {
+                let j1 = if j0 + 1 == n { 0 } else { j0 + 1 };
+                acc.add_moved::<MODERATE>(a, there[j0], there[j1], keep, moved);
+                j0 = j1;
+            }
+        } else if from < to {
+            let j = (from as i64 + k) as usize;
+            let len = to - from;
+            let pairs = there[j..j + len].iter().zip(&there[j + 1..j + 1 + len]);
+            for (&a, (&b0, &b1)) in here[from..to].iter().zip(pairs) {
+                acc.add_moved::<MODERATE>(a, b0, b1, keep, moved);
+            }
+        }
+    }
+}
+
+/// How many trial speeds sharing a whole-cell shift are summed side by side in one walk.
+const SPEED_LANES: usize = 4;
+
+/// Correlation sums side by side, four lanes to a vector, `4 × M` lanes: `Σ a·b`, `Σ a²`, `Σ b²`.
+struct Lanes<const M: usize> {
+    ab: [f64x4; M],
+    aa: [f64x4; M],
+    bb: [f64x4; M],
+}
+
+impl<const M: usize> Default for Lanes<M> {
+    fn default() -> Self {
+        Lanes {
+            ab: [f64x4::ZERO; M],
+            aa: [f64x4::ZERO; M],
+            bb: [f64x4::ZERO; M],
+        }
+    }
+}
+
+impl<const M: usize> Lanes<M> {
+    /// The lanes' sums, one `[Σ a·b, Σ a², Σ b²]` each.
+    fn sums(&self) -> impl Iterator<Item = [f64; 3]> + '_ {
+        (0..M).flat_map(move |m| {
+            let (ab, aa, bb) = (
+                self.ab[m].to_array(),
+                self.aa[m].to_array(),
+                self.bb[m].to_array(),
+            );
+            (0..4).map(move |l| [ab[l], aa[l], bb[l]])
+        })
+    }
+
+    /// Lanes holding `sums` in turn (zero past their end).
+    fn from_sums(sums: &[[f64; 3]]) -> Self {
+        let lane = |m: usize, l: usize, part: usize| sums.get(4 * m + l).map_or(0.0, |s| s[part]);
+        let part =
+            |p: usize| std::array::from_fn(|m| f64x4::new(std::array::from_fn(|l| lane(m, l, p))));
+        Lanes {
+            ab: part(0),
+            aa: part(1),
+            bb: part(2),
+        }
+    }
+
+    /// Adds `a` against `b` in each lane where `b` is finite (`a` is). Adding zero leaves a sum
+    /// as it was (none of them is ever −0), so a lane that must skip the cell adds zero and the
+    /// lanes stay side by side: each lane's sums are the ones a walk of its own would make.
+    #[expect(
+        clippy::eq_op,
+        reason = "x - x is zero for a finite x and NaN for any other: a finiteness test"
+    )]
+    #[inline(always)]
+    fn add_finite(&mut self, m: usize, a: f64x4, a2: f64x4, b: f64x4) {
+        // Exactly zero for a finite `b`; NaN for an infinite or NaN one.
+        let finite = (b - b).simd_eq(f64x4::ZERO);
+        self.ab[m] += (a * b) & finite;
+        self.aa[m] += a2 & finite;
+        self.bb[m] += (b * b) & finite;
+    }
+
+    /// Adds `a` against its partner interpolated between `b0` and `b1` with each lane's weights
+    /// (`keep` of `b0`, `moved` of `b1`), in lanes where both are finite.
+    ///
+    /// With `MODERATE` every value of the field is NaN or at most [`MODERATE_ABS`] across, so no
+    /// product or sum of them overflows: a lane's product `a·b` is NaN exactly where `a`, `b0`
+    /// or `b1` is, and masks the cell without a branch. Otherwise, where `a` or either neighbour
+    /// is not finite, neither is any lane's partner, and all skip the cell at once.
+    #[inline(always)]
+    fn add_moved<const MODERATE: bool>(
+        &mut self,
+        a: f64,
+        b0: f64,
+        b1: f64,
+        keep: &[f64x4; M],
+        moved: &[f64x4; M],
+    ) {
+        if MODERATE || (a.is_finite() && b0.is_finite() && b1.is_finite()) {
+            let (a2, a, b0, b1) = (
+                f64x4::splat(a * a),
+                f64x4::splat(a),
+                f64x4::splat(b0),
+                f64x4::splat(b1),
+            );
+            for m in 0..M {
+                let b = b0 * keep[m] + b1 * moved[m];
+                if MODERATE {
+                    self.add_product(m, a2, a * b, b);
+                } else {
+                    self.add_finite(m, a, a2, b);
+                }
+            }
+        }
+    }
+
+    /// Adds the product `ab = a·b`, `a2 = a²` and `b²` in each lane where `ab` is not NaN: for a
+    /// field of [`MODERATE_ABS`] values, where neither `a` nor `b` is.
+    #[expect(
+        clippy::eq_op,
+        reason = "x - x is zero for a finite x and NaN for any other: a finiteness test"
+    )]
+    #[inline(always)]
+    fn add_product(&mut self, m: usize, a2: f64x4, ab: f64x4, b: f64x4) {
+        let finite = (ab - ab).simd_eq(f64x4::ZERO);
+        self.ab[m] += ab & finite;
+        self.aa[m] += a2 & finite;
+        self.bb[m] += (b * b) & finite;
+    }
+
+    /// Adds `a` against `partners[4 m + l]` in each lane where both are finite (see
+    /// [`add_moved`](Self::add_moved) for `MODERATE`).
+    #[inline(always)]
+    fn add<const MODERATE: bool>(&mut self, a: f64, partners: &[f64]) {
+        if MODERATE || a.is_finite() {
+            let (a2, a) = (f64x4::splat(a * a), f64x4::splat(a));
+            for m in 0..M {
+                let b: [f64; 4] = partners[4 * m..4 * m + 4].try_into().expect("four lanes");
+                let b = f64x4::new(b);
+                if MODERATE {
+                    self.add_product(m, a2, a * b, b);
+                } else {
+                    self.add_finite(m, a, a2, b);
+                }
+            }
+        }
+    }
+}
+
+/// The largest magnitude of a field value for which the sums of the correlations can take the
+/// branch-free path: products and sums of a billion of them stay far from overflowing. Speeds
+/// in km/h are always this small; a CSV with absurd ones takes the checked path.
+const MODERATE_ABS: f64 = 1e100;
+
+/// Whether every value of `field` is NaN or at most [`MODERATE_ABS`] across.
+fn moderate(field: &[f64]) -> bool {
+    field.iter().all(|v| v.is_nan() || v.abs() <= MODERATE_ABS)
+}
+
+/// The fixed-point autocorrelation's sums for the [`LANES`] lags from `first_lag`, normalised:
+/// lag `first_lag + l` in lane `l`. `by_cell` is the field cell by cell (`stride` entries a
+/// cell, NaN past its last row), so a cell's partners at the block's lags lie side by side; a
+/// lane whose partner row is past the last reads NaN there and adds nothing, as if its walk had
+/// stopped. Built twice, as [`add_moved_lag`] is.
+#[multiversion(targets("x86_64+avx2"))]
+fn autocorrelation_block(
+    grid: &Grid,
+    by_cell: &[f64],
+    stride: usize,
+    first_lag: usize,
+) -> [f64; LANES] {
+    let mut acc = Lanes::<{ LANES / 4 }>::default();
+    if grid.moderate {
+        walk_lag_block::<true>(grid, by_cell, stride, first_lag, &mut acc);
+    } else {
+        walk_lag_block::<false>(grid, by_cell, stride, first_lag, &mut acc);
+    }
+    let mut r = [f64::NAN; LANES];
+    for (r, [ab, aa, bb]) in r.iter_mut().zip(acc.sums()) {
+        if aa > 0.0 && bb > 0.0 {
+            *r = ab / (aa * bb).sqrt();
+        }
+    }
+    r
+}
+
+/// The walk of [`autocorrelation_block`] over the rows and cells (see [`Lanes::add_moved`] for
+/// `MODERATE`).
+#[inline(always)]
+fn walk_lag_block<const MODERATE: bool>(
+    grid: &Grid,
+    by_cell: &[f64],
+    stride: usize,
+    first_lag: usize,
+    acc: &mut Lanes<{ LANES / 4 }>,
+) {
+    let n = grid.cells;
+    for row in 0..grid.rows.saturating_sub(first_lag) {
+        let here = &grid.field[row * n..(row + 1) * n];
+        for (i, &a) in here.iter().enumerate() {
+            let start = i * stride + row + first_lag;
+            acc.add::<MODERATE>(a, &by_cell[start..start + LANES]);
+        }
     }
 }
 
@@ -570,22 +852,110 @@ mod tests {
         }
     }
 
+    /// Every lag and every cell visited in turn, as the fixed-point autocorrelation was first
+    /// written: what it must match.
+    fn autocorrelations_lag_by_lag(grid: &Grid) -> Vec<f64> {
+        let max_lag = grid.rows * 3 / 4;
+        let mut r = Vec::with_capacity(max_lag + 1);
+        for lag in 0..=max_lag {
+            let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+            for row in 0..grid.rows - lag {
+                for i in 0..grid.cells {
+                    let a = grid.field[row * grid.cells + i];
+                    let b = grid.field[(row + lag) * grid.cells + i];
+                    if a.is_finite() && b.is_finite() {
+                        ab += a * b;
+                        aa += a * a;
+                        bb += b * b;
+                    }
+                }
+            }
+            r.push(if aa > 0.0 && bb > 0.0 {
+                ab / (aa * bb).sqrt()
+            } else {
+                f64::NAN
+            });
+        }
+        r
+    }
+
+    /// A field with gaps: NaN cells here and there and one whole row missing. `absurd` puts
+    /// in values no speed has (infinities, and ones whose squares overflow), as a CSV might.
+    fn gappy_field(rows: usize, cells: usize, absurd: bool) -> Vec<f64> {
+        (0..rows * cells)
+            .map(|i| {
+                let (row, cell) = (i / cells, i % cells);
+                if row == 17 || (i * 7919) % 13 == 0 {
+                    f64::NAN
+                } else if absurd && i % 11 == 3 {
+                    f64::INFINITY
+                } else if absurd && i % 7 == 2 {
+                    -3e200
+                } else {
+                    libm::sin(i as f64 * 0.37) * 9.0 + (cell as f64) * 0.1
+                }
+            })
+            .collect()
+    }
+
+    /// The fields the fast sums are checked on: moderate ones (the branch-free path), the same
+    /// taken down the checked path, and absurd ones (which must take it).
+    fn test_fields(rows: usize, cells: usize) -> Vec<(Vec<f64>, bool)> {
+        let (usual, absurd) = (
+            gappy_field(rows, cells, false),
+            gappy_field(rows, cells, true),
+        );
+        assert!(moderate(&usual));
+        assert!(!moderate(&absurd) || rows * cells < 4);
+        vec![
+            (usual.clone(), true),
+            (usual, false),
+            (absurd.clone(), moderate(&absurd)),
+        ]
+    }
+
+    #[test]
+    fn the_autocorrelation_is_the_lag_by_lag_walk_s_to_the_bit_on_any_number_of_threads() {
+        // Row counts whose lags fill their last block of lanes, and ones that leave it short.
+        for (cells, rows) in [(1, 2), (1, 30), (7, 40), (64, 90), (3, 11)] {
+            for (field, moderate) in test_fields(rows, cells) {
+                let grid = Grid {
+                    field: &field,
+                    rows,
+                    cells,
+                    cell_m: 5.0,
+                    dt: 0.5,
+                    closed: false,
+                    moderate,
+                };
+                let walk: Vec<u64> = autocorrelations_lag_by_lag(&grid)
+                    .iter()
+                    .map(|r| r.to_bits())
+                    .collect();
+                for threads in [1, 2, 3, 64] {
+                    let fast: Vec<u64> = grid
+                        .autocorrelations(threads)
+                        .iter()
+                        .map(|r| r.to_bits())
+                        .collect();
+                    assert_eq!(
+                        fast, walk,
+                        "{cells} cells, {rows} rows, moderate {moderate}, {threads} threads"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn the_correlation_is_the_cell_by_cell_walk_s_to_the_bit_on_any_number_of_threads() {
         // A field with gaps (NaN cells and a missing row), on a loop and on an open road, moved
         // at speeds that shift it by less than a cell up to more than the whole road.
         for (cells, rows) in [(1, 30), (7, 40), (64, 90)] {
-            let field: Vec<f64> = (0..rows * cells)
-                .map(|i| {
-                    let (row, cell) = (i / cells, i % cells);
-                    if row == 17 || (i * 7919) % 13 == 0 {
-                        f64::NAN
-                    } else {
-                        libm::sin(i as f64 * 0.37) * 9.0 + (cell as f64) * 0.1
-                    }
-                })
-                .collect();
-            for closed in [false, true] {
+            for ((field, moderate), closed) in test_fields(rows, cells)
+                .into_iter()
+                .flat_map(|f| [(f.clone(), false), (f, true)])
+            {
                 let grid = Grid {
                     field: &field,
                     rows,
@@ -593,15 +963,27 @@ mod tests {
                     cell_m: 5.0,
                     dt: 0.5,
                     closed,
+                    moderate,
                 };
-                let speeds: Vec<f64> = (0..40).map(|i| -70.0 + 3.3 * f64::from(i)).collect();
-                let alone = grid.correlations(&speeds, 1);
-                for threads in [2, 3, 64] {
-                    let split = grid.correlations(&speeds, threads);
+                // Coarse steps, and a fine run whose neighbours share their whole-cell shift
+                // (summed side by side, more of them than one walk takes).
+                let speeds: Vec<f64> = (0..40)
+                    .map(|i| -70.0 + 3.3 * f64::from(i))
+                    .chain((0..30).map(|i| 12.0 + 0.05 * f64::from(i)))
+                    .collect();
+                let walk: Vec<u64> = speeds
+                    .iter()
+                    .map(|&c| correlation_cell_by_cell(&grid, c).to_bits())
+                    .collect();
+                for threads in [1, 2, 3, 64] {
+                    let fast: Vec<u64> = grid
+                        .correlations(&speeds, threads)
+                        .iter()
+                        .map(|r| r.to_bits())
+                        .collect();
                     assert_eq!(
-                        alone.iter().map(|r| r.to_bits()).collect::<Vec<_>>(),
-                        split.iter().map(|r| r.to_bits()).collect::<Vec<_>>(),
-                        "{threads} threads"
+                        fast, walk,
+                        "{cells} cells, closed {closed}, moderate {moderate}, {threads} threads"
                     );
                 }
                 let mut c = -300.0;
@@ -610,7 +992,8 @@ mod tests {
                     assert_eq!(
                         fast.to_bits(),
                         walk.to_bits(),
-                        "{cells} cells, closed {closed}, {c} km/h: {fast} against {walk}"
+                        "{cells} cells, closed {closed}, moderate {moderate}, {c} km/h: \
+                         {fast} against {walk}"
                     );
                     c += 3.7;
                 }
