@@ -575,18 +575,18 @@ impl<const M: usize> Lanes<M> {
         }
     }
 
-    /// Adds `a` against `b` in each lane where `b` is finite (`a` is). Adding zero leaves a sum
-    /// as it was (none of them is ever −0), so a lane that must skip the cell adds zero and the
-    /// lanes stay side by side: each lane's sums are the ones a walk of its own would make.
+    /// Adds `ab = a·b`, `a2 = a²` and `b²` in each lane where `test` is finite. Adding zero
+    /// leaves a sum as it was (none of them is ever −0), so a lane that must skip the cell adds
+    /// zero and the lanes stay side by side: each lane's sums are the ones a walk of its own
+    /// would make.
     #[expect(
         clippy::eq_op,
         reason = "x - x is zero for a finite x and NaN for any other: a finiteness test"
     )]
     #[inline(always)]
-    fn add_finite(&mut self, m: usize, a: f64x4, a2: f64x4, b: f64x4) {
-        // Exactly zero for a finite `b`; NaN for an infinite or NaN one.
-        let finite = (b - b).simd_eq(f64x4::ZERO);
-        self.ab[m] += (a * b) & finite;
+    fn add_where_finite(&mut self, m: usize, test: f64x4, ab: f64x4, a2: f64x4, b: f64x4) {
+        let finite = (test - test).simd_eq(f64x4::ZERO);
+        self.ab[m] += ab & finite;
         self.aa[m] += a2 & finite;
         self.bb[m] += (b * b) & finite;
     }
@@ -595,8 +595,8 @@ impl<const M: usize> Lanes<M> {
     /// (`keep` of `b0`, `moved` of `b1`), in lanes where both are finite.
     ///
     /// With `MODERATE` every value of the field is NaN or at most [`MODERATE_ABS`] across, so no
-    /// product or sum of them overflows: a lane's product `a·b` is NaN exactly where `a`, `b0`
-    /// or `b1` is, and masks the cell without a branch. Otherwise, where `a` or either neighbour
+    /// product or sum of them overflows: a lane's product `a·b` is finite exactly where `a`, `b0`
+    /// and `b1` are, and masks the cell without a branch. Otherwise, where `a` or either neighbour
     /// is not finite, neither is any lane's partner, and all skip the cell at once.
     #[inline(always)]
     fn add_moved<const MODERATE: bool>(
@@ -616,27 +616,10 @@ impl<const M: usize> Lanes<M> {
             );
             for m in 0..M {
                 let b = b0 * keep[m] + b1 * moved[m];
-                if MODERATE {
-                    self.add_product(m, a2, a * b, b);
-                } else {
-                    self.add_finite(m, a, a2, b);
-                }
+                let ab = a * b;
+                self.add_where_finite(m, if MODERATE { ab } else { b }, ab, a2, b);
             }
         }
-    }
-
-    /// Adds the product `ab = a·b`, `a2 = a²` and `b²` in each lane where `ab` is not NaN: for a
-    /// field of [`MODERATE_ABS`] values, where neither `a` nor `b` is.
-    #[expect(
-        clippy::eq_op,
-        reason = "x - x is zero for a finite x and NaN for any other: a finiteness test"
-    )]
-    #[inline(always)]
-    fn add_product(&mut self, m: usize, a2: f64x4, ab: f64x4, b: f64x4) {
-        let finite = (ab - ab).simd_eq(f64x4::ZERO);
-        self.ab[m] += ab & finite;
-        self.aa[m] += a2 & finite;
-        self.bb[m] += (b * b) & finite;
     }
 
     /// Adds `a` against `partners[4 m + l]` in each lane where both are finite (see
@@ -648,11 +631,8 @@ impl<const M: usize> Lanes<M> {
             for m in 0..M {
                 let b: [f64; 4] = partners[4 * m..4 * m + 4].try_into().expect("four lanes");
                 let b = f64x4::new(b);
-                if MODERATE {
-                    self.add_product(m, a2, a * b, b);
-                } else {
-                    self.add_finite(m, a, a2, b);
-                }
+                let ab = a * b;
+                self.add_where_finite(m, if MODERATE { ab } else { b }, ab, a2, b);
             }
         }
     }
@@ -914,20 +894,25 @@ mod tests {
         ]
     }
 
+    /// The grid of a test field of `rows` rows, cells of 5 m, rows 0.5 s apart.
+    fn test_grid(field: &[f64], rows: usize, closed: bool, moderate: bool) -> Grid<'_> {
+        Grid {
+            field,
+            rows,
+            cells: field.len() / rows,
+            cell_m: 5.0,
+            dt: 0.5,
+            closed,
+            moderate,
+        }
+    }
+
     #[test]
     fn the_autocorrelation_is_the_lag_by_lag_walk_s_to_the_bit_on_any_number_of_threads() {
         // Row counts whose lags fill their last block of lanes, and ones that leave it short.
         for (cells, rows) in [(1, 2), (1, 30), (7, 40), (64, 90), (3, 11)] {
             for (field, moderate) in test_fields(rows, cells) {
-                let grid = Grid {
-                    field: &field,
-                    rows,
-                    cells,
-                    cell_m: 5.0,
-                    dt: 0.5,
-                    closed: false,
-                    moderate,
-                };
+                let grid = test_grid(&field, rows, false, moderate);
                 let walk: Vec<u64> = autocorrelations_lag_by_lag(&grid)
                     .iter()
                     .map(|r| r.to_bits())
@@ -956,15 +941,7 @@ mod tests {
                 .into_iter()
                 .flat_map(|f| [(f.clone(), false), (f, true)])
             {
-                let grid = Grid {
-                    field: &field,
-                    rows,
-                    cells,
-                    cell_m: 5.0,
-                    dt: 0.5,
-                    closed,
-                    moderate,
-                };
+                let grid = test_grid(&field, rows, closed, moderate);
                 // Coarse steps, and a fine run whose neighbours share their whole-cell shift
                 // (summed side by side, more of them than one walk takes).
                 let speeds: Vec<f64> = (0..40)
