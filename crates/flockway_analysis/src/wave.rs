@@ -21,7 +21,7 @@
 use crate::Trace;
 use multiversion::multiversion;
 use std::collections::BTreeMap;
-use wide::f64x4;
+use wide::{f64x2, f64x4};
 
 /// Tuning of [`measure_wave`]; the defaults are the documented method.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -368,11 +368,13 @@ impl Grid<'_> {
                         .take(SPEED_LANES)
                         .take_while(|s| s.0 == k)
                         .count();
-                let mut moved = [0.0; SPEED_LANES];
-                for (m, s) in moved.iter_mut().zip(&shifts[start..end]) {
-                    *m = s.1;
+                let moved: Vec<f64> = shifts[start..end].iter().map(|s| s.1).collect();
+                // A group of one or two takes half-width vectors: half the work a lane.
+                if moved.len() <= 2 {
+                    add_moved_lag::<f64x2>(self, lag, k, &moved, &mut sums[start..end]);
+                } else {
+                    add_moved_lag::<f64x4>(self, lag, k, &moved, &mut sums[start..end]);
                 }
-                add_moved_lag(self, lag, k, &moved, &mut sums[start..end]);
                 start = end;
             }
         }
@@ -466,17 +468,13 @@ const LANES: usize = 8;
 /// where the CPU has it; the same IEEE operations in the same order, so the same answers to the
 /// bit).
 #[multiversion(targets("x86_64+avx2"))]
-fn add_moved_lag(
-    grid: &Grid,
-    lag: usize,
-    k: i64,
-    moved: &[f64; SPEED_LANES],
-    sums: &mut [[f64; 3]],
-) {
+fn add_moved_lag<V: Wide>(grid: &Grid, lag: usize, k: i64, moved: &[f64], sums: &mut [[f64; 3]]) {
     let n = grid.cells;
-    let keep = [f64x4::new(moved.map(|f| 1.0 - f))];
-    let moved = [f64x4::new(*moved)];
-    let mut acc = Lanes::<1>::from_sums(sums);
+    // Lanes past the group's speeds: any weights, their sums are dropped.
+    let weight = |l: usize| moved.get(l).copied().unwrap_or(0.0);
+    let keep = [V::from_fn(|l| 1.0 - weight(l))];
+    let moved = [V::from_fn(weight)];
+    let mut acc = Lanes::<V, 1>::from_sums(sums);
     // On an open road, the cells `i` whose neighbours `i + k` and `i + k + 1` are both on it; on
     // a loop every cell, its neighbours wrapping round.
     let (from, to) = if grid.closed {
@@ -487,9 +485,9 @@ fn add_moved_lag(
         (from, to)
     };
     if grid.moderate {
-        walk_moved_lag::<true>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
+        walk_moved_lag::<V, true>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
     } else {
-        walk_moved_lag::<false>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
+        walk_moved_lag::<V, false>(grid, lag, k, (from, to), &keep, &moved, &mut acc);
     }
     for (s, lane) in sums.iter_mut().zip(acc.sums()) {
         *s = lane;
@@ -499,14 +497,14 @@ fn add_moved_lag(
 /// The walk of [`add_moved_lag`] over the rows, cells `from..to` of each (see
 /// [`Lanes::add_moved`] for `MODERATE`).
 #[inline(always)]
-fn walk_moved_lag<const MODERATE: bool>(
+fn walk_moved_lag<V: Wide, const MODERATE: bool>(
     grid: &Grid,
     lag: usize,
     k: i64,
     (from, to): (usize, usize),
-    keep: &[f64x4; 1],
-    moved: &[f64x4; 1],
-    acc: &mut Lanes<1>,
+    keep: &[V; 1],
+    moved: &[V; 1],
+    acc: &mut Lanes<V, 1>,
 ) {
     let n = grid.cells;
     for row in 0..grid.rows - lag {
@@ -533,41 +531,90 @@ fn walk_moved_lag<const MODERATE: bool>(
 /// How many trial speeds sharing a whole-cell shift are summed side by side in one walk.
 const SPEED_LANES: usize = 4;
 
-/// Correlation sums side by side, four lanes to a vector, `4 × M` lanes: `Σ a·b`, `Σ a²`, `Σ b²`.
-struct Lanes<const M: usize> {
-    ab: [f64x4; M],
-    aa: [f64x4; M],
-    bb: [f64x4; M],
+/// A vector of `f64` lanes from `wide`, as the sums use it: its operations round lane by lane as
+/// the scalar ones do.
+trait Wide:
+    Copy
+    + std::ops::Add<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::BitAnd<Output = Self>
+{
+    /// Lanes in a vector.
+    const WIDTH: usize;
+    /// All lanes zero.
+    const ZERO: Self;
+    /// `x` in every lane.
+    fn splat(x: f64) -> Self;
+    /// Lane `l` from `f(l)`.
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
+    /// The lanes from `x`, which holds [`WIDTH`](Self::WIDTH) values.
+    fn from_slice(x: &[f64]) -> Self;
+    /// Lane `l`.
+    fn lane(self, l: usize) -> f64;
+    /// All ones in lanes equal to zero, all zeros elsewhere.
+    fn is_zero(self) -> Self;
 }
 
-impl<const M: usize> Default for Lanes<M> {
+macro_rules! wide_lanes {
+    ($t:ty, $n:literal) => {
+        impl Wide for $t {
+            const WIDTH: usize = $n;
+            const ZERO: Self = <$t>::ZERO;
+            fn splat(x: f64) -> Self {
+                <$t>::splat(x)
+            }
+            fn from_fn(f: impl FnMut(usize) -> f64) -> Self {
+                <$t>::new(std::array::from_fn(f))
+            }
+            fn from_slice(x: &[f64]) -> Self {
+                <$t>::new(x.try_into().expect("one value a lane"))
+            }
+            fn lane(self, l: usize) -> f64 {
+                self.to_array()[l]
+            }
+            fn is_zero(self) -> Self {
+                self.simd_eq(<$t>::ZERO)
+            }
+        }
+    };
+}
+wide_lanes!(f64x2, 2);
+wide_lanes!(f64x4, 4);
+
+/// Correlation sums side by side, `M` vectors of lanes: `Σ a·b`, `Σ a²`, `Σ b²`.
+struct Lanes<V, const M: usize> {
+    ab: [V; M],
+    aa: [V; M],
+    bb: [V; M],
+}
+
+impl<V: Wide, const M: usize> Default for Lanes<V, M> {
     fn default() -> Self {
         Lanes {
-            ab: [f64x4::ZERO; M],
-            aa: [f64x4::ZERO; M],
-            bb: [f64x4::ZERO; M],
+            ab: [V::ZERO; M],
+            aa: [V::ZERO; M],
+            bb: [V::ZERO; M],
         }
     }
 }
 
-impl<const M: usize> Lanes<M> {
+impl<V: Wide, const M: usize> Lanes<V, M> {
     /// The lanes' sums, one `[Σ a·b, Σ a², Σ b²]` each.
     fn sums(&self) -> impl Iterator<Item = [f64; 3]> + '_ {
         (0..M).flat_map(move |m| {
-            let (ab, aa, bb) = (
-                self.ab[m].to_array(),
-                self.aa[m].to_array(),
-                self.bb[m].to_array(),
-            );
-            (0..4).map(move |l| [ab[l], aa[l], bb[l]])
+            (0..V::WIDTH).map(move |l| [self.ab[m].lane(l), self.aa[m].lane(l), self.bb[m].lane(l)])
         })
     }
 
     /// Lanes holding `sums` in turn (zero past their end).
     fn from_sums(sums: &[[f64; 3]]) -> Self {
-        let lane = |m: usize, l: usize, part: usize| sums.get(4 * m + l).map_or(0.0, |s| s[part]);
-        let part =
-            |p: usize| std::array::from_fn(|m| f64x4::new(std::array::from_fn(|l| lane(m, l, p))));
+        let part = |p: usize| {
+            std::array::from_fn(|m| {
+                V::from_fn(|l| sums.get(V::WIDTH * m + l).map_or(0.0, |s| s[p]))
+            })
+        };
         Lanes {
             ab: part(0),
             aa: part(1),
@@ -584,8 +631,8 @@ impl<const M: usize> Lanes<M> {
         reason = "x - x is zero for a finite x and NaN for any other: a finiteness test"
     )]
     #[inline(always)]
-    fn add_where_finite(&mut self, m: usize, test: f64x4, ab: f64x4, a2: f64x4, b: f64x4) {
-        let finite = (test - test).simd_eq(f64x4::ZERO);
+    fn add_where_finite(&mut self, m: usize, test: V, ab: V, a2: V, b: V) {
+        let finite = (test - test).is_zero();
         self.ab[m] += ab & finite;
         self.aa[m] += a2 & finite;
         self.bb[m] += (b * b) & finite;
@@ -604,16 +651,11 @@ impl<const M: usize> Lanes<M> {
         a: f64,
         b0: f64,
         b1: f64,
-        keep: &[f64x4; M],
-        moved: &[f64x4; M],
+        keep: &[V; M],
+        moved: &[V; M],
     ) {
         if MODERATE || (a.is_finite() && b0.is_finite() && b1.is_finite()) {
-            let (a2, a, b0, b1) = (
-                f64x4::splat(a * a),
-                f64x4::splat(a),
-                f64x4::splat(b0),
-                f64x4::splat(b1),
-            );
+            let (a2, a, b0, b1) = (V::splat(a * a), V::splat(a), V::splat(b0), V::splat(b1));
             for m in 0..M {
                 let b = b0 * keep[m] + b1 * moved[m];
                 let ab = a * b;
@@ -622,15 +664,14 @@ impl<const M: usize> Lanes<M> {
         }
     }
 
-    /// Adds `a` against `partners[4 m + l]` in each lane where both are finite (see
+    /// Adds `a` against `partners[WIDTH m + l]` in each lane where both are finite (see
     /// [`add_moved`](Self::add_moved) for `MODERATE`).
     #[inline(always)]
     fn add<const MODERATE: bool>(&mut self, a: f64, partners: &[f64]) {
         if MODERATE || a.is_finite() {
-            let (a2, a) = (f64x4::splat(a * a), f64x4::splat(a));
+            let (a2, a) = (V::splat(a * a), V::splat(a));
             for m in 0..M {
-                let b: [f64; 4] = partners[4 * m..4 * m + 4].try_into().expect("four lanes");
-                let b = f64x4::new(b);
+                let b = V::from_slice(&partners[V::WIDTH * m..V::WIDTH * (m + 1)]);
                 let ab = a * b;
                 self.add_where_finite(m, if MODERATE { ab } else { b }, ab, a2, b);
             }
@@ -660,7 +701,7 @@ fn autocorrelation_block(
     stride: usize,
     first_lag: usize,
 ) -> [f64; LANES] {
-    let mut acc = Lanes::<{ LANES / 4 }>::default();
+    let mut acc = Lanes::<f64x4, { LANES / 4 }>::default();
     if grid.moderate {
         walk_lag_block::<true>(grid, by_cell, stride, first_lag, &mut acc);
     } else {
@@ -683,7 +724,7 @@ fn walk_lag_block<const MODERATE: bool>(
     by_cell: &[f64],
     stride: usize,
     first_lag: usize,
-    acc: &mut Lanes<{ LANES / 4 }>,
+    acc: &mut Lanes<f64x4, { LANES / 4 }>,
 ) {
     let n = grid.cells;
     for row in 0..grid.rows.saturating_sub(first_lag) {
