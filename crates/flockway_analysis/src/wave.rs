@@ -305,26 +305,9 @@ impl Grid<'_> {
     /// lags, in their order, split over up to `threads` threads: each speed's sums are its own,
     /// so the answers are the same on any number.
     fn correlations(&self, speeds: &[f64], threads: usize) -> Vec<f64> {
-        let threads = threads.min(speeds.len());
-        if threads < 2 {
-            return self.correlations_here(speeds);
-        }
-        let part = speeds.len().div_ceil(threads);
-        std::thread::scope(|scope| {
-            let mut chunks = speeds.chunks(part);
-            let first = chunks.next().unwrap_or_default();
-            let others: Vec<_> = chunks
-                .map(|chunk| scope.spawn(move || self.correlations_here(chunk)))
-                .collect();
-            let mut out = self.correlations_here(first);
-            for other in others {
-                match other.join() {
-                    Ok(part) => out.extend(part),
-                    Err(panic) => std::panic::resume_unwind(panic),
-                }
-            }
-            out
-        })
+        let part = speeds.len().div_ceil(threads.max(1)).max(1);
+        let chunks: Vec<&[f64]> = speeds.chunks(part).collect();
+        on_threads(chunks.len(), |t| self.correlations_here(chunks[t])).concat()
     }
 
     /// Normalised correlation of the pattern with itself moved at `c_kmh`, over all lags.
@@ -379,13 +362,7 @@ impl Grid<'_> {
             }
         }
         sums.iter()
-            .map(|&[ab, aa, bb]| {
-                if aa > 0.0 && bb > 0.0 {
-                    ab / (aa * bb).sqrt()
-                } else {
-                    f64::NEG_INFINITY
-                }
-            })
+            .map(|&sums| normalised(sums).unwrap_or(f64::NEG_INFINITY))
             .collect()
     }
 
@@ -434,21 +411,7 @@ impl Grid<'_> {
                 .map(|b| autocorrelation_block(self, by_cell, stride, b * LANES))
                 .collect()
         };
-        let dealt: Vec<Vec<[f64; LANES]>> = if threads < 2 {
-            vec![work(0)]
-        } else {
-            std::thread::scope(|scope| {
-                let others: Vec<_> = (1..threads).map(|t| scope.spawn(move || work(t))).collect();
-                let mut dealt = vec![work(0)];
-                for other in others {
-                    match other.join() {
-                        Ok(part) => dealt.push(part),
-                        Err(panic) => std::panic::resume_unwind(panic),
-                    }
-                }
-                dealt
-            })
-        };
+        let dealt = on_threads(threads, work);
         let mut r = Vec::with_capacity(blocks * LANES);
         for b in 0..blocks {
             r.extend_from_slice(&dealt[b % threads][b / threads]);
@@ -456,6 +419,32 @@ impl Grid<'_> {
         r.truncate(lags);
         r
     }
+}
+
+/// `work(t)` for each `t` in `0..parts`: `work(0)` on this thread, the others on threads of their
+/// own; the answers in `t`'s order.
+fn on_threads<T: Send>(parts: usize, work: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    if parts < 2 {
+        return (0..parts).map(work).collect();
+    }
+    let work = &work;
+    std::thread::scope(|scope| {
+        let others: Vec<_> = (1..parts).map(|t| scope.spawn(move || work(t))).collect();
+        let mut answers = vec![work(0)];
+        for other in others {
+            match other.join() {
+                Ok(answer) => answers.push(answer),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        answers
+    })
+}
+
+/// `Σ a·b / √(Σ a² · Σ b²)` from `[Σ a·b, Σ a², Σ b²]`, or `None` where either sum of squares
+/// is not positive (nothing to compare).
+fn normalised([ab, aa, bb]: [f64; 3]) -> Option<f64> {
+    (aa > 0.0 && bb > 0.0).then(|| ab / (aa * bb).sqrt())
 }
 
 /// How many lags of the fixed-point autocorrelation are summed side by side in one walk.
@@ -708,10 +697,8 @@ fn autocorrelation_block(
         walk_lag_block::<false>(grid, by_cell, stride, first_lag, &mut acc);
     }
     let mut r = [f64::NAN; LANES];
-    for (r, [ab, aa, bb]) in r.iter_mut().zip(acc.sums()) {
-        if aa > 0.0 && bb > 0.0 {
-            *r = ab / (aa * bb).sqrt();
-        }
+    for (r, sums) in r.iter_mut().zip(acc.sums()) {
+        *r = normalised(sums).unwrap_or(f64::NAN);
     }
     r
 }
