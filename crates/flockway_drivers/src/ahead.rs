@@ -130,6 +130,13 @@ impl RoadSurface {
 /// lane that leads nowhere.
 type LaneEnvelopes = Vec<(Option<RoadId>, Arc<[f32]>)>;
 
+/// The speed cap, m/s, an envelope gives at `s_m` (wrapped round a loop of `loop_m`).
+fn cap_in(env: &[f32], loop_m: Option<f64>, s_m: f64) -> f32 {
+    let s_m = loop_m.map_or(s_m, |length| flockway_core::wrap::rem_euclid(s_m, length));
+    let bin = ((s_m.max(0.0) / CURVATURE_BIN_M) as usize).min(env.len().saturating_sub(1));
+    env.get(bin).map_or(f32::INFINITY, |v2| v2.sqrt())
+}
+
 /// One way of driving's envelopes: `[road][lane]`.
 type Envelopes = Vec<Vec<LaneEnvelopes>>;
 
@@ -155,32 +162,49 @@ impl RoadAhead {
         s_m: f64,
         next: Option<RoadId>,
     ) -> f32 {
-        let Some(style) = reads.style else {
-            return f32::INFINITY;
-        };
-        let Some(lanes) = self
+        self.envelope(reads, road, lane, next)
+            .map_or(f32::INFINITY, |(env, length)| cap_in(env, length, s_m))
+    }
+
+    /// The lower of [`speed_cap_mps`](Self::speed_cap_mps) at `s_m[0]` and at `s_m[1]` of one
+    /// lane (the first's answer `min` the second's), the lane's envelope found once.
+    pub fn lower_speed_cap_mps(
+        &self,
+        reads: &ReadsRoad,
+        road: RoadId,
+        lane: u32,
+        s_m: [f64; 2],
+        next: Option<RoadId>,
+    ) -> f32 {
+        self.envelope(reads, road, lane, next)
+            .map_or(f32::INFINITY, |(env, length)| {
+                cap_in(env, length, s_m[0]).min(cap_in(env, length, s_m[1]))
+            })
+    }
+
+    /// The envelope `reads` drives `lane` of `road` by towards `next`, with the road's length if
+    /// it is a loop.
+    fn envelope(
+        &self,
+        reads: &ReadsRoad,
+        road: RoadId,
+        lane: u32,
+        next: Option<RoadId>,
+    ) -> Option<(&[f32], Option<f64>)> {
+        let lanes = self
             .envelopes
-            .get(style as usize)
-            .and_then(|r| r.get(road.0 as usize))
-        else {
-            return f32::INFINITY;
-        };
-        let Some(branches) = lanes.get(lane as usize).or(lanes.last()) else {
-            return f32::INFINITY;
-        };
-        let Some((_, env)) = branches
+            .get(reads.style? as usize)?
+            .get(road.0 as usize)?;
+        let branches = lanes.get(lane as usize).or(lanes.last())?;
+        let (_, env) = branches
             .iter()
             .find(|(to, _)| next.is_some() && *to == next)
-            .or(branches.first())
-        else {
-            return f32::INFINITY;
+            .or(branches.first())?;
+        let length = match self.loops.get(road.0 as usize) {
+            Some(Some(length)) if *length > 0.0 => Some(*length),
+            _ => None,
         };
-        let s_m = match self.loops.get(road.0 as usize) {
-            Some(Some(length)) if *length > 0.0 => flockway_core::wrap::rem_euclid(s_m, *length),
-            _ => s_m,
-        };
-        let bin = ((s_m.max(0.0) / CURVATURE_BIN_M) as usize).min(env.len().saturating_sub(1));
-        env.get(bin).map_or(f32::INFINITY, |v2| v2.sqrt())
+        Some((env, length))
     }
 
     /// The number of ways of driving it holds envelopes for.
@@ -530,5 +554,34 @@ mod tests {
             ahead.speed_cap_mps(&off, RoadId(0), 0, 10.0, None),
             f32::INFINITY
         );
+    }
+
+    #[test]
+    fn the_lower_cap_of_two_places_is_the_two_caps_min_to_the_bit() {
+        let reads = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        let (open, open_reads) = envelope_of(bend(40.0), reads, &RoadSurface::default());
+        let ring = RoadSpec::ring("ring", 2, 30.0, DVec3::ZERO, 36.6, 12);
+        let (ring, ring_reads) = envelope_of(ring, reads, &RoadSurface::default());
+        let unread = ReadsRoad::new(RoadAheadParams::default(), 1.0);
+        let places = [-30.0, 0.0, 12.5, 180.0, 299.9, 340.0, 2_000.0, f64::NAN];
+        for (ahead, reads) in [(&open, &open_reads), (&ring, &ring_reads), (&open, &unread)] {
+            // Lane 5 is past the last lane (its envelope is the last lane's); road 7 has none.
+            for (road, lane) in [
+                (RoadId(0), 0),
+                (RoadId(0), 1),
+                (RoadId(0), 5),
+                (RoadId(7), 0),
+            ] {
+                for a in places {
+                    for b in places {
+                        let want = ahead
+                            .speed_cap_mps(reads, road, lane, a, None)
+                            .min(ahead.speed_cap_mps(reads, road, lane, b, None));
+                        let got = ahead.lower_speed_cap_mps(reads, road, lane, [a, b], None);
+                        assert_eq!(got.to_bits(), want.to_bits(), "{road:?} {lane} {a} {b}");
+                    }
+                }
+            }
+        }
     }
 }

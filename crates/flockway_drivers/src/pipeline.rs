@@ -665,9 +665,7 @@ pub fn desired_speed_mps(
         // Ahead to brake in time; here too, so it does not speed up out of a bend early.
         let preview = f64::from(r.params.preview_s * track_speed.max(0.0));
         let next = track.next_road;
-        ahead
-            .speed_cap_mps(r, track.road, lane, track.s_m + preview, next)
-            .min(ahead.speed_cap_mps(r, track.road, lane, track.s_m, next))
+        ahead.lower_speed_cap_mps(r, track.road, lane, [track.s_m + preview, track.s_m], next)
     });
     ((free.max(0.0) / 3.6).min(cap), cap)
 }
