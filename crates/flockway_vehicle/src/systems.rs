@@ -24,9 +24,9 @@ use rapier3d::prelude::RigidBody;
 pub const PARALLEL_MIN_VEHICLES: usize = 512;
 
 /// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
-/// spin, engine and gearbox; a body out of rapier ([`FreeBody`]) is integrated under them right
-/// away. Each vehicle reads only the physics world and writes only its own components, so they
-/// run in parallel on the task pool with results independent of threads.
+/// spin, engine and gearbox; a body out of rapier ([`FreeBody`]) is integrated under them in the
+/// same pass, a few cars later. Each vehicle reads only the physics world and writes only its own
+/// components, so they run in parallel on the task pool with results independent of threads.
 pub fn drive_vehicles(
     physics: Res<Physics>,
     network: Res<RoadNetwork>,
@@ -43,32 +43,73 @@ pub fn drive_vehicles(
     let physics: &Physics = &physics;
     let network: &RoadNetwork = &network;
     let settings = StepSettings::of(physics);
-    type Item<'a> = (
-        &'a Controls,
-        &'a VehicleModel,
-        &'a Chassis,
-        &'a RoadTrack,
-        Mut<'a, VehicleState>,
-        Mut<'a, BodyForces>,
-        Mut<'a, FreeBody>,
-    );
-    let run = |(controls, model, chassis, track, mut state, mut out, mut body): Item| {
-        let car = Car {
-            controls,
-            model,
-            chassis,
-            track,
-        };
-        drive_one(
-            physics, network, &settings, &car, &mut state, &mut out, &mut body,
-        );
-    };
+    let settings = &settings;
     for_each_car(
         &mut vehicles,
         PARALLEL_MIN_VEHICLES,
-        || (),
-        move |_, item| run(item),
+        || Integrations::new(settings),
+        |pending, item| {
+            let (controls, model, chassis, track, mut state, mut out, body) = item;
+            let car = Car {
+                controls,
+                model,
+                chassis,
+                track,
+            };
+            drive_one(physics, network, &car, &mut state, &mut out, &body);
+            if body.free {
+                pending.push(body, *out);
+            }
+        },
     );
+}
+
+/// How many free bodies wait for their integration at most: enough for the processor to overlap
+/// one body's chain of dependent square roots and divisions with the next's (a body integrated
+/// straight after its forces waits on each link of its chain), few enough to stay in cache.
+const INTEGRATIONS_WAITING: usize = 16;
+
+/// The free bodies whose forces a part of the force pass has found, integrated one after another
+/// when [`INTEGRATIONS_WAITING`] wait and when the part ends (dropped). Each body's integration
+/// reads only its own forces and state, so the order makes no difference to any bit.
+struct Integrations<'w, 's> {
+    settings: &'s StepSettings,
+    waiting: Vec<(Mut<'w, FreeBody>, BodyForces)>,
+}
+
+impl<'w, 's> Integrations<'w, 's> {
+    fn new(settings: &'s StepSettings) -> Self {
+        Integrations {
+            settings,
+            waiting: Vec::with_capacity(INTEGRATIONS_WAITING),
+        }
+    }
+
+    fn push(&mut self, body: Mut<'w, FreeBody>, forces: BodyForces) {
+        self.waiting.push((body, forces));
+        if self.waiting.len() == INTEGRATIONS_WAITING {
+            self.integrate();
+        }
+    }
+
+    fn integrate(&mut self) {
+        integrate_all(&mut self.waiting, self.settings);
+        self.waiting.clear();
+    }
+}
+
+impl Drop for Integrations<'_, '_> {
+    fn drop(&mut self) {
+        self.integrate();
+    }
+}
+
+/// Each body's integration under its forces this tick. Built twice as [`drive_one`] is.
+#[multiversion(targets("x86_64+avx2"))]
+fn integrate_all<'w>(bodies: &mut [(Mut<'w, FreeBody>, BodyForces)], settings: &StepSettings) {
+    for (body, f) in bodies {
+        body.step(f.force, f.torque, settings);
+    }
 }
 
 /// What the force pass reads of one car.
@@ -79,19 +120,17 @@ struct Car<'a> {
     track: &'a RoadTrack,
 }
 
-/// One car's forces and, while its body is out of rapier, its integration under them. Built
-/// twice, for x86-64 and for AVX2 (taken at run time where the CPU has it; the same results to
-/// the bit: see `multiversion` in Cargo.toml), with the force stages, the road frames under the
-/// axles and the body's integration inlined into each.
+/// One car's forces. Built twice, for x86-64 and for AVX2 (taken at run time where the CPU has
+/// it; the same results to the bit: see `multiversion` in Cargo.toml), with the force stages and
+/// the road frames under the axles inlined into each.
 #[multiversion(targets("x86_64+avx2"))]
 fn drive_one(
     physics: &Physics,
     network: &RoadNetwork,
-    settings: &StepSettings,
     car: &Car,
     state: &mut VehicleState,
     out: &mut BodyForces,
-    body: &mut FreeBody,
+    body: &FreeBody,
 ) {
     let Some((pose, v, w)) = body.state(physics, car.chassis) else {
         *out = BodyForces::default();
@@ -113,9 +152,6 @@ fn drive_one(
         state,
     );
     *out = BodyForces { force, torque };
-    if body.free {
-        body.step(force, torque, settings);
-    }
 }
 
 /// Replaces the forces of every vehicle body in rapier with this tick's (rapier keeps user forces
