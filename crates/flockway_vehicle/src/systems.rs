@@ -64,9 +64,10 @@ pub fn drive_vehicles(
     );
 }
 
-/// How many free bodies wait for their integration at most: enough for the processor to overlap
-/// one body's chain of dependent square roots and divisions with the next's (a body integrated
-/// straight after its forces waits on each link of its chain), few enough to stay in cache.
+/// How many free bodies wait for their integration at most. Any few bodies back to back let the
+/// processor overlap one body's chain of dependent square roots and divisions with the next's (a
+/// body integrated straight after its forces waits on each link of its chain): 4, 16 and 64 step
+/// `dense_road` equally fast, on one thread and on two.
 const INTEGRATIONS_WAITING: usize = 16;
 
 /// The free bodies whose forces a part of the force pass has found, integrated one after another
