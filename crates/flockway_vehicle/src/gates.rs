@@ -202,12 +202,13 @@ impl CloseCars {
             .fold(0.0_f32, f32::max);
         let side = 2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M;
         // Rounded down by a plain conversion, not the C library's `floorf`, so the cells never
-        // depend on the maths library.
+        // depend on the maths library. The conversion saturates far out (a box flung some
+        // 10¹⁰ m), and so does the step down: the farthest boxes share the last cell.
         let per_side = 1.0 / side;
         let cell = |v: f32| {
             let q = v * per_side;
             let i = q as i32;
-            i - i32::from(q < i as f32)
+            i.saturating_sub(i32::from(q < i as f32))
         };
         let key_of = |b: &BoxNow| cell_key(cell(b.centre.x), cell(b.centre.y));
         if self.cells.len() == n {
