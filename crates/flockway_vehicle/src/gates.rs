@@ -251,9 +251,9 @@ impl CloseCars {
             },
             || (),
             |(), runs| {
-                let mut hits = Vec::new();
+                let (mut hits, mut next_column) = (Vec::new(), NextColumn::default());
                 for &run in *runs {
-                    pairs_from(cells, boxes, run, &mut hits);
+                    pairs_from(cells, boxes, run, &mut next_column, &mut hits);
                 }
                 hits
             },
@@ -284,12 +284,44 @@ fn sort_nearly_sorted<T: Ord + Copy>(v: &mut [T]) {
     }
 }
 
+/// Where the last run's neighbours in the next column began: the lowest key looked for and the
+/// first cell at or past it. Runs come in key order, so each run's lowest key is past the last
+/// one's and the search for it walks on from there: one pass over the cells for all runs, where
+/// bisecting for each probed log₂ n cells a run.
+#[derive(Default)]
+struct NextColumn {
+    lowest: u64,
+    from: usize,
+}
+
+impl NextColumn {
+    /// The first of `cells` at or after `end` whose key is `lowest` or more.
+    fn find(&mut self, cells: &[(u64, u32)], end: usize, lowest: u64) -> usize {
+        let from = if lowest >= self.lowest {
+            let start = self.from.max(end);
+            start + cells[start..].iter().take_while(|c| c.0 < lowest).count()
+        } else {
+            // Keys out of order only where a column's number wraps (a box some 10¹⁰ m out).
+            end + cells[end..].partition_point(|c| c.0 < lowest)
+        };
+        (self.lowest, self.from) = (lowest, from);
+        from
+    }
+}
+
 /// The boxes within reach of one another among one run of `cells` (one grid cell) and the
 /// cells after it that neighbour it: the one above it, and the three of the next column
-/// (adjacent keys). Each pair of neighbouring cells is compared once over all runs. Pushes
-/// both boxes of each pair found.
+/// (adjacent keys, found through `next_column`, the same for the whole pass over the runs).
+/// Each pair of neighbouring cells is compared once over all runs. Pushes both boxes of each
+/// pair found.
 #[inline(always)]
-fn pairs_from(cells: &[(u64, u32)], boxes: &[BoxNow], run: (u32, u32), hits: &mut Vec<u32>) {
+fn pairs_from(
+    cells: &[(u64, u32)],
+    boxes: &[BoxNow],
+    run: (u32, u32),
+    next_column: &mut NextColumn,
+    hits: &mut Vec<u32>,
+) {
     let (start, end) = (run.0 as usize, run.1 as usize);
     let here = &cells[start..end];
     let k = here[0].0;
@@ -316,7 +348,7 @@ fn pairs_from(cells: &[(u64, u32)], boxes: &[BoxNow], run: (u32, u32), hits: &mu
         cell_key(x1, y.wrapping_sub(1)),
         cell_key(x1, y.wrapping_add(1)),
     );
-    let from = end + cells[end..].partition_point(|c| c.0 < lo);
+    let from = next_column.find(cells, end, lo);
     for &(_, j) in cells[from..].iter().take_while(|c| c.0 <= hi) {
         for &(_, i) in here {
             pair(i, j);
@@ -551,6 +583,28 @@ mod tests {
         let moved = search.boxes.clone();
         search.search();
         assert_eq!(search.near, every_pair(&moved));
+        // Boxes flung out past the grid's last column (its number saturates, the next column's
+        // wraps to the first) among boxes in the first one and near the origin.
+        let mut far = boxes[..40].to_vec();
+        for (k, x) in [
+            1.0e12,
+            1.0e12 + 3.0,
+            -1.0e12,
+            -1.0e12 - 3.0,
+            2.0e10,
+            2.0e10 + 1.0,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            far.push(boxed(x, k as f32, 0.0, 10.0));
+        }
+        let brute = every_pair(&far);
+        assert!(
+            brute[40..].iter().all(|&n| n),
+            "the far boxes come in close pairs"
+        );
+        assert_eq!(near_of(far), brute);
     }
 
     #[test]
