@@ -601,12 +601,16 @@ pub fn measure_conflicts(
         found.0 = narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach));
     };
     for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, || (), search);
-    conflicts.add_distances(vehicles.iter().map(|(_, _, _, motion, _, driver, _, _)| {
-        let v = f64::from(motion.forward_mps);
-        (driver.map_or("none", |l| &*l.profile), v.abs() * h)
-    }));
+    // The distances driven, summed as `add_distances` sums them (in the same order, to the
+    // bit) in the same pass as the pairs and areas: nothing below reads or writes a distance.
+    let mut distances = ProfileSlots::default();
     let mut extremes = Extremes::default();
     for (me, id, track, motion, model, driver, signal, (_, _, found)) in vehicles.iter() {
+        let metres = f64::from(motion.forward_mps).abs() * h;
+        let profile = driver.map_or("none", |l| &*l.profile);
+        *distances.get_or_insert_with(profile, || conflicts.profile_mut(profile).veh_km) +=
+            metres / 1000.0;
+        conflicts.total.veh_km += metres / 1000.0;
         // A vehicle without its own answer (spawned before the measures were added) is
         // searched for here.
         let ahead = found.map_or_else(
@@ -664,6 +668,9 @@ pub fn measure_conflicts(
         );
     }
     extremes.write_to(&mut conflicts);
+    for (profile, veh_km) in distances.slots {
+        conflicts.profile_mut(profile).veh_km = veh_km;
+    }
     let alive = |e: Entity| vehicles.contains(e);
     conflicts.close_episodes(&t, time_s, Some(&alive));
     // Vehicles gone leave the areas they were in.
