@@ -186,6 +186,18 @@ fn partition_near(
     }
 }
 
+/// The vehicles of a lane (sorted by arc position, `length_m` long) from `from` to `to`, by
+/// index. Inlined into each of its uses in a window search (called, its arguments and the call
+/// were a good part of the search's instructions).
+#[inline(always)]
+fn window(entries: &[LaneEntry], length_m: f64, from: f64, to: f64) -> std::ops::Range<usize> {
+    let a = partition_near(entries, from, length_m, |e| e.s_m < from);
+    // A window holds a few vehicles: walking to its end beats a second binary search (which
+    // misses the cache on long lanes).
+    let b = a + entries[a..].iter().take_while(|e| e.s_m <= to).count();
+    a..b
+}
+
 /// Every vehicle on the roads, per road and lane, sorted by arc position (ties by entity), as of
 /// the start of this tick. Queries cost O(log n + k) for k vehicles returned.
 #[derive(Resource, Debug, Clone, Default)]
@@ -459,13 +471,7 @@ impl LaneIndex {
             }
             return;
         }
-        let range = |from: f64, to: f64| {
-            let a = partition_near(entries, from, r.length_m, |e| e.s_m < from);
-            // A window holds a few vehicles: walking to its end beats a second binary search
-            // (which misses the cache on long lanes).
-            let b = a + entries[a..].iter().take_while(|e| e.s_m <= to).count();
-            a..b
-        };
+        let range = |from: f64, to: f64| window(entries, r.length_m, from, to);
         if r.closed && lo < 0.0 {
             for e in &entries[range(lo + r.length_m, r.length_m)] {
                 push(e, e.s_m - r.length_m - s_m);
@@ -617,7 +623,31 @@ impl LaneIndex {
         clippy::too_many_arguments,
         reason = "a query's coordinates, each one number"
     )]
+    // The test for paths beside inlined, the walk not: most roads have none, and calling to
+    // find none was a good part of a window search's instructions.
+    #[inline(always)]
     fn push_beside(
+        &self,
+        r: &RoadLanes,
+        lo: f64,
+        hi: f64,
+        offset: f64,
+        lane: u32,
+        exclude: Option<Entity>,
+        out: &mut impl FnMut(Seen),
+    ) {
+        if !r.beside.is_empty() {
+            self.push_beside_walk(r, lo, hi, offset, lane, exclude, out);
+        }
+    }
+
+    /// [`push_beside`](Self::push_beside)'s walk over the paths beside.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
+    #[inline(never)]
+    fn push_beside_walk(
         &self,
         r: &RoadLanes,
         lo: f64,
@@ -642,7 +672,18 @@ impl LaneIndex {
 
     /// On a junction path `r`, the nearest vehicle ahead of `s_m` on a path sharing its lane
     /// there (at its position on `r`).
+    // The test for paths beside inlined, the search not (as in `push_beside`).
+    #[inline(always)]
     fn beside_ahead(&self, r: &RoadLanes, s_m: f64, me: Entity) -> Option<LaneEntry> {
+        if r.beside.is_empty() {
+            return None;
+        }
+        self.beside_ahead_search(r, s_m, me)
+    }
+
+    /// [`beside_ahead`](Self::beside_ahead)'s search over the paths beside.
+    #[inline(never)]
+    fn beside_ahead_search(&self, r: &RoadLanes, s_m: f64, me: Entity) -> Option<LaneEntry> {
         r.beside
             .iter()
             .filter_map(|b| b.entries(self, s_m).find(|e| e.s_m > s_m && e.entity != me))
