@@ -890,7 +890,27 @@ const COURTESY_RANGE_M: f64 = 80.0;
 /// ([`COURTESY_GAP_SHARE`] of the lane-change time gap `gap_s`, at this speed, and 3 m) over
 /// 1.5 s, braking at most
 /// `decel_mps2` below `v`. `INFINITY` when nobody signals.
+// The test for anyone signalling inlined, the search not: mostly nobody signals, and the call
+// to find that out cost more than the test.
+#[inline(always)]
 fn courtesy_speed_mps(
+    index: &LaneIndex,
+    track: &RoadTrack,
+    (lane, lanes): (u32, u32),
+    v: f32,
+    length_m: f32,
+    courtesy: (f32, f32),
+    seen: &mut Vec<Seen>,
+) -> f32 {
+    if lanes < 2 || !index.any_signal() {
+        return f32::INFINITY;
+    }
+    courtesy_room_mps(index, track, (lane, lanes), v, length_m, courtesy, seen)
+}
+
+/// [`courtesy_speed_mps`] once some vehicle signals.
+#[inline(never)]
+fn courtesy_room_mps(
     index: &LaneIndex,
     track: &RoadTrack,
     (lane, lanes): (u32, u32),
@@ -899,9 +919,6 @@ fn courtesy_speed_mps(
     (decel_mps2, gap_s): (f32, f32),
     seen: &mut Vec<Seen>,
 ) -> f32 {
-    if lanes < 2 || !index.any_signal() {
-        return f32::INFINITY;
-    }
     seen.clear();
     let behind = 0.5 * f64::from(length_m);
     if lane > 0 {
