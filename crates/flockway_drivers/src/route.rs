@@ -172,11 +172,20 @@ impl Route {
 
     /// The lane change the route asks for in `lane` at arc position `s_m` and speed `v_mps`;
     /// `None` if the lane leads on far enough or no lane leads further.
+    // The test for a lane that leads on inlined into every driver's step, the search not:
+    // mostly the lane leads on, and the call to find that out cost more than the test.
+    #[inline(always)]
     pub fn lane_change(&self, lane: u32, s_m: f64, v_mps: f32) -> Option<LaneAsk> {
         let here = self.reach_m(lane);
         if here.is_infinite() {
             return None;
         }
+        self.lane_change_from(lane, here, s_m, v_mps)
+    }
+
+    /// [`lane_change`](Self::lane_change) from a lane that reaches `here` m along the road.
+    #[inline(never)]
+    fn lane_change_from(&self, lane: u32, here: f64, s_m: f64, v_mps: f32) -> Option<LaneAsk> {
         // The nearest lane that leads further; the nearer side on a tie.
         let target = (0..self.reach.len() as u32)
             .filter(|&l| self.reach_m(l) > here)
