@@ -369,18 +369,19 @@ fn follow_one(
         safe_speed_mps(network, index, &params, &view, memo)
     });
     let cap = held.min(safe);
-    if cap < target.speed_mps {
-        let capped = DriveTarget {
+    // One call for both cases, so that the controller can be inlined here.
+    let target = if cap < target.speed_mps {
+        DriveTarget {
             speed_mps: cap,
             accel_mps2: target
                 .accel_mps2
                 .map(|a| a.min((cap - motion.forward_mps) / CAP_RESPONSE_S)),
             ..*target
-        };
-        *controls = controller.control(&capped, motion, &model.0, state);
+        }
     } else {
-        *controls = controller.control(target, motion, &model.0, state);
-    }
+        *target
+    };
+    *controls = controller.control(&target, motion, &model.0, state);
     // Over the safe speed: brake at least in proportion, whatever the speed loop's integral
     // remembers of cruising.
     let over = motion.forward_mps - safe;
