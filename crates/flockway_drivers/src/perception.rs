@@ -487,7 +487,9 @@ impl LaneIndex {
         }
         // Inside a junction, the cars on paths sharing this one's lane (from the same lane while
         // they overlap, merging into the same lane once they meet).
-        self.push_beside(r, lo, hi, -s_m, lane, exclude, &mut out);
+        if !r.beside.is_empty() {
+            self.push_beside(r, lo, hi, -s_m, lane, exclude, &mut out);
+        }
         if !r.closed && hi > r.length_m {
             // Traffic continues onto its lane's link.
             if let Some((next, lane2)) = r.lane_next(lane, None)
@@ -619,35 +621,14 @@ impl LaneIndex {
 
     /// On a junction path `r`: every vehicle on a path sharing its lane between `lo` and `hi`
     /// (arc positions on `r`), at gap `s + offset`.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "a query's coordinates, each one number"
-    )]
-    // The test for paths beside inlined, the walk not: most roads have none, and calling to
-    // find none was a good part of a window search's instructions.
-    #[inline(always)]
-    fn push_beside(
-        &self,
-        r: &RoadLanes,
-        lo: f64,
-        hi: f64,
-        offset: f64,
-        lane: u32,
-        exclude: Option<Entity>,
-        out: &mut impl FnMut(Seen),
-    ) {
-        if !r.beside.is_empty() {
-            self.push_beside_walk(r, lo, hi, offset, lane, exclude, out);
-        }
-    }
-
-    /// [`push_beside`](Self::push_beside)'s walk over the paths beside.
+    /// A window on its own road tests for paths beside before the call: most roads have none,
+    /// and calling to find none was a good part of a window search's instructions.
     #[expect(
         clippy::too_many_arguments,
         reason = "a query's coordinates, each one number"
     )]
     #[inline(never)]
-    fn push_beside_walk(
+    fn push_beside(
         &self,
         r: &RoadLanes,
         lo: f64,
