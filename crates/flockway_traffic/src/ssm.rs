@@ -441,15 +441,11 @@ impl Conflicts {
     /// sums to the bit, but looking each profile's totals up once, not once per vehicle: a
     /// vehicle's profile is matched by address first (vehicles of one profile share its name).
     pub fn add_distances<'a>(&mut self, trips: impl IntoIterator<Item = (&'a str, f64)>) {
-        let mut sums = ProfileSlots::default();
+        let mut distances = Distances::default();
         for (profile, metres) in trips {
-            *sums.get_or_insert_with(profile, || self.profile_mut(profile).veh_km) +=
-                metres / 1000.0;
-            self.total.veh_km += metres / 1000.0;
+            distances.add(self, profile, metres);
         }
-        for (profile, veh_km) in sums.slots {
-            self.profile_mut(profile).veh_km = veh_km;
-        }
+        distances.write_to(self);
     }
 
     /// The totals of `profile`, created empty the first time (looked up without allocating
@@ -530,6 +526,31 @@ impl<'a> Extremes<'a> {
     }
 }
 
+/// Each profile's distance driven over one pass of the measures, as
+/// [`Conflicts::add_distances`] sums it: starting from the totals' own, the run's total added to
+/// as it goes, each profile's written back when the pass is done (the same sums to the bit as
+/// adding one vehicle at a time).
+#[derive(Debug, Default)]
+struct Distances<'a>(ProfileSlots<'a, f64>);
+
+impl<'a> Distances<'a> {
+    /// Adds `metres` driven by a vehicle of `profile`.
+    fn add(&mut self, conflicts: &mut Conflicts, profile: &'a str, metres: f64) {
+        *self
+            .0
+            .get_or_insert_with(profile, || conflicts.profile_mut(profile).veh_km) +=
+            metres / 1000.0;
+        conflicts.total.veh_km += metres / 1000.0;
+    }
+
+    /// Writes each profile's distance to `conflicts`' totals.
+    fn write_to(self, conflicts: &mut Conflicts) {
+        for (profile, veh_km) in self.0.slots {
+            conflicts.profile_mut(profile).veh_km = veh_km;
+        }
+    }
+}
+
 /// A vehicle's driver profile (`none` without a label).
 fn profile_of<'a>(label: Option<&'a DriverLabel>, none: &'a Arc<str>) -> &'a Arc<str> {
     label.map_or(none, |l| &l.profile)
@@ -601,16 +622,17 @@ pub fn measure_conflicts(
         found.0 = narrowed.unwrap_or_else(|| nearest_ahead(&network, &index, &view, reach));
     };
     for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, || (), search);
-    // The distances driven, summed as `add_distances` sums them (in the same order, to the
-    // bit) in the same pass as the pairs and areas: nothing below reads or writes a distance.
-    let mut distances = ProfileSlots::default();
+    // The distances driven, summed as `add_distances` sums them in the same pass as the pairs
+    // and areas: nothing else in the pass reads or writes a distance.
+    let mut distances = Distances::default();
     let mut extremes = Extremes::default();
     for (me, id, track, motion, model, driver, signal, (_, _, found)) in vehicles.iter() {
         let metres = f64::from(motion.forward_mps).abs() * h;
-        let profile = driver.map_or("none", |l| &*l.profile);
-        *distances.get_or_insert_with(profile, || conflicts.profile_mut(profile).veh_km) +=
-            metres / 1000.0;
-        conflicts.total.veh_km += metres / 1000.0;
+        distances.add(
+            &mut conflicts,
+            driver.map_or("none", |l| &*l.profile),
+            metres,
+        );
         // A vehicle without its own answer (spawned before the measures were added) is
         // searched for here.
         let ahead = found.map_or_else(
@@ -668,9 +690,7 @@ pub fn measure_conflicts(
         );
     }
     extremes.write_to(&mut conflicts);
-    for (profile, veh_km) in distances.slots {
-        conflicts.profile_mut(profile).veh_km = veh_km;
-    }
+    distances.write_to(&mut conflicts);
     let alive = |e: Entity| vehicles.contains(e);
     conflicts.close_episodes(&t, time_s, Some(&alive));
     // Vehicles gone leave the areas they were in.
