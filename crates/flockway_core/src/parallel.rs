@@ -2,10 +2,12 @@
 //! or, on small levels, the join pool — so what a system does with them is the same whichever
 //! thread found each.
 
-use bevy_ecs::query::{ArchetypeFilter, ArchetypeQueryData, IterQueryData, QueryData, QueryItem};
+use bevy_ecs::query::{
+    ArchetypeFilter, ArchetypeQueryData, IterQueryData, QueryData, QueryFilter, QueryItem,
+    QueryIter,
+};
 use bevy_ecs::system::Query;
 use bevy_tasks::ComputeTaskPool;
-use std::ops::Range;
 use std::sync::OnceLock;
 
 /// The environment variable that sets from how many vehicles every per-car pass of the step
@@ -121,47 +123,66 @@ pub fn for_each_car<'a, 's, D, F, S>(
         query.par_iter_mut().for_each_init(init, f);
     } else if threads >= 2 && len >= parallel_min(JOIN_MIN_ITEMS.min(pool_min)) {
         crate::split::note_split();
-        // Each part walks the query itself to its own run of cars. Gathering the items here and
-        // handing them over wrote some hundred bytes a car on this core for the other to read
-        // back, each pass: two threads stepped `dense_road` a fifth slower that way.
-        let query: &'a Query<'_, 's, D, F> = query;
-        join_runs(0..len, threads, &|run: Range<usize>| {
-            // SAFETY: every walk of the query meets the same cars in the same order (the walk
-            // is a function of the query's matched tables and archetypes, and nothing can change
-            // the world while `query`'s exclusive borrow is held), and the runs are disjoint, so
-            // each car's mutable components are reached from exactly one part, once — what
-            // `iter_mut` guarantees. `F` filters by archetype only, so `len` counts the walk.
-            #[expect(
-                unsafe_code,
-                reason = "disjoint runs of one query on the join pool's threads; bevy's own \
-                          parallel walk needs the task pool, whose hand-over costs more than a \
-                          small level's pass"
-            )]
-            let items = unsafe { query.iter_unsafe() };
-            let mut scratch = init();
-            items
-                .skip(run.start)
-                .take(run.len())
-                .for_each(|item| f(&mut scratch, item));
-        });
+        // Each car's items are made on the thread that does its work: gathering them all here
+        // and handing half over wrote some hundred bytes a car on this core for the other to
+        // read back, each pass, and two threads stepped `dense_road` a fifth slower that way.
+        walk_parts(Walk(query.iter_mut()), len, threads, &init, &f);
     } else {
         let mut scratch = init();
         query.iter_mut().for_each(|item| f(&mut scratch, item));
     }
 }
 
-/// `f` on each of `parts` nearly equal runs of the positions `items`, halves joined on the
-/// join pool.
-fn join_runs(items: Range<usize>, parts: usize, f: &(impl Fn(Range<usize>) + Sync)) {
-    if parts < 2 || items.len() < 2 {
-        f(items);
+/// A walk over a query's items, handed on to whichever thread of the join pool does the rest of
+/// a pass.
+struct Walk<'w, 's, D: QueryData, F: QueryFilter>(QueryIter<'w, 's, D, F>);
+
+// SAFETY: a walk is not `Send` only because its fetches hold raw pointers into the world's
+// component storage, which lives as long as `'w` whichever thread reads it (bevy's own parallel
+// walk reads the same storage from every thread of its pool). The walk moves to one thread and
+// is used by that thread alone, and what it yields there is `Send` (the bound): the same as
+// items made here and sent.
+#[expect(
+    unsafe_code,
+    reason = "the rest of a pass's walk moves to the thread that does it; bevy's own parallel \
+              walk needs the task pool, whose hand-over costs more than a small level's pass"
+)]
+unsafe impl<'w, 's, D, F> Send for Walk<'w, 's, D, F>
+where
+    D: IterQueryData,
+    F: QueryFilter,
+    QueryItem<'w, 's, D>: Send,
+{
+}
+
+/// `f` on the `len` items left in `walk`, in `parts` nearly equal runs on the join pool: this
+/// thread takes the first run's items out of the walk and does them, and the walk goes on to the
+/// rest on whichever thread takes it, so no car's items are made on one thread for another.
+fn walk_parts<'w, 's, D, F, S>(
+    mut walk: Walk<'w, 's, D, F>,
+    len: usize,
+    parts: usize,
+    init: &(impl Fn() -> S + Sync),
+    f: &(impl Fn(&mut S, QueryItem<'w, 's, D>) + Sync),
+) where
+    D: IterQueryData,
+    F: QueryFilter,
+    QueryItem<'w, 's, D>: Send,
+{
+    if parts < 2 || len < 2 {
+        let mut scratch = init();
+        walk.0.for_each(|item| f(&mut scratch, item));
         return;
     }
-    let left_parts = parts / 2;
-    let mid = items.start + items.len() * left_parts / parts;
+    let first = len / parts;
+    let mine: Vec<QueryItem<'w, 's, D>> = walk.0.by_ref().take(first).collect();
+    // The calling thread does the second closure first, and the pool's threads take the first.
     micropool::join(
-        || join_runs(items.start..mid, left_parts, f),
-        || join_runs(mid..items.end, parts - left_parts, f),
+        || walk_parts(walk, len - first, parts - 1, init, f),
+        || {
+            let mut scratch = init();
+            mine.into_iter().for_each(|item| f(&mut scratch, item));
+        },
     );
 }
 
@@ -297,18 +318,37 @@ mod tests {
     }
 
     #[test]
-    fn the_runs_cover_every_position_once() {
+    fn a_walk_in_any_number_of_parts_does_every_car_once() {
+        use bevy_ecs::system::RunSystemOnce;
         crate::init_task_pool(Some(2));
         for parts in 1..=5 {
-            for n in [0usize, 1, 2, 3, 7, 64, 129] {
-                let seen: Vec<AtomicUsize> = (0..n).map(|_| AtomicUsize::new(0)).collect();
-                join_runs(0..n, parts, &|run: Range<usize>| {
-                    for i in run {
-                        seen[i].fetch_add(1, Ordering::Relaxed);
-                    }
-                });
-                let counts: Vec<usize> = seen.iter().map(|c| c.load(Ordering::Relaxed)).collect();
-                assert_eq!(counts, vec![1; n], "{n} positions in {parts} part(s)");
+            for n in [0u64, 1, 2, 3, 7, 64, 129] {
+                let mut world = bevy_ecs::world::World::new();
+                let cars: Vec<_> = (0..n)
+                    .map(|i| {
+                        let mut car = world.spawn((Input(i), Output(0)));
+                        if i % 3 == 1 {
+                            car.insert(Sparse);
+                        }
+                        car.id()
+                    })
+                    .collect();
+                world
+                    .run_system_once(move |mut q: Query<(&Input, &mut Output)>| {
+                        let len = q.iter().len();
+                        let run =
+                            |(): &mut (), (input, mut output): QueryItem<(&Input, &mut Output)>| {
+                                output.0 += input.0 + 1;
+                            };
+                        walk_parts(Walk(q.iter_mut()), len, parts, &|| (), &run);
+                    })
+                    .expect("the system runs");
+                let got: Vec<u64> = cars
+                    .iter()
+                    .map(|&c| world.get::<Output>(c).map_or(0, |o| o.0))
+                    .collect();
+                let want: Vec<u64> = (0..n).map(|i| i + 1).collect();
+                assert_eq!(got, want, "{n} cars in {parts} part(s)");
             }
         }
     }
