@@ -138,10 +138,11 @@ pub fn for_each_car<'a, 's, D, F, S>(
 struct Walk<'w, 's, D: QueryData, F: QueryFilter>(QueryIter<'w, 's, D, F>);
 
 // SAFETY: a walk is not `Send` only because its fetches hold raw pointers into the world's
-// component storage, which lives as long as `'w` whichever thread reads it (bevy's own parallel
-// walk reads the same storage from every thread of its pool). The walk moves to one thread and
-// is used by that thread alone, and what it yields there is `Send` (the bound): the same as
-// items made here and sent.
+// component storage (bevy's own fetches: references, `Option`s, `Entity`, tuples of them; no
+// query here has a fetch of its own making), storage that lives as long as `'w` whichever thread
+// reads it (bevy's own parallel walk reads it from every thread of its pool). The walk moves to
+// one thread and is used by that thread alone, and what it yields there is `Send` (the bound):
+// the same as items made here and sent.
 #[expect(
     unsafe_code,
     reason = "the rest of a pass's walk moves to the thread that does it; bevy's own parallel \
