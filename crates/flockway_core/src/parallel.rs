@@ -266,15 +266,10 @@ mod tests {
     #[component(storage = "SparseSet")]
     struct Sparse;
 
-    /// Runs `for_each_car` over `n` cars with the task-pool threshold `pool_min`; returns each
-    /// car's output in spawn order and how many parts the cars were split into.
-    fn outputs(n: u64, pool_min: usize) -> (Vec<u64>, usize) {
-        use bevy_ecs::system::RunSystemOnce;
-        crate::init_task_pool(Some(2));
-        let mut world = bevy_ecs::world::World::new();
-        // The cars spread over several tables and archetypes, so the parts' runs cross from one
-        // to the next.
-        let cars: Vec<_> = (0..n)
+    /// Spawns `n` cars with inputs 0..n and outputs 0, spread over several tables and
+    /// archetypes, so a walk's runs cross from one to the next.
+    fn spawn_cars(world: &mut bevy_ecs::world::World, n: u64) -> Vec<bevy_ecs::entity::Entity> {
+        (0..n)
             .map(|i| {
                 let mut car = world.spawn((Input(i), Output(0)));
                 if i % 3 == 1 {
@@ -285,7 +280,16 @@ mod tests {
                 }
                 car.id()
             })
-            .collect();
+            .collect()
+    }
+
+    /// Runs `for_each_car` over `n` cars with the task-pool threshold `pool_min`; returns each
+    /// car's output in spawn order and how many parts the cars were split into.
+    fn outputs(n: u64, pool_min: usize) -> (Vec<u64>, usize) {
+        use bevy_ecs::system::RunSystemOnce;
+        crate::init_task_pool(Some(2));
+        let mut world = bevy_ecs::world::World::new();
+        let cars = spawn_cars(&mut world, n);
         let parts = std::sync::Arc::new(AtomicUsize::new(0));
         let counted = parts.clone();
         world
@@ -325,15 +329,7 @@ mod tests {
         for parts in 1..=5 {
             for n in [0u64, 1, 2, 3, 7, 64, 129] {
                 let mut world = bevy_ecs::world::World::new();
-                let cars: Vec<_> = (0..n)
-                    .map(|i| {
-                        let mut car = world.spawn((Input(i), Output(0)));
-                        if i % 3 == 1 {
-                            car.insert(Sparse);
-                        }
-                        car.id()
-                    })
-                    .collect();
+                let cars = spawn_cars(&mut world, n);
                 world
                     .run_system_once(move |mut q: Query<(&Input, &mut Output)>| {
                         let len = q.iter().len();
