@@ -125,28 +125,30 @@ pub fn for_each_car<'a, 's, D, F, S>(
         crate::split::note_split();
         // Each car's items are made on the thread that does its work: gathering them all here
         // and handing half over wrote some hundred bytes a car on this core for the other to
-        // read back, each pass, and two threads stepped `dense_road` a fifth slower that way.
-        walk_parts(Walk(query.iter_mut()), len, threads, &init, &f);
+        // read back, each pass, and two threads took about a fifth longer on `dense_road`.
+        join_walks(walks_in_runs(query, threads), &init, &f);
     } else {
         let mut scratch = init();
         query.iter_mut().for_each(|item| f(&mut scratch, item));
     }
 }
 
-/// A walk over a query's items, handed on to whichever thread of the join pool does the rest of
-/// a pass.
-struct Walk<'w, 's, D: QueryData, F: QueryFilter>(QueryIter<'w, 's, D, F>);
+/// One run of a query's items: the walk placed at the run's first item, and how many it holds.
+struct Walk<'w, 's, D: QueryData, F: QueryFilter> {
+    iter: QueryIter<'w, 's, D, F>,
+    left: usize,
+}
 
 // SAFETY: a walk is not `Send` only because its fetches hold raw pointers into the world's
 // component storage (bevy's own fetches: references, `Option`s, `Entity`, tuples of them; no
 // query here has a fetch of its own making), storage that lives as long as `'w` whichever thread
-// reads it (bevy's own parallel walk reads it from every thread of its pool). The walk moves to
+// reads it (bevy's own parallel walk reads it from every thread of its pool). A walk moves to
 // one thread and is used by that thread alone, and what it yields there is `Send` (the bound):
 // the same as items made here and sent.
 #[expect(
     unsafe_code,
-    reason = "the rest of a pass's walk moves to the thread that does it; bevy's own parallel \
-              walk needs the task pool, whose hand-over costs more than a small level's pass"
+    reason = "a run's walk moves to the thread that does it; bevy's own parallel walk needs the \
+              task pool, whose hand-over costs more than a small level's pass"
 )]
 unsafe impl<'w, 's, D, F> Send for Walk<'w, 's, D, F>
 where
@@ -156,13 +158,53 @@ where
 {
 }
 
-/// `f` on the `len` items left in `walk`, in `parts` nearly equal runs on the join pool: this
-/// thread takes the first run's items out of the walk and does them, and the walk goes on to the
-/// rest on whichever thread takes it, so no car's items are made on one thread for another.
-fn walk_parts<'w, 's, D, F, S>(
-    mut walk: Walk<'w, 's, D, F>,
-    len: usize,
+/// The items of `query` in `parts` nearly equal runs, each a walk of its own placed at its run's
+/// first item. Every walk is placed here, on this thread, before any is handed on: placing
+/// one makes the items before its run and drops them, which may happen only while no item of
+/// the query is alive anywhere.
+fn walks_in_runs<'w, 's, D, F>(
+    query: &'w mut Query<'_, 's, D, F>,
     parts: usize,
+) -> Vec<Walk<'w, 's, D, F>>
+where
+    D: IterQueryData,
+    F: ArchetypeFilter,
+    <D as QueryData>::ReadOnly: ArchetypeQueryData,
+{
+    // Borrowed exclusively for as long as the walks live, read through shared references.
+    let query: &'w Query<'_, 's, D, F> = query;
+    // `F` filters by archetype only, so this counts the whole walk.
+    let len = query.iter().len();
+    (0..parts)
+        .map(|k| {
+            let (start, end) = (len * k / parts, len * (k + 1) / parts);
+            // SAFETY: every walk of the query meets the same cars in the same order (a walk is a
+            // function of the query's matched tables and archetypes, and nothing can change the
+            // world while `query` is borrowed exclusively); the runs are disjoint, so once they
+            // start each car's items are made by one walk only, as `iter_mut` would make them
+            // once. Placing this walk makes and drops the items before its run now, while no
+            // walk has yielded anything.
+            #[expect(
+                unsafe_code,
+                reason = "several walks of one query, each over a run of its own; bevy has no \
+                          public walk over a part of a table"
+            )]
+            let mut iter = unsafe { query.iter_unsafe() };
+            if start > 0 {
+                iter.nth(start - 1);
+            }
+            Walk {
+                iter,
+                left: end - start,
+            }
+        })
+        .collect()
+}
+
+/// `f` on every run's items, the runs split in halves joined on the join pool (the calling
+/// thread does the later half itself, the pool's threads take the earlier).
+fn join_walks<'w, 's, D, F, S>(
+    mut walks: Vec<Walk<'w, 's, D, F>>,
     init: &(impl Fn() -> S + Sync),
     f: &(impl Fn(&mut S, QueryItem<'w, 's, D>) + Sync),
 ) where
@@ -170,21 +212,17 @@ fn walk_parts<'w, 's, D, F, S>(
     F: QueryFilter,
     QueryItem<'w, 's, D>: Send,
 {
-    if parts < 2 || len < 2 {
-        let mut scratch = init();
-        walk.0.for_each(|item| f(&mut scratch, item));
+    if walks.len() < 2 {
+        for walk in walks {
+            let mut scratch = init();
+            walk.iter
+                .take(walk.left)
+                .for_each(|item| f(&mut scratch, item));
+        }
         return;
     }
-    let first = len / parts;
-    let mine: Vec<QueryItem<'w, 's, D>> = walk.0.by_ref().take(first).collect();
-    // The calling thread does the second closure first, and the pool's threads take the first.
-    micropool::join(
-        || walk_parts(walk, len - first, parts - 1, init, f),
-        || {
-            let mut scratch = init();
-            mine.into_iter().for_each(|item| f(&mut scratch, item));
-        },
-    );
+    let later = walks.split_off(walks.len() / 2);
+    micropool::join(|| join_walks(walks, init, f), || join_walks(later, init, f));
 }
 
 /// `f` over `items` split into `parts` nearly equal runs, halves joined on the join pool; the
@@ -332,12 +370,11 @@ mod tests {
                 let cars = spawn_cars(&mut world, n);
                 world
                     .run_system_once(move |mut q: Query<(&Input, &mut Output)>| {
-                        let len = q.iter().len();
                         let run =
                             |(): &mut (), (input, mut output): QueryItem<(&Input, &mut Output)>| {
                                 output.0 += input.0 + 1;
                             };
-                        walk_parts(Walk(q.iter_mut()), len, parts, &|| (), &run);
+                        join_walks(walks_in_runs(&mut q, parts), &|| (), &run);
                     })
                     .expect("the system runs");
                 let got: Vec<u64> = cars
