@@ -125,7 +125,7 @@ pub fn for_each_car<'a, 's, D, F, S>(
         crate::split::note_split();
         // Each car's items are made on the thread that does its work: gathering them all here
         // and handing half over wrote some hundred bytes a car on this core for the other to
-        // read back, each pass, and two threads took about a fifth longer on `dense_road`.
+        // read back, each pass, and two threads took about a quarter longer on `dense_road`.
         join_walks(walks_in_runs(query, threads), &init, &f);
     } else {
         let mut scratch = init();
