@@ -20,7 +20,7 @@ pub mod wrap;
 pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use parallel::{
-    JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, for_each_car, map_in_order, parallel_min,
+    JOIN_MIN_CARS, JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, for_each_car, map_in_order, parallel_min,
     parallel_min_from_env, pool_threads, task_threads,
 };
 pub use rng::{EntityRng, RngStreams};

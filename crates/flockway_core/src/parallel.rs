@@ -93,16 +93,24 @@ where
     .collect()
 }
 
-/// From how many vehicles (items, for [`map_in_order`]) a pass below its task-pool threshold
-/// splits over the join pool instead of running on one thread. Not tuned finely: `dense_road`
-/// (about 130 cars), a ring of 250 and a town of about 390 gain from the split
-/// (`docs/performance.md`); below a few dozen cars a pass is a few microseconds of work, about
-/// what a hand-over costs (a level of about 16 cars split from 16 gained nothing).
+/// From how many items a [`map_in_order`] below its task-pool threshold splits over the join
+/// pool instead of running on one thread. Not tuned finely: below a few dozen items a light
+/// item's share is about what a hand-over costs (the junction rule's decisions on `roundabout`
+/// ran 1 % slower split from 32 items than from 64).
 pub const JOIN_MIN_ITEMS: usize = 64;
+
+/// From how many cars a pass [`for_each_car`] runs below its task-pool threshold splits over
+/// the join pool. Each car's items are made on the thread that does its work, so a split pass
+/// costs about 1 µs more than the same pass on one thread (four passes that did nothing added
+/// 0.5 µs each to a `dense_road` step on one thread, 1.6 µs each on two): from a few dozen cars
+/// the half of their work that moves saves more. `closed_loop` (50 cars) stepped 12 %
+/// faster on two threads split from 32 cars than from 64 (`docs/performance.md`); a level of
+/// about 16 cars split from 16 gained nothing.
+pub const JOIN_MIN_CARS: usize = 32;
 
 /// `f` on every item of `query`, each part of the items with its own scratch space from
 /// `init`: over the task pool from `pool_min` items, split between the threads of the join pool
-/// from [`JOIN_MIN_ITEMS`] (a pool that spins briefly between jobs, so a small pass does not wait
+/// from [`JOIN_MIN_CARS`] (a pool that spins briefly between jobs, so a small pass does not wait
 /// for a sleeping thread), on this thread below that or with one thread. Each call may touch only
 /// its own item's mutable data, so the results do not depend on the split.
 pub fn for_each_car<'a, 's, D, F, S>(
@@ -121,7 +129,7 @@ pub fn for_each_car<'a, 's, D, F, S>(
     if threads >= 2 && len >= parallel_min(pool_min) {
         crate::split::note_split();
         query.par_iter_mut().for_each_init(init, f);
-    } else if threads >= 2 && len >= parallel_min(JOIN_MIN_ITEMS.min(pool_min)) {
+    } else if threads >= 2 && len >= parallel_min(JOIN_MIN_CARS.min(pool_min)) {
         crate::split::note_split();
         // Each car's items are made on the thread that does its work: gathering them all here
         // and handing half over wrote some hundred bytes a car on this core for the other to
@@ -395,7 +403,7 @@ mod tests {
             let (got, parts) = outputs(n, pool_min);
             let want: Vec<u64> = (0..n).map(|i| i * i + 1).collect();
             assert_eq!(got, want, "{n} cars, pool from {pool_min}");
-            if n < JOIN_MIN_ITEMS as u64 {
+            if n < JOIN_MIN_CARS as u64 {
                 assert_eq!(parts, 1, "{n} cars stay on one thread");
             } else if std::env::var_os(PARALLEL_MIN_ENV).is_none() {
                 assert!(parts >= 2, "{n} cars split into {parts} part(s)");

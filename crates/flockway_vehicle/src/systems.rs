@@ -20,7 +20,7 @@ use rapier3d::prelude::RigidBody;
 /// share saves (on a 2-core machine a ring of 250 cars stepped faster on one thread, 500 about
 /// even, 1 000 faster over the pool: `cargo bench --bench scale -- ring_step`), so below it the
 /// passes [`for_each_car`] runs are split by the join pool instead (from
-/// [`flockway_core::JOIN_MIN_ITEMS`]) and the others run on one thread.
+/// [`flockway_core::JOIN_MIN_CARS`]) and the others run on one thread.
 pub const PARALLEL_MIN_VEHICLES: usize = 512;
 
 /// Computes suspension, tyre, drag and drivetrain forces for every vehicle and advances wheel
