@@ -64,9 +64,15 @@ const TRIAL: [bool; 8] = [true, false, false, true, false, true, true, false];
 /// trial's steps the slower way cost little (1.5 % of the steps), short enough to follow a
 /// machine that changes while a run goes (2 048 steps with blocks of 8, 256 with blocks of one).
 const KEEP_TRIALS: u32 = 32;
-/// Trials' lengths the split is kept allowed for after a trial in which no pass split (a level
-/// still filling up, or one too small for its passes to split): the next trial comes soon.
-const KEEP_SPLITLESS_TRIALS: u32 = 4;
+/// Trials' lengths a trial's choice is kept for when the trial could not tell much: no pass
+/// split (a level too small for its passes to split), or the two ways took nearly the same time
+/// ([`CLOSE_CALL`]; a level filling up, whose passes gain more from the split with each car
+/// that comes). The next trial comes soon, and costs little while the ways stay close.
+const KEEP_UNSURE_TRIALS: u32 = 4;
+/// How near the two ways' times make a trial a close call, as a share of the faster way's. A
+/// close call kept for [`KEEP_TRIALS`] held `dense_road` on one thread through its 40th to its
+/// 120th car: a trial at about 40 cars found one thread 0.4 % faster.
+const CLOSE_CALL: f64 = 0.05;
 /// Steps the split is allowed before the first trial: a run's first steps do one-off work
 /// (the first search of every car's road, the pools' threads starting) that says nothing of
 /// the steps after.
@@ -196,10 +202,12 @@ impl SplitTuner {
                     if split { "split" } else { "one thread" },
                 );
                 let trial_steps = TRIAL.len() as u32 * self.block_steps;
-                let trials = if split_any {
+                let close = with.abs_diff(without).as_secs_f64()
+                    <= CLOSE_CALL * with.min(without).as_secs_f64();
+                let trials = if split_any && !close {
                     KEEP_TRIALS
                 } else {
-                    KEEP_SPLITLESS_TRIALS
+                    KEEP_UNSURE_TRIALS
                 };
                 self.phase = Phase::Keep {
                     split,
@@ -351,12 +359,27 @@ mod tests {
         let mut tuner = SplitTuner::new(true);
         drive(&mut tuner, WARM_STEPS as usize, 20, 10, false);
         drive(&mut tuner, TRIAL_STEPS, 20, 10, false);
-        let splitless = KEEP_SPLITLESS_TRIALS as usize * TRIAL_STEPS;
-        assert_eq!(drive(&mut tuner, splitless, 20, 10, false), splitless);
+        let unsure = KEEP_UNSURE_TRIALS as usize * TRIAL_STEPS;
+        assert_eq!(drive(&mut tuner, unsure, 20, 10, false), unsure);
         assert!(tuner.timing());
-        // A close trial is decided all the same: the faster way, kept as long as any.
+    }
+
+    #[test]
+    fn a_close_call_keeps_the_faster_way_only_until_a_trial_comes_soon() {
+        let mut tuner = SplitTuner::new(true);
+        drive(&mut tuner, WARM_STEPS as usize, 103, 100, true);
+        // 3 % apart: one thread, the faster, but looked at again after a few trials' lengths.
         drive(&mut tuner, TRIAL_STEPS, 103, 100, true);
-        assert_eq!(drive(&mut tuner, KEEP, 103, 100, true), 0);
+        let unsure = KEEP_UNSURE_TRIALS as usize * TRIAL_STEPS;
+        assert_eq!(drive(&mut tuner, unsure, 103, 100, true), 0);
+        assert!(tuner.timing());
+        // The level has filled up: the split is clearly faster now, and kept as long as any.
+        drive(&mut tuner, TRIAL_STEPS, 80, 100, true);
+        assert_eq!(drive(&mut tuner, KEEP, 80, 100, true), KEEP);
+        assert!(tuner.timing());
+        // 10 % apart is no close call: one thread, kept as long as any.
+        drive(&mut tuner, TRIAL_STEPS, 110, 100, true);
+        assert_eq!(drive(&mut tuner, KEEP, 110, 100, true), 0);
         assert!(tuner.timing());
     }
 
