@@ -21,10 +21,16 @@ from collections import Counter
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-# Frames that mark a sample as work handed out over the task pool.
-PARALLEL_MARKS = ("async_task", "execute_global_scope", "par_fold", "TaskPool>::scope")
-# Flockway frames that are the step's machinery rather than a system.
-MACHINERY = ("flockway_core::sim", "flockway_core::parallel")
+# Frames that mark a sample as work handed out over the task pool, or over the join pool that
+# splits the passes of a level too small for the task pool (`flockway run` of a shipped level).
+PARALLEL_MARKS = ("async_task", "execute_global_scope", "par_fold", "TaskPool>::scope",
+                  "micropool::", "flockway_core::parallel::join_walks",
+                  "flockway_core::parallel::join_map")
+# Flockway frames that are the step's machinery rather than a system: the step itself, the
+# passes' splitting, and the command line and runner around a `flockway run`.
+MACHINERY = ("flockway_core::sim", "flockway_core::parallel", "flockway_runner::", "flockway::")
+# An inlined frame of a plain function: a system inlined into bevy's call of it.
+INLINED = re.compile(r"^([a-z_][a-z0-9_]*)(<.*>)? \(inlined\)$")
 
 
 def samples(lines: Iterable[str]) -> Iterator[tuple[int, list[str]]]:
@@ -56,11 +62,21 @@ def system_of(frames: list[str]) -> str:
     neither, ``CUT_SHORT`` when the stack ends before its thread's start)."""
     if frames and frames[-1] == "[unknown]":
         return CUT_SHORT
+    # In a release build a system's function is inlined into bevy's call of it: the first
+    # plainly named inlined frame inside `call_inner` (past its `call_mut`s) is the system.
+    in_call = False
     for frame in reversed(frames):
         if frame.startswith("flockway_") and not frame.startswith(MACHINERY):
             return re.sub(r"[<{(].*", "", frame)
         if frame.startswith("rapier3d::pipeline::physics_world"):
             return "rapier step"
+        if frame.startswith("call_inner<"):
+            in_call = True
+        elif in_call and not frame.startswith("call_mut<"):
+            inlined = INLINED.match(frame)
+            if inlined:
+                return inlined.group(1)
+            in_call = False
     return "other"
 
 

@@ -62,6 +62,50 @@ def test_samples_go_under_the_outermost_system_and_the_pool_marks_parallel_work(
     assert "thread 104: 1 samples, 0.0 % outside parallel work" in text
 
 
+# Three samples of `flockway run`'s main thread (200): a pass split over the join pool, a system
+# inlined into bevy's call of it, and a pass on one thread; one of the join pool's thread (201).
+RUN = """\
+     200 
+\t          1a2b flockway_vehicle::systems::drive_one
+\t          1a2c flockway_core::parallel::join_walks
+\t          1a2d micropool::thread_pool::ThreadPool::join
+\t          1a2e flockway_vehicle::systems::drive_vehicles
+\t          1a2f flockway_runner::runner::Runner::step
+\t          1a30 flockway::main
+
+     200 
+\t          2a2b alloc::vec::Vec<T>::push
+\t          2a2c run_destroyers (inlined)
+\t          2a2d call_mut<fn(bevy_ecs::change_detection::params::Res<Clock>)> (inlined)
+\t          2a2e call_inner<(), bevy_ecs::change_detection::params::Res<Clock>> (inlined)
+\t          2a2f <bevy_ecs::system::function_system::FunctionSystem<M,I,O,F>>::run_unsafe
+\t          2a30 flockway_runner::runner::Runner::step
+\t          2a31 flockway::main
+
+     200 
+\t          3a2b flockway_vehicle::systems::drive_one
+\t          3a2c flockway_core::parallel::for_each_car
+\t          3a2d flockway_vehicle::systems::drive_vehicles
+\t          3a2e flockway_runner::runner::Runner::step
+
+     201 
+\t          4a2b core::hint::spin_loop
+\t          4a2c micropool::thread_pool::ThreadPool::join
+"""
+
+
+def test_a_run_s_join_pool_is_parallel_and_its_inlined_systems_are_named() -> None:
+    tp = load("thread_profile")
+    by_thread = tp.attribute(tp.samples(RUN.splitlines(keepends=True)))
+    # The runner and the command line are machinery: each sample goes under its system.
+    assert by_thread[200] == {
+        ("flockway_vehicle::systems::drive_vehicles", True): 1,
+        ("run_destroyers", False): 1,
+        ("flockway_vehicle::systems::drive_vehicles", False): 1,
+    }
+    assert by_thread[201] == {("other", True): 1}
+
+
 def test_a_stack_perf_could_not_unwind_is_put_under_its_own_name() -> None:
     tp = load("thread_profile")
     cut = "100 \n\t  5a2b flockway_vehicle::systems::drive_vehicles\n\t  0 [unknown]\n\n"
