@@ -70,8 +70,8 @@ const KEEP_TRIALS: u32 = 32;
 /// that comes). The next trial comes soon, and costs little while the ways stay close.
 const KEEP_UNSURE_TRIALS: u32 = 4;
 /// How near the two ways' times make a trial a close call, as a share of the faster way's. A
-/// close call kept for [`KEEP_TRIALS`] held `dense_road` on one thread through its 40th to its
-/// 120th car: a trial at about 40 cars found one thread 0.4 % faster.
+/// close call kept for [`KEEP_TRIALS`] held `dense_road` on one thread from about its 35th car
+/// to its 100th: a trial at 35 cars had found one thread under 1 % faster.
 const CLOSE_CALL: f64 = 0.05;
 /// Steps the split is allowed before the first trial: a run's first steps do one-off work
 /// (the first search of every car's road, the pools' threads starting) that says nothing of
