@@ -1,6 +1,7 @@
 """Where each thread's time goes: a ``perf`` profile with call stacks, each sample put under the
-outermost Flockway system on its stack, and counted as parallel work when a task-pool frame is on
-it (the main thread's serial share is what bounds a step's speed-up on more cores).
+outermost Flockway system on its stack, and counted as parallel work when a task-pool or join-pool
+frame is on it (the main thread's serial share is what bounds a step's speed-up on more cores).
+The scale benchmark's binary and `flockway run` of a shipped level are read alike.
 
     perf record -o perf.data --call-graph dwarf,65528 -F 97 \\
         target/release/deps/scale-HASH --bench 'ring_step/10000' --measurement-time 5 --noplot
