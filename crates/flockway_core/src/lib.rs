@@ -20,8 +20,8 @@ pub mod wrap;
 pub use clock::{DT_S, SimClock, TICKS_PER_SECOND, Tick};
 pub use ids::{IdKind, StableId};
 pub use parallel::{
-    JOIN_MIN_CARS, JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, for_each_car, map_in_order, parallel_min,
-    parallel_min_from_env, pool_threads, task_threads,
+    Beside, JOIN_MIN_CARS, JOIN_MIN_ITEMS, PARALLEL_MIN_ENV, beside, for_each_car, map_in_order,
+    parallel_min, parallel_min_from_env, pool_threads, task_threads,
 };
 pub use rng::{EntityRng, RngStreams};
 pub use sim::{FixedStep, Sim, SimPlugin, StepSet, THREADS_ENV, init_task_pool, threads_from_env};

@@ -141,6 +141,49 @@ pub fn for_each_car<'a, 's, D, F, S>(
     }
 }
 
+/// Work done beside the step, begun by [`beside`]: its answer is taken with [`Beside::join`].
+pub struct Beside<T: Send + 'static>(BesideWork<T>);
+
+/// Where the work of a [`Beside`] is.
+enum BesideWork<T: Send + 'static> {
+    /// Done already, on the thread that began it.
+    Done(T),
+    /// Handed to the join pool; the thread that joins it does it itself if no other has begun.
+    Handed(micropool::OwnedTask<T>),
+}
+
+impl<T: Send + 'static> Beside<T> {
+    /// The answer: waits for the thread doing the work to finish it, or does it here if no
+    /// thread has begun it.
+    pub fn join(self) -> T {
+        match self.0 {
+            BesideWork::Done(answer) => answer,
+            BesideWork::Handed(task) => task.join(),
+        }
+    }
+}
+
+impl<T: Send + 'static> std::fmt::Debug for Beside<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self.0 {
+            BesideWork::Done(_) => "Beside(done)",
+            BesideWork::Handed(_) => "Beside(handed)",
+        })
+    }
+}
+
+/// `f` done beside the step: handed to the join pool's other thread while this one goes on with
+/// the step's serial work, or done here and now with one thread (or while the step keeps its
+/// passes on one thread). `f` owns what it reads, so its answer is the same either way.
+pub fn beside<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Beside<T> {
+    if task_threads() >= 2 {
+        crate::split::note_split();
+        Beside(BesideWork::Handed(micropool::spawn_owned(f)))
+    } else {
+        Beside(BesideWork::Done(f()))
+    }
+}
+
 /// One run of a query's items: the walk placed at the run's first item, and how many it holds.
 struct Walk<'w, 's, D: QueryData, F: QueryFilter> {
     iter: QueryIter<'w, 's, D, F>,
@@ -295,6 +338,21 @@ mod tests {
                 assert!(parts >= 2, "{n} items split into {parts} part(s)");
             }
         }
+    }
+
+    #[test]
+    fn work_beside_the_step_gives_the_same_answer_on_either_thread() {
+        crate::init_task_pool(Some(2));
+        let sum = |n: u64| (0..n).map(|x| x * x).sum::<u64>();
+        // Handed to the pool's other thread (or, if it has not begun, done at the join).
+        let handed = beside(move || sum(100_000));
+        assert_eq!(handed.join(), sum(100_000));
+        // While the step keeps its passes on one thread, done where it was begun.
+        crate::split::keep_one_thread_for_test(|| {
+            let here = beside(move || sum(1_000));
+            assert_eq!(format!("{here:?}"), "Beside(done)");
+            assert_eq!(here.join(), sum(1_000));
+        });
     }
 
     #[derive(bevy_ecs::component::Component)]

@@ -49,6 +49,15 @@ pub(crate) fn note_split() {
     SPLITS.with(|s| s.set(s.get() + 1));
 }
 
+/// `f` with the passes it starts kept on this thread, as a step the tuner keeps there.
+#[cfg(test)]
+pub(crate) fn keep_one_thread_for_test<R>(f: impl FnOnce() -> R) -> R {
+    let before = ALLOWED.with(|a| a.replace(false));
+    let answer = f();
+    ALLOWED.with(|a| a.set(before));
+    answer
+}
+
 /// The most steps timed in a row one way before the trial switches to the other.
 const BLOCK_STEPS: u32 = 8;
 

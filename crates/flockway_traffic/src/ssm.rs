@@ -143,7 +143,9 @@ impl ProfileConflicts {
 
 /// The profiles a conflict between vehicles of profiles `a` and `b` counts for: each once.
 fn involved<'a>(a: &'a Arc<str>, b: &'a Arc<str>) -> impl Iterator<Item = &'a str> {
-    std::iter::once(&**a).chain((a != b).then_some(&**b))
+    // Vehicles of one profile share its name: told apart by address before by their bytes.
+    let other = !Arc::ptr_eq(a, b) && a != b;
+    std::iter::once(&**a).chain(other.then_some(&**b))
 }
 
 /// The TTC of a follower at speed `v` closing on a leader at `v_lead` with bumper gap `gap_m`,

@@ -9,7 +9,7 @@ use crate::components::{
 use crate::free_body::FreeBody;
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
 use bevy_ecs::prelude::*;
-use flockway_core::{DT_S, map_in_order, parallel_min, task_threads};
+use flockway_core::{Beside, DT_S, beside, map_in_order, parallel_min, task_threads};
 use flockway_road::RoadNetwork;
 use glam::{Mat3, Vec2, Vec3};
 use rapier3d::prelude::*;
@@ -160,6 +160,8 @@ const CLOSE_CARS_PARALLEL_MIN: usize = 2048;
 /// The close-car search's buffers, kept from step to step.
 #[derive(Default)]
 pub struct CloseCars {
+    /// The car of each box.
+    cars: Vec<Entity>,
     boxes: Vec<BoxNow>,
     /// `(grid cell, index into boxes)`, sorted.
     cells: Vec<(u64, u32)>,
@@ -358,26 +360,84 @@ fn pairs_from(
     }
 }
 
+/// The close-car search over the boxes of one step's read-back: on its way beside the step,
+/// or answered; its answers go into the cars' gates before the next physics step
+/// ([`gate_colliders`]).
+#[derive(Debug, Default)]
+pub(crate) enum CloseCarSearch {
+    /// No search yet.
+    #[default]
+    Idle,
+    /// Kept buffers, between searches.
+    Kept(Box<CloseCars>),
+    /// Searching beside the step.
+    Searching(Beside<Box<CloseCars>>),
+    /// Searched here.
+    Answered(Box<CloseCars>),
+}
+
+impl std::fmt::Debug for CloseCars {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CloseCars")
+            .field("cars", &self.cars.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl CloseCarSearch {
+    /// The answers of the last search, if one was begun since they were last taken; the
+    /// search is done by now.
+    fn take_answers(&mut self) -> Option<Box<CloseCars>> {
+        match std::mem::take(self) {
+            CloseCarSearch::Searching(search) => Some(search.join()),
+            CloseCarSearch::Answered(cars) => Some(cars),
+            kept @ (CloseCarSearch::Idle | CloseCarSearch::Kept(_)) => {
+                *self = kept;
+                None
+            }
+        }
+    }
+
+    /// The buffers for a new search (the last one's answers, never taken, dropped).
+    fn buffers(&mut self) -> Box<CloseCars> {
+        match std::mem::take(self) {
+            CloseCarSearch::Idle => Box::default(),
+            CloseCarSearch::Kept(cars) | CloseCarSearch::Answered(cars) => cars,
+            CloseCarSearch::Searching(search) => search.join(),
+        }
+    }
+}
+
 /// Finds for every car whether another car's body is within reach of its own (so both
-/// colliders must be in rapier for the next step).
+/// colliders must be in rapier for the next step). The boxes are made here, from the cars'
+/// motion just read back; the search over them goes on beside the step's serial work that
+/// follows (the other thread is idle there) below [`CLOSE_CARS_PARALLEL_MIN`] cars, and
+/// [`gate_colliders`] takes its answers before the next physics step. The search reads only its
+/// boxes, so its answers are the same on whichever thread.
 pub fn find_close_cars(
-    physics: Res<Physics>,
-    mut gates: Query<(&mut ContactGate, &Motion)>,
-    mut search: Local<CloseCars>,
+    mut physics: ResMut<Physics>,
+    gates: Query<(Entity, &ContactGate, &Motion)>,
 ) {
     if !physics.gates {
         return;
     }
+    let mut search = physics.close_cars.buffers();
+    search.cars.clear();
     search.boxes.clear();
-    search
-        .boxes
-        .extend(gates.iter().map(|(gate, motion)| BoxNow::of(gate, motion)));
-    search.search();
-    for ((mut gate, _), &near) in gates.iter_mut().zip(&search.near) {
-        if gate.near != near {
-            gate.near = near;
-        }
+    for (car, gate, motion) in &gates {
+        search.cars.push(car);
+        search.boxes.push(BoxNow::of(gate, motion));
     }
+    physics.close_cars = if search.boxes.len() < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
+        CloseCarSearch::Searching(beside(move || {
+            search.search();
+            search
+        }))
+    } else {
+        // Its cells' comparisons go over the task pool themselves.
+        search.search();
+        CloseCarSearch::Answered(search)
+    };
 }
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
@@ -386,12 +446,25 @@ pub fn find_close_cars(
 /// its [`FreeBody`] until the collider comes back.
 pub fn gate_colliders(
     mut physics: ResMut<Physics>,
-    mut gates: Query<(&mut ContactGate, &RoadTrack, &Chassis, &mut FreeBody)>,
+    mut gates: Query<(
+        Entity,
+        &mut ContactGate,
+        &RoadTrack,
+        &Chassis,
+        &mut FreeBody,
+    )>,
 ) {
     let physics = &mut *physics;
     let gating = physics.gates;
     let crossings = physics.has_crossings();
-    for (mut gate, track, chassis, mut free) in &mut gates {
+    let answers = physics.close_cars.take_answers();
+    let mut near_of = NearOf::new(answers.as_deref());
+    for (car, mut gate, track, chassis, mut free) in &mut gates {
+        if let Some(near) = near_of.get(car)
+            && gate.near != near
+        {
+            gate.near = near;
+        }
         if crossings {
             physics.note_vehicle_road(gate.collider, track.road);
         }
@@ -426,6 +499,51 @@ pub fn gate_colliders(
         }
         gate.rails_open = rails;
         gate.enabled = enabled;
+    }
+    if let Some(cars) = answers {
+        physics.close_cars = CloseCarSearch::Kept(cars);
+    }
+}
+
+/// Each searched car's answer, found by walking the search's cars in step with the gates' query
+/// (the same order while no car came or went since), and by bisection past the first car out of
+/// step.
+struct NearOf<'a> {
+    search: Option<&'a CloseCars>,
+    next: usize,
+    /// The answers by car, sorted, made at the first car out of step.
+    sorted: Option<Vec<(Entity, bool)>>,
+}
+
+impl<'a> NearOf<'a> {
+    fn new(search: Option<&'a CloseCars>) -> Self {
+        NearOf {
+            search,
+            next: 0,
+            sorted: None,
+        }
+    }
+
+    /// Whether the search found another car within reach of `car`; `None` for a car it did
+    /// not search (spawned since).
+    fn get(&mut self, car: Entity) -> Option<bool> {
+        let search = self.search?;
+        if search.cars.get(self.next) == Some(&car) {
+            self.next += 1;
+            return search.near.get(self.next - 1).copied();
+        }
+        let sorted = self.sorted.get_or_insert_with(|| {
+            let mut by_car: Vec<(Entity, bool)> = search
+                .cars
+                .iter()
+                .copied()
+                .zip(search.near.iter().copied())
+                .collect();
+            by_car.sort_unstable_by_key(|&(car, _)| car);
+            by_car
+        });
+        let k = sorted.binary_search_by_key(&car, |&(c, _)| c).ok()?;
+        Some(sorted[k].1)
     }
 }
 
@@ -607,6 +725,26 @@ mod tests {
             "the far boxes come in close pairs"
         );
         assert_eq!(near_of(far), brute);
+    }
+
+    #[test]
+    fn the_gates_find_each_searched_car_s_answer_after_cars_came_and_went() {
+        let car = |k: u32| Entity::from_raw_u32(k).expect("an entity");
+        let search = CloseCars {
+            cars: vec![car(1), car(2), car(3), car(4)],
+            near: vec![true, false, true, false],
+            ..CloseCars::default()
+        };
+        // In step while no car came or went.
+        let mut near_of = NearOf::new(Some(&search));
+        let found: Vec<_> = [1, 2, 3, 4].map(|k| near_of.get(car(k))).into();
+        assert_eq!(found, [Some(true), Some(false), Some(true), Some(false)]);
+        // Car 2 gone (the last took its place in the table) and car 9 come since.
+        let mut near_of = NearOf::new(Some(&search));
+        let found: Vec<_> = [1, 4, 3, 9].map(|k| near_of.get(car(k))).into();
+        assert_eq!(found, [Some(true), Some(false), Some(true), None]);
+        // No search since the last answers were taken: nothing to write.
+        assert_eq!(NearOf::new(None).get(car(1)), None);
     }
 
     #[test]

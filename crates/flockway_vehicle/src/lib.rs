@@ -86,7 +86,7 @@ pub struct VehiclePlugin;
 /// `Physics`.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum VehicleSystems {
-    /// Forces and drivetrain.
+    /// The contact gates' colliders in or out of rapier, then forces and drivetrain.
     Drive,
     /// rapier step.
     Step,
@@ -106,9 +106,11 @@ impl SimPlugin for VehiclePlugin {
                 rebuild_static_colliders.after(rebuild_roads),
             ),
         );
+        // The gates take the close-car search's answers just before the forces: the search
+        // runs beside the serial work between the read-back and here.
         sim.add_systems(
             StepSet::Actuate,
-            (drive_vehicles, apply_body_forces)
+            (gate_colliders, drive_vehicles, apply_body_forces)
                 .chain()
                 .in_set(VehicleSystems::Drive),
         );
@@ -116,7 +118,7 @@ impl SimPlugin for VehiclePlugin {
             StepSet::Physics,
             (
                 step_physics.in_set(VehicleSystems::Step),
-                (sync_vehicles, find_close_cars, gate_colliders)
+                (sync_vehicles, find_close_cars)
                     .chain()
                     .in_set(VehicleSystems::Sync),
             )

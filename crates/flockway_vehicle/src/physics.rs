@@ -120,6 +120,9 @@ pub struct Physics {
     vehicle_roads: Vec<u32>,
     /// Per road, by id: whether its start and its end are bare ([`Physics::bare_ends`]).
     bare_ends: Vec<[bool; 2]>,
+    /// The close-car search of the last read-back, whose answers the gates take before the
+    /// next step.
+    pub(crate) close_cars: crate::gates::CloseCarSearch,
 }
 
 impl Default for Physics {
@@ -144,6 +147,7 @@ impl Default for Physics {
             crossings: BTreeSet::new(),
             vehicle_roads: Vec::new(),
             bare_ends: Vec::new(),
+            close_cars: crate::gates::CloseCarSearch::default(),
         }
     }
 }
