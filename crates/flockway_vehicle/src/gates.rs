@@ -360,20 +360,18 @@ fn pairs_from(
     }
 }
 
-/// The close-car search over the boxes of one step's read-back: on its way beside the step,
-/// or answered; its answers go into the cars' gates before the next physics step
+/// The close-car search over the boxes of one step's read-back, when it goes on beside the
+/// step: its answers go into the cars' gates before the next physics step
 /// ([`gate_colliders`]).
 #[derive(Debug, Default)]
 pub(crate) enum CloseCarSearch {
     /// No search yet.
     #[default]
     Idle,
-    /// Kept buffers, between searches.
+    /// The buffers, kept between searches.
     Kept(Box<CloseCars>),
-    /// Searching beside the step.
+    /// Searching beside the step; the gates take its answers.
     Searching(Beside<Box<CloseCars>>),
-    /// Searched here.
-    Answered(Box<CloseCars>),
 }
 
 impl std::fmt::Debug for CloseCars {
@@ -385,24 +383,22 @@ impl std::fmt::Debug for CloseCars {
 }
 
 impl CloseCarSearch {
-    /// The answers of the last search, if one was begun since they were last taken; the
-    /// search is done by now.
+    /// The answers of the search beside the step, if one is on its way: it is done by now.
     fn take_answers(&mut self) -> Option<Box<CloseCars>> {
         match std::mem::take(self) {
             CloseCarSearch::Searching(search) => Some(search.join()),
-            CloseCarSearch::Answered(cars) => Some(cars),
-            kept @ (CloseCarSearch::Idle | CloseCarSearch::Kept(_)) => {
+            kept => {
                 *self = kept;
                 None
             }
         }
     }
 
-    /// The buffers for a new search (the last one's answers, never taken, dropped).
+    /// The buffers for a new search (the answers of one never taken dropped).
     fn buffers(&mut self) -> Box<CloseCars> {
         match std::mem::take(self) {
             CloseCarSearch::Idle => Box::default(),
-            CloseCarSearch::Kept(cars) | CloseCarSearch::Answered(cars) => cars,
+            CloseCarSearch::Kept(cars) => cars,
             CloseCarSearch::Searching(search) => search.join(),
         }
     }
@@ -410,34 +406,43 @@ impl CloseCarSearch {
 
 /// Finds for every car whether another car's body is within reach of its own (so both
 /// colliders must be in rapier for the next step). The boxes are made here, from the cars'
-/// motion just read back; the search over them goes on beside the step's serial work that
-/// follows (the other thread is idle there) below [`CLOSE_CARS_PARALLEL_MIN`] cars, and
-/// [`gate_colliders`] takes its answers before the next physics step. The search reads only its
-/// boxes, so its answers are the same on whichever thread.
+/// motion just read back. With two threads and fewer than [`CLOSE_CARS_PARALLEL_MIN`] cars the
+/// search over them goes on beside the serial work that follows, on the other thread (idle
+/// there), and [`gate_colliders`] writes its answers before the next physics step; otherwise
+/// they are written here. The search reads only its boxes, so its answers are the same on
+/// whichever thread.
 pub fn find_close_cars(
     mut physics: ResMut<Physics>,
-    gates: Query<(Entity, &ContactGate, &Motion)>,
+    mut gates: Query<(Entity, &mut ContactGate, &Motion)>,
 ) {
     if !physics.gates {
         return;
     }
     let mut search = physics.close_cars.buffers();
-    search.cars.clear();
     search.boxes.clear();
-    for (car, gate, motion) in &gates {
-        search.cars.push(car);
-        search.boxes.push(BoxNow::of(gate, motion));
-    }
-    physics.close_cars = if search.boxes.len() < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
-        CloseCarSearch::Searching(beside(move || {
+    search.boxes.extend(
+        gates
+            .iter()
+            .map(|(_, gate, motion)| BoxNow::of(gate, motion)),
+    );
+    search.cars.clear();
+    let n = search.boxes.len();
+    if task_threads() >= 2 && n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
+        search.cars.extend(gates.iter().map(|(car, _, _)| car));
+        physics.close_cars = CloseCarSearch::Searching(beside(move || {
             search.search();
             search
-        }))
-    } else {
-        // Its cells' comparisons go over the task pool themselves.
-        search.search();
-        CloseCarSearch::Answered(search)
-    };
+        }));
+        return;
+    }
+    // On this thread (its cells' comparisons over the task pool from the threshold).
+    search.search();
+    for ((_, mut gate, _), &near) in gates.iter_mut().zip(&search.near) {
+        if gate.near != near {
+            gate.near = near;
+        }
+    }
+    physics.close_cars = CloseCarSearch::Kept(search);
 }
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
@@ -458,9 +463,9 @@ pub fn gate_colliders(
     let gating = physics.gates;
     let crossings = physics.has_crossings();
     let answers = physics.close_cars.take_answers();
-    let mut near_of = NearOf::new(answers.as_deref());
+    let mut near_of = answers.as_deref().map(NearOf::new);
     for (car, mut gate, track, chassis, mut free) in &mut gates {
-        if let Some(near) = near_of.get(car)
+        if let Some(near) = near_of.as_mut().and_then(|n| n.get(car))
             && gate.near != near
         {
             gate.near = near;
@@ -509,14 +514,14 @@ pub fn gate_colliders(
 /// (the same order while no car came or went since), and by bisection past the first car out of
 /// step.
 struct NearOf<'a> {
-    search: Option<&'a CloseCars>,
+    search: &'a CloseCars,
     next: usize,
     /// The answers by car, sorted, made at the first car out of step.
     sorted: Option<Vec<(Entity, bool)>>,
 }
 
 impl<'a> NearOf<'a> {
-    fn new(search: Option<&'a CloseCars>) -> Self {
+    fn new(search: &'a CloseCars) -> Self {
         NearOf {
             search,
             next: 0,
@@ -527,7 +532,7 @@ impl<'a> NearOf<'a> {
     /// Whether the search found another car within reach of `car`; `None` for a car it did
     /// not search (spawned since).
     fn get(&mut self, car: Entity) -> Option<bool> {
-        let search = self.search?;
+        let search = self.search;
         if search.cars.get(self.next) == Some(&car) {
             self.next += 1;
             return search.near.get(self.next - 1).copied();
@@ -736,15 +741,13 @@ mod tests {
             ..CloseCars::default()
         };
         // In step while no car came or went.
-        let mut near_of = NearOf::new(Some(&search));
+        let mut near_of = NearOf::new(&search);
         let found: Vec<_> = [1, 2, 3, 4].map(|k| near_of.get(car(k))).into();
         assert_eq!(found, [Some(true), Some(false), Some(true), Some(false)]);
         // Car 2 gone (the last took its place in the table) and car 9 come since.
-        let mut near_of = NearOf::new(Some(&search));
+        let mut near_of = NearOf::new(&search);
         let found: Vec<_> = [1, 4, 3, 9].map(|k| near_of.get(car(k))).into();
         assert_eq!(found, [Some(true), Some(false), Some(true), None]);
-        // No search since the last answers were taken: nothing to write.
-        assert_eq!(NearOf::new(None).get(car(1)), None);
     }
 
     #[test]
