@@ -9,7 +9,9 @@ use crate::components::{
 use crate::free_body::FreeBody;
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
 use bevy_ecs::prelude::*;
-use flockway_core::{Beside, DT_S, beside, map_in_order, parallel_min, task_threads};
+use flockway_core::{
+    Beside, DT_S, JOIN_MIN_CARS, beside, map_in_order, parallel_min, task_threads,
+};
 use flockway_road::RoadNetwork;
 use glam::{Mat3, Vec2, Vec3};
 use rapier3d::prelude::*;
@@ -406,10 +408,10 @@ impl CloseCarSearch {
 
 /// Finds for every car whether another car's body is within reach of its own (so both
 /// colliders must be in rapier for the next step). The boxes are made here, from the cars'
-/// motion just read back. With two threads and fewer than [`CLOSE_CARS_PARALLEL_MIN`] cars the
-/// search over them goes on beside the serial work that follows, on the other thread (idle
-/// there), and [`gate_colliders`] writes its answers before the next physics step; otherwise
-/// they are written here. The search reads only its boxes, so its answers are the same on
+/// motion just read back. With two threads, from [`JOIN_MIN_CARS`] cars to
+/// [`CLOSE_CARS_PARALLEL_MIN`], the search over them goes on beside the serial work that follows,
+/// on the other thread (idle there), and [`gate_colliders`] writes its answers before the next
+/// physics step; otherwise they are written here. The search reads only its boxes, so its answers are the same on
 /// whichever thread.
 pub fn find_close_cars(
     mut physics: ResMut<Physics>,
@@ -427,7 +429,10 @@ pub fn find_close_cars(
     );
     search.cars.clear();
     let n = search.boxes.len();
-    if task_threads() >= 2 && n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
+    // From as many cars as a pass splits from: below, handing the search over costs about
+    // what it saves.
+    let beside_from = parallel_min(JOIN_MIN_CARS.min(CLOSE_CARS_PARALLEL_MIN));
+    if task_threads() >= 2 && (beside_from..parallel_min(CLOSE_CARS_PARALLEL_MIN)).contains(&n) {
         search.cars.extend(gates.iter().map(|(car, _, _)| car));
         physics.close_cars = CloseCarSearch::Searching(beside(move || {
             search.search();
