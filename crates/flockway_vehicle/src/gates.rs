@@ -408,11 +408,11 @@ impl CloseCarSearch {
 
 /// Finds for every car whether another car's body is within reach of its own (so both
 /// colliders must be in rapier for the next step). The boxes are made here, from the cars'
-/// motion just read back. With two threads, from [`JOIN_MIN_CARS`] cars to
-/// [`CLOSE_CARS_PARALLEL_MIN`], the search over them goes on beside the serial work that follows,
-/// on the other thread (idle there), and [`gate_colliders`] writes its answers before the next
-/// physics step; otherwise they are written here. The search reads only its boxes, so its answers are the same on
-/// whichever thread.
+/// motion just read back. With two threads, from [`JOIN_MIN_CARS`] cars to 2 048 (from which
+/// the search splits its cells over the task pool), the search goes on beside the serial work
+/// that follows, on the other thread (idle there), and [`gate_colliders`] writes its answers
+/// before the next physics step; otherwise they are written here. The search reads only its
+/// boxes, so its answers are the same on whichever thread.
 pub fn find_close_cars(
     mut physics: ResMut<Physics>,
     mut gates: Query<(Entity, &mut ContactGate, &Motion)>,
