@@ -8,6 +8,7 @@ use bevy_ecs::query::{
 };
 use bevy_ecs::system::Query;
 use bevy_tasks::ComputeTaskPool;
+use smallvec::SmallVec;
 use std::sync::OnceLock;
 
 /// The environment variable that sets from how many vehicles every per-car pass of the step
@@ -134,7 +135,7 @@ pub fn for_each_car<'a, 's, D, F, S>(
         // Each car's items are made on the thread that does its work: gathering them all here
         // and handing half over wrote some hundred bytes a car on this core for the other to
         // read back, each pass, and two threads took about a quarter longer on `dense_road`.
-        join_walks(walks_in_runs(query, threads), &init, &f);
+        join_walks(&mut walks_in_runs(query, threads), &init, &f);
     } else {
         let mut scratch = init();
         query.iter_mut().for_each(|item| f(&mut scratch, item));
@@ -193,9 +194,9 @@ struct Walk<'w, 's, D: QueryData, F: QueryFilter> {
 // SAFETY: a walk is not `Send` only because its fetches hold raw pointers into the world's
 // component storage (bevy's own fetches: references, `Option`s, `Entity`, tuples of them; no
 // query here has a fetch of its own making), storage that lives as long as `'w` whichever thread
-// reads it (bevy's own parallel walk reads it from every thread of its pool). A walk moves to
-// one thread and is used by that thread alone, and what it yields there is `Send` (the bound):
-// the same as items made here and sent.
+// reads it (bevy's own parallel walk reads it from every thread of its pool). A walk (or the
+// only mutable reference to it) moves to one thread and is used by that thread alone, and what it
+// yields there is `Send` (the bound): the same as items made here and sent.
 #[expect(
     unsafe_code,
     reason = "a run's walk moves to the thread that does it; bevy's own parallel walk needs the \
@@ -216,7 +217,7 @@ where
 fn walks_in_runs<'w, 's, D, F>(
     query: &'w mut Query<'_, 's, D, F>,
     parts: usize,
-) -> Vec<Walk<'w, 's, D, F>>
+) -> Walks<'w, 's, D, F>
 where
     D: IterQueryData,
     F: ArchetypeFilter,
@@ -244,18 +245,25 @@ where
             if start > 0 {
                 iter.nth(start - 1);
             }
-            Walk {
+            Some(Walk {
                 iter,
                 left: end - start,
-            }
+            })
         })
         .collect()
 }
 
+/// A pass's walks, one a thread: on the stack for as many threads as a small machine has (a
+/// walk is some hundreds of bytes, and a heap block of that size a pass showed in the step).
+/// Each is taken out of its slot by the thread that walks it, onto that thread's stack: walked
+/// in place, side by side, each step of one walk wrote the cache line the other's was read from,
+/// and two threads took an eighth longer.
+type Walks<'w, 's, D, F> = SmallVec<[Option<Walk<'w, 's, D, F>>; 4]>;
+
 /// `f` on every run's items, the runs split in halves joined on the join pool (the calling
 /// thread does the later half itself, the pool's threads take the earlier).
 fn join_walks<'w, 's, D, F, S>(
-    mut walks: Vec<Walk<'w, 's, D, F>>,
+    walks: &mut [Option<Walk<'w, 's, D, F>>],
     init: &(impl Fn() -> S + Sync),
     f: &(impl Fn(&mut S, QueryItem<'w, 's, D>) + Sync),
 ) where
@@ -264,7 +272,7 @@ fn join_walks<'w, 's, D, F, S>(
     QueryItem<'w, 's, D>: Send,
 {
     if walks.len() < 2 {
-        for walk in walks {
+        for walk in walks.iter_mut().filter_map(Option::take) {
             let mut scratch = init();
             walk.iter
                 .take(walk.left)
@@ -272,8 +280,11 @@ fn join_walks<'w, 's, D, F, S>(
         }
         return;
     }
-    let later = walks.split_off(walks.len() / 2);
-    micropool::join(|| join_walks(walks, init, f), || join_walks(later, init, f));
+    let (earlier, later) = walks.split_at_mut(walks.len() / 2);
+    micropool::join(
+        || join_walks(earlier, init, f),
+        || join_walks(later, init, f),
+    );
 }
 
 /// `f` over `items` split into `parts` nearly equal runs, halves joined on the join pool; the
@@ -440,7 +451,7 @@ mod tests {
                             |(): &mut (), (input, mut output): QueryItem<(&Input, &mut Output)>| {
                                 output.0 += input.0 + 1;
                             };
-                        join_walks(walks_in_runs(&mut q, parts), &|| (), &run);
+                        join_walks(&mut walks_in_runs(&mut q, parts), &|| (), &run);
                     })
                     .expect("the system runs");
                 let got: Vec<u64> = cars
