@@ -2,12 +2,15 @@
 (a 4-lane road, 200 m straight, a 90° left curve of radius 150 m, 300 m straight, one car per
 lane every 0.9–1.1 s at 60 km/h for 120 s) and the same road and demand in SUMO (its
 netconvert builds the road from the same shape; a flow per lane, one car a second, Krauss cars
-4.6 m long keeping 0.5 s, so that SUMO can insert them all), SUMO at steps of 1/120 s (Flockway's), 0.1 s and 1 s. Each run's figure is the
-simulated vehicle-seconds per wall second (the vehicles on the road summed over the steps,
-times the step, over the wall time of the run; SUMO's from its summary output, its wall time
-the whole process; Flockway's stepping time and vehicle-steps as ``flockway run`` prints
-them). ``--action-step S`` (repeatable) adds Flockway with its drivers deciding every ``S``
-seconds (``flockway run --action-step``) beside it.
+4.6 m long keeping 0.5 s, so that SUMO can insert them all), SUMO at steps of 1/120 s
+(Flockway's), 0.1 s and 1 s. Each run's figures are the simulated vehicle-seconds per wall second (the vehicles on the road
+summed over the steps, times the step, over the wall time of the run) and the vehicle-steps per
+wall second (the same sum over the wall time); SUMO's from its summary output, its wall time the
+whole process; Flockway's stepping time and vehicle-steps as ``flockway run`` prints them.
+SUMO keeps time in whole milliseconds, so asked for 1/120 s it steps every 8 ms (15 000 steps in
+120 s): its vehicle-seconds are reckoned with the step it ran, read off its summary's times.
+``--action-step S`` (repeatable) adds Flockway with its drivers deciding every ``S`` seconds
+(``flockway run --action-step``) beside it.
 
     python python/bench/sumo_compare.py --flockway target/release/flockway --repeat 3
 
@@ -77,7 +80,8 @@ def write_scenario(d: Path) -> tuple[Path, Path]:
 
 
 def sumo_run(net: Path, rou: Path, step_s: float, d: Path) -> tuple[float, float, int]:
-    """Wall seconds, simulated vehicle-seconds, steps."""
+    """Wall seconds, simulated vehicle-seconds and vehicle-steps, each reckoned with the step SUMO
+    ran (its time is whole milliseconds: 1/120 s runs as 8 ms)."""
     summary = d / f"summary_{step_s:.6f}.xml"
     started = time.perf_counter()
     subprocess.run([tool("sumo"), "-n", str(net), "-r", str(rou), "--step-length",
@@ -85,13 +89,24 @@ def sumo_run(net: Path, rou: Path, step_s: float, d: Path) -> tuple[float, float
                     "--no-step-log", "--no-warnings", "--duration-log.disable"],
                    check=True, capture_output=True)
     wall = time.perf_counter() - started
-    running = [int(s.get("running")) for s in ET.parse(summary).getroot().iter("step")]
-    return wall, sum(running) * step_s, len(running)
+    vehicle_seconds, vehicle_steps = summary_totals(summary, step_s)
+    return wall, vehicle_seconds, vehicle_steps
 
 
-def flockway_run(binary: str, action_step_s: float = 0.0) -> tuple[float, float]:
-    """Stepping wall seconds and simulated vehicle-seconds of `flockway run dense_road`, its
-    drivers deciding every `action_step_s` (0: every tick)."""
+def summary_totals(summary: Path, step_s: float) -> tuple[float, int]:
+    """Simulated vehicle-seconds and vehicle-steps of a SUMO summary output: the vehicles running
+    summed over its steps, times the step it ran (read off the steps' times; `step_s`, the step
+    asked for, when it holds one step only)."""
+    steps = list(ET.parse(summary).getroot().iter("step"))
+    running = [int(s.get("running")) for s in steps]
+    times = [float(s.get("time")) for s in steps]
+    ran_s = (times[-1] - times[0]) / (len(times) - 1) if len(times) > 1 else step_s
+    return sum(running) * ran_s, sum(running)
+
+
+def flockway_run(binary: str, action_step_s: float = 0.0) -> tuple[float, float, int]:
+    """Stepping wall seconds, simulated vehicle-seconds and vehicle-steps of `flockway run
+    dense_road`, its drivers deciding every `action_step_s` (0: every tick)."""
     out = subprocess.run([binary, "run", str(ROOT / "levels" / "dense_road.ron"),
                           "--action-step", repr(action_step_s)],
                          capture_output=True, text=True)
@@ -102,7 +117,7 @@ def flockway_run(binary: str, action_step_s: float = 0.0) -> tuple[float, float]
     out = out.stdout
     wall = float(re.search(r"wall\s+([\d.]+) s", out).group(1))
     vehicle_steps = int(re.search(r"vehicle-steps\s+(\d+)", out).group(1))
-    return wall, vehicle_steps / 120.0
+    return wall, vehicle_steps / 120.0, vehicle_steps
 
 
 def main() -> None:
@@ -115,29 +130,38 @@ def main() -> None:
     version = subprocess.run([tool("sumo"), "--version"], capture_output=True,
                              text=True).stdout.splitlines()[0]
     print(f"{version}; {os.cpu_count()} cores; {args.repeat} runs each, alternated")
-    rows: dict[str, list[float]] = {}
+    # Per row: (vehicle-seconds, vehicle-steps) per wall second, each run.
+    rows: dict[str, list[tuple[float, float]]] = {}
     mean: dict[str, float] = {}
+    flockway, sumo_same = "Flockway, 1/120 s (rigid bodies, tyres)", "SUMO, 1/120 s (Krauss)"
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         net, rou = write_scenario(d)
         for _ in range(args.repeat):
             for action_step in [0.0, *args.action_step]:
-                wall, vs = flockway_run(args.flockway, action_step)
-                name = "Flockway, 1/120 s (rigid bodies, tyres)"
+                wall, vs, steps = flockway_run(args.flockway, action_step)
+                name = flockway
                 if action_step > 0.0:
                     name += f", deciding every {action_step:g} s"
-                rows.setdefault(name, []).append(vs / wall)
+                rows.setdefault(name, []).append((vs / wall, steps / wall))
                 mean[name] = vs / 120.0
             for step in STEPS_S:
-                wall, vs, _ = sumo_run(net, rou, step, d)
+                wall, vs, steps = sumo_run(net, rou, step, d)
                 name = f"SUMO, {'1/120' if step < 0.01 else f'{step:g}'} s (Krauss)"
-                rows.setdefault(name, []).append(vs / wall)
+                rows.setdefault(name, []).append((vs / wall, steps / wall))
                 mean[name] = vs / 120.0
     print("| simulator, step | vehicles on the road (mean) | vehicle-seconds per wall second "
-          "(each run) |")
-    print("|---|---|---|")
+          "(each run) | vehicle-steps per wall second (each run) |")
+    print("|---|---|---|---|")
     for name, rates in rows.items():
-        print(f"| {name} | {mean[name]:.0f} | {' / '.join(f'{r:,.0f}' for r in rates)} |")
+        seconds = " / ".join(f"{r[0]:,.0f}" for r in rates)
+        steps = " / ".join(f"{r[1]:,.0f}" for r in rates)
+        print(f"| {name} | {mean[name]:.0f} | {seconds} | {steps} |")
+    # Flockway over SUMO at (nearly) the same step, run for run: SUMO's 8 ms against 1/120 s.
+    pairs = list(zip(rows[flockway], rows[sumo_same]))
+    for k, what in ((0, "vehicle-seconds"), (1, "vehicle-steps")):
+        ratios = " / ".join(f"{f[k] / s[k]:.2f}" for f, s in pairs)
+        print(f"Flockway / SUMO at the same step, {what} per wall second: {ratios}")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """The profiling helpers of ``python/bench``: a thread profile attributes samples as the
-performance page says, and the alternating runner reads criterion's estimate in any unit."""
+performance page says, the alternating runner reads criterion's estimate in any unit, and the
+SUMO comparison reckons SUMO's figures with the step it ran."""
 
 from __future__ import annotations
 
@@ -129,3 +130,20 @@ def test_the_alternating_runner_reads_criterion_s_estimate_in_microseconds(
 def test_the_alternating_runner_says_when_there_is_no_estimate() -> None:
     with pytest.raises(ValueError, match="no `time"):
         load("alternate").estimate_us("error: no benchmark matched\n")
+
+
+def test_sumo_s_vehicle_seconds_are_reckoned_with_the_step_it_ran(tmp_path: Path) -> None:
+    # Asked for 1/120 s, SUMO (whole milliseconds) steps every 8 ms: four steps of 8 ms with
+    # 2, 3, 3 and 4 vehicles running are 12 vehicle-steps and 0.096 vehicle-seconds.
+    summary = tmp_path / "summary.xml"
+    summary.write_text(
+        "<summary>\n"
+        + "".join(f'  <step time="{t:.3f}" running="{n}"/>\n'
+                  for t, n in ((0.0, 2), (0.008, 3), (0.016, 3), (0.024, 4)))
+        + "</summary>\n")
+    seconds, steps = load("sumo_compare").summary_totals(summary, 1.0 / 120.0)
+    assert steps == 12
+    assert seconds == pytest.approx(12 * 0.008)
+    # A summary of one step falls back to the step asked for.
+    summary.write_text('<summary><step time="0.00" running="5"/></summary>\n')
+    assert load("sumo_compare").summary_totals(summary, 0.1) == (pytest.approx(0.5), 5)
