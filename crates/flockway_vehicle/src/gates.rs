@@ -17,19 +17,18 @@ use glam::{Mat3, Vec2, Vec3};
 use rapier3d::prelude::*;
 
 impl ContactGate {
-    /// Decides from the car's track and motion whether guardrails must be in its filter for the
-    /// next step.
-    pub(crate) fn decide_rails(
-        &mut self,
+    /// Whether, from the car's track and motion, guardrails must be in its filter for the next
+    /// step.
+    pub(crate) fn rails_wanted(
+        &self,
         physics: &Physics,
         network: &RoadNetwork,
         track: &RoadTrack,
         motion: &Motion,
-    ) {
+    ) -> bool {
         let upright = (motion.rotation * Vec3::Z).z > 0.8;
         if !track.on_road || !upright {
-            self.want_rails = true;
-            return;
+            return true;
         }
         let (half_length, half_width) = (self.half_extents.x, self.half_extents.y);
         let cos = track.heading_cos.abs().min(1.0);
@@ -54,8 +53,7 @@ impl ContactGate {
             (at_start && !(bare[0] && s >= along)) || (at_end && !(bare[1] && s <= length - along))
         });
         if near_end {
-            self.want_rails = true;
-            return;
+            return true;
         }
         // The box's reach across the road: its half width and half length turned by the
         // heading, plus up to 0.1 m more at its corners on a curve of 26 m radius or wider.
@@ -66,11 +64,11 @@ impl ContactGate {
         let across = motion.linvel.dot(track.left).abs();
         let moves = 2.0 * DT_S as f32 * (across + turning);
         let needed = moves + RAIL_GATE_MARGIN_M;
-        self.want_rails = if self.rails_open {
+        if self.rails_open {
             clearance < needed + RAIL_GATE_HYSTERESIS_M
         } else {
             clearance < needed
-        };
+        }
     }
 }
 
@@ -469,6 +467,9 @@ pub fn gate_colliders(
     let crossings = physics.has_crossings();
     let answers = physics.close_cars.take_answers();
     let mut near_of = answers.as_deref().map(NearOf::new);
+    let mut in_rapier = std::mem::take(&mut physics.in_rapier.0);
+    in_rapier.clear();
+    physics.in_rapier.1 = gates.iter().len();
     for (car, mut gate, track, chassis, mut free) in &mut gates {
         if let Some(near) = near_of.as_mut().and_then(|n| n.get(car))
             && gate.near != near
@@ -480,6 +481,9 @@ pub fn gate_colliders(
         }
         let rails = gate.want_rails || !gating;
         let enabled = rails || gate.near;
+        if enabled {
+            in_rapier.push(car);
+        }
         if rails == gate.rails_open && enabled == gate.enabled {
             continue;
         }
@@ -510,6 +514,7 @@ pub fn gate_colliders(
         gate.rails_open = rails;
         gate.enabled = enabled;
     }
+    physics.in_rapier.0 = in_rapier;
     if let Some(cars) = answers {
         physics.close_cars = CloseCarSearch::Kept(cars);
     }

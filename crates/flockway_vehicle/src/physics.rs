@@ -123,6 +123,10 @@ pub struct Physics {
     /// The close-car search of the last read-back, whose answers the gates take before the
     /// next step.
     pub(crate) close_cars: crate::gates::CloseCarSearch,
+    /// The cars whose bodies the gates left in rapier this step, listed as they went (so the
+    /// forces are handed to rapier for these alone, without reading every car's [`FreeBody`]),
+    /// and how many cars the gates saw.
+    pub(crate) in_rapier: (Vec<Entity>, usize),
 }
 
 impl Default for Physics {
@@ -148,6 +152,7 @@ impl Default for Physics {
             vehicle_roads: Vec::new(),
             bare_ends: Vec::new(),
             close_cars: crate::gates::CloseCarSearch::default(),
+            in_rapier: (Vec::new(), usize::MAX),
         }
     }
 }

@@ -161,13 +161,28 @@ pub fn apply_body_forces(
     mut physics: ResMut<Physics>,
     vehicles: Query<(&Chassis, &BodyForces, &FreeBody)>,
 ) {
-    for (chassis, f, free) in &vehicles {
-        if free.free {
-            continue;
-        }
-        if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
+    let physics = &mut *physics;
+    let mut apply = |(chassis, f, free): (&Chassis, &BodyForces, &FreeBody)| {
+        if !free.free
+            && let Some(body) = physics.world.bodies.get_mut(chassis.body)
+        {
             replace_forces(body, f.force, f.torque);
         }
+    };
+    // A list is used once, by the step whose gates made it.
+    let gated = std::mem::replace(&mut physics.in_rapier.1, usize::MAX);
+    if gated == vehicles.iter().len() {
+        // Every car went through the gates: those they left in rapier are all there is to do,
+        // and the free cars' state, which their threads have just written, is not read here.
+        let listed = std::mem::take(&mut physics.in_rapier.0);
+        for car in &listed {
+            if let Ok(item) = vehicles.get(*car) {
+                apply(item);
+            }
+        }
+        physics.in_rapier.0 = listed;
+    } else {
+        vehicles.iter().for_each(apply);
     }
 }
 
@@ -224,7 +239,12 @@ pub fn sync_vehicles(
         );
         track.speed_along_mps = linvel.dot(track.tangent);
         if let Some(mut gate) = gate {
-            gate.decide_rails(physics, network, &track, &motion);
+            // Written only when it changes: the gates read every car's on the first thread, and
+            // a line written here every step would cross back to this thread's core each time.
+            let want = gate.rails_wanted(physics, network, &track, &motion);
+            if gate.want_rails != want {
+                gate.want_rails = want;
+            }
         }
     };
     for_each_car(
