@@ -174,13 +174,11 @@ pub fn apply_body_forces(
     if gated == vehicles.iter().len() {
         // Every car went through the gates: those they left in rapier are all there is to do,
         // and the free cars' state, which their threads have just written, is not read here.
-        let listed = std::mem::take(&mut physics.in_rapier.0);
-        for car in &listed {
+        for car in &physics.in_rapier.0 {
             if let Ok(item) = vehicles.get(*car) {
                 apply(item);
             }
         }
-        physics.in_rapier.0 = listed;
     } else {
         vehicles.iter().for_each(apply);
     }
@@ -239,8 +237,8 @@ pub fn sync_vehicles(
         );
         track.speed_along_mps = linvel.dot(track.tangent);
         if let Some(mut gate) = gate {
-            // Written only when it changes: the gates read every car's on the first thread, and
-            // a line written here every step would cross back to this thread's core each time.
+            // Written only when it changes: the gates read every car's gate on the first thread,
+            // and a line written here every step would cross back to this thread's core each time.
             let want = gate.rails_wanted(physics, network, &track, &motion);
             if gate.want_rails != want {
                 gate.want_rails = want;
