@@ -325,19 +325,28 @@ pub fn flock_law(
     let me_speed = at.motion.linvel.dot(track.tangent);
     let mut avoid = Vec3::ZERO;
     seen.clear();
-    let own = f64::from(p.detection_range_m);
-    at.index
-        .within(track.road, lane, track.s_m, own, own, Some(at.me), seen);
-    let own_count = seen.len();
+    // Its own lane first, then the lanes right and left of it that there are.
     let adj = f64::from(p.adjacent_range_m);
-    if lane > 0 {
-        at.index
-            .within(track.road, lane - 1, track.s_m, adj, adj, Some(at.me), seen);
+    let mut windows = [(lane, f64::from(p.detection_range_m)); 3];
+    let mut count = 1;
+    for beside in [lane.checked_sub(1), Some(lane + 1).filter(|&l| l < lanes)]
+        .into_iter()
+        .flatten()
+    {
+        windows[count] = (beside, adj);
+        count += 1;
     }
-    if lane + 1 < lanes {
-        at.index
-            .within(track.road, lane + 1, track.s_m, adj, adj, Some(at.me), seen);
-    }
+    let mut own_count = 0;
+    at.index.visit_lanes(
+        track.road,
+        &windows[..count],
+        track.s_m,
+        Some(at.me),
+        |k, s| {
+            own_count += usize::from(k == 0);
+            seen.push(s);
+        },
+    );
     for (i, s) in seen.iter().enumerate() {
         let range = if i < own_count {
             p.detection_range_m

@@ -442,11 +442,51 @@ impl LaneIndex {
         behind_m: f64,
         ahead_m: f64,
         exclude: Option<Entity>,
-        mut out: impl FnMut(Seen),
+        out: impl FnMut(Seen),
+    ) {
+        if let Some(r) = self.road(road) {
+            self.visit_on(r, lane, s_m, behind_m, ahead_m, exclude, out);
+        }
+    }
+
+    /// [`visit_within`](Self::visit_within) for several lanes of one road around the same arc
+    /// position, each `(lane, range)` a window of `range` behind and ahead: each vehicle handed
+    /// to `out` with the position of its window in `lanes`, window after window in the order
+    /// given, as that many calls would hand them over, the road looked up once (a flocking
+    /// driver's own lane and the two beside it, every tick).
+    pub fn visit_lanes(
+        &self,
+        road: RoadId,
+        lanes: &[(u32, f64)],
+        s_m: f64,
+        exclude: Option<Entity>,
+        mut out: impl FnMut(usize, Seen),
     ) {
         let Some(r) = self.road(road) else {
             return;
         };
+        for (k, &(lane, range)) in lanes.iter().enumerate() {
+            self.visit_on(r, lane, s_m, range, range, exclude, |s| out(k, s));
+        }
+    }
+
+    /// [`visit_within`](Self::visit_within) on the indexed road `r`.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a query's coordinates, each one number"
+    )]
+    // Inlined into each caller, so that a caller walking several lanes makes one call.
+    #[inline(always)]
+    fn visit_on(
+        &self,
+        r: &RoadLanes,
+        lane: u32,
+        s_m: f64,
+        behind_m: f64,
+        ahead_m: f64,
+        exclude: Option<Entity>,
+        mut out: impl FnMut(Seen),
+    ) {
         let Some(entries) = r.lanes.get(lane as usize) else {
             return;
         };
@@ -1082,6 +1122,44 @@ mod tests {
                             .map(|v| v.entry.entity),
                         best_behind,
                         "follower: closed {closed} seed {seed} lane {lane} s {s}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn several_lanes_at_once_are_the_windows_one_after_another() {
+        for closed in [true, false] {
+            for seed in 1..=10u64 {
+                let (index, _) = placements(closed, 60, seed);
+                let len0 = index.road(RoadId(0)).expect("indexed road").length_m;
+                let mut rng = Lcg(seed * 31);
+                for _ in 0..40 {
+                    // Up to three windows, lanes in any order (one past the road's lanes too),
+                    // near the ends as well, so some reach onto the next road.
+                    let s = rng.next() * len0;
+                    let exclude = (rng.next() < 0.5).then_some(Entity::PLACEHOLDER);
+                    let windows: Vec<(u32, f64)> = (0..1 + (rng.next() * 3.0) as usize)
+                        .map(|_| ((rng.next() * 4.0) as u32, rng.next() * 120.0))
+                        .collect();
+                    let mut want = Vec::new();
+                    let mut ends = Vec::new();
+                    for &(lane, range) in &windows {
+                        index.within(RoadId(0), lane, s, range, range, exclude, &mut want);
+                        ends.push(want.len());
+                    }
+                    let mut got = Vec::new();
+                    index.visit_lanes(RoadId(0), &windows, s, exclude, |k, seen| {
+                        got.push((k, seen));
+                    });
+                    let which: Vec<usize> = (0..want.len())
+                        .map(|i| ends.iter().position(|&end| i < end).expect("a window"))
+                        .collect();
+                    assert_eq!(
+                        got,
+                        which.into_iter().zip(want).collect::<Vec<_>>(),
+                        "closed {closed} seed {seed} s {s} windows {windows:?}"
                     );
                 }
             }
