@@ -108,6 +108,13 @@ pub fn populate(
             .ok_or_else(|| fail(format!("unknown road `{name}`")))
     };
     let ticks_of = |s: f64| (s * f64::from(TICKS_PER_SECOND)).round().max(0.0) as u64;
+    // One shared name per profile, whichever spawners draw it: the measures tell profiles
+    // apart by pointer before they compare names.
+    let names: BTreeMap<&str, Arc<str>> = level
+        .driver_profiles
+        .iter()
+        .map(|p| (p.name.as_str(), Arc::from(p.name.as_str())))
+        .collect();
     let choice = |profile: &str, weight: f64| -> Result<SpawnChoice, RunError> {
         let driver = profiles.get(profile).cloned().ok_or_else(|| {
             fail(format!(
@@ -126,7 +133,10 @@ pub fn populate(
             .cloned()
             .ok_or_else(|| fail(format!("unknown vehicle type `{}`", p.vehicle)))?;
         Ok(SpawnChoice {
-            profile: Arc::from(profile),
+            profile: names
+                .get(profile)
+                .cloned()
+                .unwrap_or_else(|| Arc::from(profile)),
             weight,
             vehicle,
             driver,

@@ -9,7 +9,6 @@ use flockway_drivers::{DriverLabel, RoadSurface, Route, SpeedLimit, SurfaceStret
 use flockway_road::{RoadId, RoadNetwork};
 use flockway_vehicle::{ContactWith, Motion, RoadTrack, VehicleContact, VehicleState};
 use glam::Vec3;
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Where a destroyer acts.
@@ -259,6 +258,47 @@ type DestroyerView = (
     Option<&'static VehicleId>,
 );
 
+/// Destroyers on each road and those that are volumes, as positions in their query's order, so
+/// that a vehicle is measured against those that can take it, not against every destroyer.
+/// Gathered each tick into buffers kept from tick to tick.
+#[derive(Debug, Default)]
+pub struct DestroyerPlaces {
+    /// `(road, position)` of each destroyer on a road, sorted.
+    on_road: Vec<(RoadId, usize)>,
+    /// The positions of [`on_road`](Self::on_road) alone, in its order.
+    on_road_at: Vec<usize>,
+    /// The positions of those that are volumes, ascending.
+    volumes: Vec<usize>,
+}
+
+impl DestroyerPlaces {
+    /// Gathers the places of `all`, in their order.
+    fn gather(&mut self, all: &[&Destroyer]) {
+        self.on_road.clear();
+        self.volumes.clear();
+        for (k, d) in all.iter().enumerate() {
+            match d.place {
+                DestroyerPlace::OnRoad { road, .. } => self.on_road.push((road, k)),
+                DestroyerPlace::Volume { .. } => self.volumes.push(k),
+            }
+        }
+        // Stable: each road's positions stay ascending.
+        self.on_road.sort_by_key(|&(road, _)| road);
+        self.on_road_at.clear();
+        self.on_road_at.extend(self.on_road.iter().map(|&(_, k)| k));
+    }
+
+    /// The positions, ascending, of the destroyers on `road`.
+    fn on(&self, road: RoadId) -> &[usize] {
+        if self.on_road.is_empty() {
+            return &[];
+        }
+        let from = self.on_road.partition_point(|&(r, _)| r < road);
+        let to = from + self.on_road[from..].partition_point(|&(r, _)| r == road);
+        &self.on_road_at[from..to]
+    }
+}
+
 /// The positions in two ascending lists, in ascending order.
 fn merged<'a>(a: &'a [usize], b: &'a [usize]) -> impl Iterator<Item = usize> + 'a {
     let (mut i, mut j) = (0, 0);
@@ -295,23 +335,15 @@ pub fn run_destroyers(
     mut stats: ResMut<TrafficStats>,
     mut trips: Option<ResMut<TripLog>>,
     mut commands: Commands,
+    mut places: Local<DestroyerPlaces>,
 ) {
     let tick = clock.tick().0;
-    // Destroyers on each road and those that are volumes, as positions in the query's order:
-    // a vehicle is measured against those that can take it, not against every destroyer.
     let all: Vec<&Destroyer> = destroyers.iter().collect();
-    let mut on_road: BTreeMap<RoadId, Vec<usize>> = BTreeMap::new();
-    let mut volumes: Vec<usize> = Vec::new();
-    for (k, d) in all.iter().enumerate() {
-        match d.place {
-            DestroyerPlace::OnRoad { road, .. } => on_road.entry(road).or_default().push(k),
-            DestroyerPlace::Volume { .. } => volumes.push(k),
-        }
-    }
+    places.gather(&all);
+    let places = &*places;
     for (entity, track, motion, mut travel, label, limit, route, id) in &mut vehicles {
-        let here = on_road.get(&track.road).map_or(&[][..], Vec::as_slice);
         // The first that takes it in the query's order, as if every destroyer were asked.
-        let passed = merged(here, &volumes)
+        let passed = merged(places.on(track.road), &places.volumes)
             .map(|k| all[k])
             .find(|d| match d.place {
                 DestroyerPlace::OnRoad { road, s_m } => {
@@ -409,6 +441,42 @@ pub fn run_destroyers(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_road_has_its_destroyers_in_their_order_and_volumes_apart() {
+        let on = |road: u32| Destroyer {
+            name: format!("on {road}"),
+            place: DestroyerPlace::OnRoad {
+                road: RoadId(road),
+                s_m: 10.0,
+            },
+            arrivals_only: false,
+        };
+        let volume = Destroyer {
+            name: "volume".into(),
+            place: DestroyerPlace::Volume {
+                min: Vec3::ZERO,
+                max: Vec3::ONE,
+            },
+            arrivals_only: false,
+        };
+        let all = [on(2), on(0), on(2), volume, on(1), on(2)];
+        let mut places = DestroyerPlaces::default();
+        places.gather(&all.iter().collect::<Vec<_>>());
+        assert_eq!(places.on(RoadId(2)), &[0, 2, 5]);
+        assert_eq!(places.on(RoadId(0)), &[1]);
+        assert_eq!(places.on(RoadId(1)), &[4]);
+        assert!(places.on(RoadId(3)).is_empty());
+        assert_eq!(places.volumes, vec![3]);
+        assert_eq!(
+            merged(places.on(RoadId(2)), &places.volumes).collect::<Vec<_>>(),
+            vec![0, 2, 3, 5]
+        );
+        // Gathered again, the last tick's places are gone.
+        places.gather(&[&all[3]]);
+        assert!(places.on(RoadId(2)).is_empty());
+        assert_eq!(places.volumes, vec![0]);
+    }
 
     #[test]
     fn triggers_cover_their_stretch_lanes_and_wrap() {
