@@ -527,9 +527,9 @@ pub fn lane_following(
     // positive turning left), for the steering feed-forward: it steers into a bend as it
     // arrives instead of waiting for a heading error to build.
     let ahead = speed_mps.max(2.0) * lookahead_s;
-    let curvature = match track.frame_ahead(geometry, f64::from(ahead)) {
-        Some(f) if ahead > 0.1 => {
-            let t2 = f.tangent.as_vec3();
+    let curvature = match track.tangent_ahead(geometry, f64::from(ahead)) {
+        Some(t2) if ahead > 0.1 => {
+            let t2 = t2.as_vec3();
             let turn = dir.x * t2.y - dir.y * t2.x;
             let along = dir.x * t2.x + dir.y * t2.y;
             libm::atan2f(turn, along) / ahead

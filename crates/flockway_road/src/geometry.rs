@@ -458,6 +458,16 @@ impl RoadGeometry {
         Some(self.frame_at_param(p, self.normalize_s(cursor_s_m + ds_m)))
     }
 
+    /// The road's unit tangent about `ds_m` along the road from a cursor, as
+    /// [`frame_near`](Self::frame_near)'s frame has it (the same bits), without the rest of the
+    /// frame. `None` past either end of an open road.
+    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+    #[inline(always)]
+    pub fn tangent_near(&self, cursor: &RoadCursor, ds_m: f64) -> Option<DVec3> {
+        let p = self.param_near(cursor, ds_m)?;
+        Some(self.segments[p.seg].cubic.d1(p.u).normalize_or(DVec3::X))
+    }
+
     /// [`frame_near`](Self::frame_near) at two distances from the same cursor (a car's two
     /// axles), the two frames' arithmetic two wide: the same frames to the bit.
     // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.

@@ -661,3 +661,27 @@ fn two_frames_near_a_cursor_at_once_have_each_frame_s_bits() {
         }
     }
 }
+
+#[test]
+fn the_tangent_near_a_cursor_has_its_frame_s_bits() {
+    let mut spec = RoadSpec::ring("banked ring", 2, 50.0, DVec3::ZERO, 80.0, 10);
+    spec.points[3].bank_deg = 5.0;
+    let ring = RoadGeometry::new(&spec).expect("road");
+    for g in [curved_road(3), ring] {
+        let mut rng = Lcg(11);
+        for _ in 0..400 {
+            let s = rng.next() * g.length_m();
+            // Ahead and behind, far enough to cross segments, past the ends of the open road
+            // and round the ring's join.
+            let ds = (rng.next() - 0.3) * 120.0;
+            let cursor = g.cursor_at(s);
+            let frame = g.frame_near(&cursor, s, ds).map(|f| f.tangent.to_array());
+            let tangent = g.tangent_near(&cursor, ds).map(|t| t.to_array());
+            assert_eq!(
+                tangent.map(|t| t.map(f64::to_bits)),
+                frame.map(|t| t.map(f64::to_bits)),
+                "{s} {ds}"
+            );
+        }
+    }
+}
