@@ -290,9 +290,6 @@ impl DestroyerPlaces {
 
     /// The positions, ascending, of the destroyers on `road`.
     fn on(&self, road: RoadId) -> &[usize] {
-        if self.on_road.is_empty() {
-            return &[];
-        }
         let from = self.on_road.partition_point(|&(r, _)| r < road);
         let to = from + self.on_road[from..].partition_point(|&(r, _)| r == road);
         &self.on_road_at[from..to]

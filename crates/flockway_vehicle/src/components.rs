@@ -8,7 +8,7 @@ use crate::tyre::Tyre;
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::world::DeferredWorld;
-use flockway_road::{RoadCursor, RoadFrame, RoadGeometry, RoadId};
+use flockway_road::{RoadCursor, RoadGeometry, RoadId};
 use glam::{DVec3, Quat, Vec3};
 use rapier3d::prelude::*;
 use std::sync::Arc;
@@ -354,16 +354,8 @@ impl RoadTrack {
 }
 
 impl RoadTrack {
-    /// The exact road cross-section `ds_m` along the road from this track's position (on this
-    /// road; `None` past the end of an open road).
-    // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
-    #[inline(always)]
-    pub fn frame_ahead(&self, geometry: &RoadGeometry, ds_m: f64) -> Option<RoadFrame> {
-        geometry.frame_near(&self.cursor, self.s_m, ds_m)
-    }
-
-    /// The road's unit tangent `ds_m` along the road from this track's position, as
-    /// [`frame_ahead`](Self::frame_ahead)'s frame has it, without the rest of the frame.
+    /// The road's unit tangent `ds_m` along the road from this track's position (on this road;
+    /// `None` past the end of an open road), as [`RoadGeometry::frame_near`]'s frame has it.
     // Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
     #[inline(always)]
     pub fn tangent_ahead(&self, geometry: &RoadGeometry, ds_m: f64) -> Option<DVec3> {
