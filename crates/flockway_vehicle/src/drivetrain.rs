@@ -2,6 +2,8 @@
 //! them to the wheels.
 
 use crate::params::{EngineParams, GearboxParams, VehicleParams, curve_at};
+use flockway_core::arrays::array4;
+use wide::f32x4;
 
 /// Radians per second in one rpm.
 pub const RPM_TO_RAD_S: f32 = std::f32::consts::TAU / 60.0;
@@ -234,6 +236,8 @@ pub struct Driveline {
     pub idle_omega: f32,
     /// Rev limiter, rad/s.
     pub max_omega: f32,
+    /// The idle governor's most torque, a third of the torque at idle, N·m.
+    pub governor_max_nm: f32,
 }
 
 impl Driveline {
@@ -248,6 +252,7 @@ impl Driveline {
             clutch_strength: p.clutch.strength_nms,
             idle_omega: p.engine.idle_rpm * RPM_TO_RAD_S,
             max_omega: p.engine.max_rpm * RPM_TO_RAD_S,
+            governor_max_nm: p.engine.torque_at(p.engine.idle_rpm) / 3.0,
         }
     }
 
@@ -273,8 +278,8 @@ impl Driveline {
         let rpm = input.engine_omega / RPM_TO_RAD_S;
         // An idle governor opens the throttle as the engine sags below idle, with at most a
         // third of the idle torque, so a dragging clutch can pull it down but not stall it.
-        let governor = (50.0 * (self.idle_omega - input.engine_omega))
-            .clamp(0.0, engine.torque_at(engine.idle_rpm) / 3.0);
+        let governor =
+            (50.0 * (self.idle_omega - input.engine_omega)).clamp(0.0, self.governor_max_nm);
         let t_e = thr * engine.torque_at(rpm) + governor * (1.0 - thr);
 
         // Wheel i: I (ω_i' − ω_i) = h (T_i − F_i(ω_i') r − c_w ω_i'), with the tyre linearised,
@@ -282,19 +287,24 @@ impl Driveline {
         // ω̄' = Σ s_i ω_i' is the gearbox output speed.
         let iw = self.wheel_inertia;
         let r = self.radius_m;
-        let mut a = [0.0f32; 4];
-        let mut b = [0.0f32; 4];
-        let mut denom = [0.0f32; 4];
+        // The four wheels at once, each lane in the scalar order of operations (the slope's
+        // `f32::max` and the sums, in wheel order, stay scalar).
+        let slope = f32x4::new(array4(|i| input.tyre_slope[i].max(0.0)));
+        let (h4, iw4) = (f32x4::splat(h), f32x4::splat(iw));
+        let shares = f32x4::new(self.shares);
+        let tyre_force = f32x4::new(input.tyre_force_n);
+        let omega_tyre = f32x4::new(input.omega_tyre);
+        let kr = slope * f32x4::splat(r);
+        let denom = (iw4 + f32x4::splat(h * self.wheel_damping)) + h4 * kr;
+        let a = ((iw4 * f32x4::new(input.omega) - f32x4::splat(h * r) * tyre_force)
+            + (h4 * kr) * omega_tyre)
+            / denom;
+        let b = ((h4 * shares) * f32x4::splat(g)) * f32x4::splat(k) / denom;
+        let (a_share, b_share) = ((shares * a).to_array(), (shares * b).to_array());
         let (mut sa, mut sb) = (0.0f32, 0.0f32);
         for i in 0..4 {
-            let kr = input.tyre_slope[i].max(0.0) * r;
-            denom[i] = iw + h * self.wheel_damping + h * kr;
-            a[i] = (iw * input.omega[i] - h * r * input.tyre_force_n[i]
-                + h * kr * input.omega_tyre[i])
-                / denom[i];
-            b[i] = h * self.shares[i] * g * k / denom[i];
-            sa += self.shares[i] * a[i];
-            sb += self.shares[i] * b[i];
+            sa += a_share[i];
+            sb += b_share[i];
         }
         // ω̄' = (A + B ω_e') / (1 + G B); substitute into the engine equation
         // I_e (ω_e' − ω_e) = h (T_e − c ω_e' − K (ω_e' − G ω̄')).
@@ -306,15 +316,10 @@ impl Driveline {
         we = we.clamp(0.5 * self.idle_omega, self.max_omega * 1.05);
         let wbar = (sa + sb * we) / q;
         let clutch_torque = k * (we - g * wbar);
-        let mut omega = [0.0f32; 4];
-        let mut drive = [0.0f32; 4];
-        let mut force = [0.0f32; 4];
-        for i in 0..4 {
-            drive[i] = self.shares[i] * g * clutch_torque;
-            omega[i] = a[i] + b[i] * (we - g * wbar);
-            force[i] = input.tyre_force_n[i]
-                + input.tyre_slope[i].max(0.0) * (omega[i] - input.omega_tyre[i]);
-        }
+        let drive = (shares * f32x4::splat(g)) * f32x4::splat(clutch_torque);
+        let omega = a + b * f32x4::splat(we - g * wbar);
+        let force = tyre_force + slope * (omega - omega_tyre);
+        let (omega, drive, force) = (omega.to_array(), drive.to_array(), force.to_array());
         SpinOutput {
             omega,
             tyre_force_n: force,
@@ -340,7 +345,7 @@ pub fn apply_brake(omega: f32, torque_nm: f32, inertia: f32, dt_s: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::VehicleParams;
+    use crate::params::{Differential, VehicleParams};
 
     const H: f32 = 1.0 / 120.0;
 
@@ -501,5 +506,127 @@ mod tests {
         assert_eq!(e.torque_at(1900.0), 500.0);
         assert!(e.torque_at(5000.0) < e.torque_at(1900.0));
         assert_eq!(e.torque_at(5801.0), 0.0);
+    }
+
+    /// The spin update wheel by wheel, in scalar arithmetic: what the four-wide one must
+    /// reproduce bit for bit.
+    fn spin_per_wheel(d: &Driveline, e: &EngineParams, input: &SpinInput, h: f32) -> SpinOutput {
+        let (g, k) = (
+            input.ratio,
+            d.clutch_strength * input.clutch.clamp(0.0, 1.0),
+        );
+        let thr = input.accelerator.clamp(0.0, 1.0);
+        let zero = if input.clutch > 0.5 {
+            e.damping_zero_throttle_clutch_engaged
+        } else {
+            e.damping_zero_throttle_clutch_disengaged
+        };
+        let c_e = zero + (e.damping_full_throttle - zero) * thr;
+        let governor =
+            (50.0 * (d.idle_omega - input.engine_omega)).clamp(0.0, e.torque_at(e.idle_rpm) / 3.0);
+        let t_e = thr * e.torque_at(input.engine_omega / RPM_TO_RAD_S) + governor * (1.0 - thr);
+        let (iw, r) = (d.wheel_inertia, d.radius_m);
+        let (mut a, mut b) = ([0.0f32; 4], [0.0f32; 4]);
+        let (mut sa, mut sb) = (0.0f32, 0.0f32);
+        for i in 0..4 {
+            let kr = input.tyre_slope[i].max(0.0) * r;
+            let denom = iw + h * d.wheel_damping + h * kr;
+            a[i] = (iw * input.omega[i] - h * r * input.tyre_force_n[i]
+                + h * kr * input.omega_tyre[i])
+                / denom;
+            b[i] = h * d.shares[i] * g * k / denom;
+            sa += d.shares[i] * a[i];
+            sb += d.shares[i] * b[i];
+        }
+        let q = 1.0 + g * sb;
+        let lhs = d.engine_inertia + h * c_e + h * k - h * k * g * sb / q;
+        let rhs = d.engine_inertia * input.engine_omega + h * t_e + h * k * g * sa / q;
+        let we = (rhs / lhs).clamp(0.5 * d.idle_omega, d.max_omega * 1.05);
+        let wbar = (sa + sb * we) / q;
+        let clutch_torque = k * (we - g * wbar);
+        let mut out = SpinOutput {
+            omega: [0.0; 4],
+            tyre_force_n: [0.0; 4],
+            engine_omega: we,
+            drive_torque_nm: [0.0; 4],
+        };
+        for i in 0..4 {
+            out.drive_torque_nm[i] = d.shares[i] * g * clutch_torque;
+            out.omega[i] = a[i] + b[i] * (we - g * wbar);
+            out.tyre_force_n[i] = input.tyre_force_n[i]
+                + input.tyre_slope[i].max(0.0) * (out.omega[i] - input.omega_tyre[i]);
+        }
+        out
+    }
+
+    #[test]
+    fn the_four_wide_spin_has_the_per_wheel_bits() {
+        // Every differential (front, rear, all-wheel drive), gears forward and reverse and
+        // neutral, the clutch open, slipping and closed, wheels spinning either way, and
+        // slopes and forces of either sign including signed zeros.
+        let bits = |o: &SpinOutput| {
+            let words = |v: [f32; 4]| v.map(f32::to_bits);
+            (
+                words(o.omega),
+                words(o.tyre_force_n),
+                o.engine_omega.to_bits(),
+                words(o.drive_torque_nm),
+            )
+        };
+        let mut seed = 0x2545_f491_u32;
+        let mut next = |lo: f32, hi: f32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            lo + (hi - lo) * (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let signed = [0.0f32, -0.0, 1.0e-30, -250.0];
+        let mut checked = 0;
+        for drive in [
+            Differential::FrontWheelDrive,
+            Differential::RearWheelDrive,
+            Differential::AllWheelDrive { front_share: 0.4 },
+        ] {
+            let p = VehicleParams {
+                differential: drive,
+                ..VehicleParams::default()
+            };
+            let d = Driveline::new(&p);
+            for gear in [-1i8, 0, 1, 2, 5] {
+                let ratio = Gearbox::ratio_of(&p.gearbox, gear);
+                for clutch in [0.0f32, 0.3, 1.0] {
+                    for n in 0..40 {
+                        let omega = array4(|_| next(-30.0, 120.0));
+                        let input = SpinInput {
+                            omega,
+                            omega_tyre: array4(|i| omega[i] + next(-2.0, 2.0)),
+                            tyre_force_n: array4(|i| {
+                                if n % 5 == 0 {
+                                    signed[i]
+                                } else {
+                                    next(-6000.0, 6000.0)
+                                }
+                            }),
+                            tyre_slope: array4(|i| {
+                                if n % 7 == 0 {
+                                    signed[3 - i]
+                                } else {
+                                    next(-500.0, 40_000.0)
+                                }
+                            }),
+                            engine_omega: next(20.0, 700.0),
+                            accelerator: next(-0.2, 1.2),
+                            ratio,
+                            clutch,
+                        };
+                        let want = spin_per_wheel(&d, &p.engine, &input, H);
+                        let got = d.spin(&p.engine, &input, H);
+                        assert_eq!(bits(&got), bits(&want), "{input:?}");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, 3 * 5 * 3 * 40);
     }
 }

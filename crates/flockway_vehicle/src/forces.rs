@@ -9,7 +9,7 @@
 use crate::components::{
     Controls, OFF_ROAD_FRICTION, RoadTrack, SHOULDER_M, VehicleModel, VehicleState, VehicleType,
 };
-use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput, apply_brake};
+use crate::drivetrain::{Gearbox, Pedals, RPM_TO_RAD_S, SpinInput, SpinOutput};
 use crate::lanes::{self, F4, Vec3x4};
 use crate::params::VehicleParams;
 use crate::physics::{GRAVITY, Physics};
@@ -409,26 +409,36 @@ pub(crate) fn brakes_and_abs(
     let p = &t.params;
     let r = p.wheels.radius_m;
     let iw = t.driveline.wheel_inertia;
-    let mut brake_nm = [0.0f32; 4];
-    let mut omega_braked = array4(|i| state.wheels[i].omega);
-    for i in 0..4 {
-        let ws = &state.wheels[i];
-        let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
-        if p.brakes.abs && forward_mps.abs() > 1.0 {
-            // Full torque up to 70 % of the peak slip, released linearly to none at 130 %, and
-            // never more than the tyre can pass to the road.
-            let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
-            let release = 1.0 - excess.clamp(0.0, 1.0);
-            brake = (brake * release).min(patches.peak_n[i] * r);
-        }
-        if controls.handbrake && i >= 2 {
-            brake += p.brakes.max_handbrake_torque_nm;
-        }
-        brake += p.chassis.rolling_resistance * ws.load_n * r;
-        brake_nm[i] = brake;
-        omega_braked[i] = apply_brake(ws.omega, brake, iw, h);
+    // All four wheels at once, each lane in the scalar order of operations.
+    let (zero, one) = (f32x4::ZERO, f32x4::ONE);
+    let load = f32x4::new(array4(|i| state.wheels[i].load_n));
+    let mut brake = f32x4::splat(pedals.brake * p.brakes.max_brake_torque_nm);
+    if p.brakes.abs && forward_mps.abs() > 1.0 {
+        // Full torque up to 70 % of the peak slip, released linearly to none at 130 %, and
+        // never more than the tyre can pass to the road.
+        let slip = f32x4::new(array4(|i| state.wheels[i].slip_ratio));
+        let excess =
+            (-slip / f32x4::splat(t.tyre.peak_slip_ratio) - f32x4::splat(0.7)) / f32x4::splat(0.6);
+        let release = one - lanes::clamp(excess, zero, one);
+        // `min` as `f32::min`: a NaN lane takes the other side. (A tie of signed zeros may
+        // resolve otherwise, but the rolling resistance added below turns either into +0.)
+        brake = (brake * release).min(f32x4::new(patches.peak_n) * f32x4::splat(r));
     }
-    (brake_nm, omega_braked)
+    if controls.handbrake {
+        let rear = lanes::mask([false, false, true, true]);
+        brake = rear.select(
+            brake + f32x4::splat(p.brakes.max_handbrake_torque_nm),
+            brake,
+        );
+    }
+    let brake = brake + (f32x4::splat(p.chassis.rolling_resistance) * load) * f32x4::splat(r);
+    // `apply_brake` on each lane.
+    let omega = f32x4::new(array4(|i| state.wheels[i].omega));
+    let dw = brake.max(zero) * f32x4::splat(h) / f32x4::splat(iw);
+    let braked = omega
+        .simd_gt(dw)
+        .select(omega - dw, omega.simd_lt(-dw).select(omega + dw, zero));
+    (brake.to_array(), braked.to_array())
 }
 
 /// Stage 6, driveline: wheel spin, engine and clutch solved implicitly together with the
@@ -500,6 +510,10 @@ pub(crate) fn standstill_hold(
             && spin.omega[i].abs() * r < p.tyres.low_speed_mps
             && brake_nm[i] > spin.drive_torque_nm[i].abs()
     });
+    if holding == [false; 4] {
+        // What the rounds below would find: no wheel drops out, and one share.
+        return (holding, 1.0);
+    }
     let mut holders = 1.0f32;
     for _ in 0..4 {
         holders = holding.iter().filter(|&&b| b).count().max(1) as f32;
@@ -545,6 +559,25 @@ pub(crate) fn contact_forces(
     let r = p.wheels.radius_m;
     let iw = t.driveline.wheel_inertia;
     let m_eff = p.chassis.mass_kg / 4.0;
+    // The rolling wheels' forces, all four at once, each lane in the scalar order of
+    // operations; the lanes of wheels in the air are computed and dropped.
+    let peak = f32x4::new(patches.peak_n);
+    let fy = f32x4::new(array4(|i| state.wheels[i].force_lat_n));
+    // Never -0 under the square root: a square is +0 at least, and x − x is +0.
+    let room = (peak * peak - fy * fy).max(f32x4::ZERO).sqrt();
+    let linear = f32x4::new(spin.tyre_force_n);
+    let omega = f32x4::new(spin.omega);
+    let r4 = f32x4::splat(r);
+    let rolling_fx = clamp_towards4(
+        lanes::clamp(linear, -room, room),
+        ((omega * r4 - f32x4::new(patches.vx)) * f32x4::splat(m_eff)) / f32x4::splat(h),
+    );
+    let rolling_omega = omega + (f32x4::splat(h * r) * (linear - rolling_fx)) / f32x4::splat(iw);
+    let (room, rolling_fx, rolling_omega) = (
+        room.to_array(),
+        rolling_fx.to_array(),
+        rolling_omega.to_array(),
+    );
     let mut fx = [0.0f32; 4];
     for i in 0..4 {
         let ws = &mut state.wheels[i];
@@ -553,25 +586,18 @@ pub(crate) fn contact_forces(
         if !ws.grounded {
             continue;
         }
-        let hold_n = patches.hold_n[i] - hold.slope_pull / hold.holders;
-        let peak = patches.peak_n[i];
-        let room = (peak * peak - ws.force_lat_n * ws.force_lat_n)
-            .max(0.0)
-            .sqrt();
-        let linear = spin.tyre_force_n[i];
-        fx[i] = if hold.holding[i]
-            && hold_n.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
-            && hold_n.abs() <= room
-        {
+        // A holding wheel's test only where the hold stage found any.
+        let held = hold.holding[i] && {
+            let hold_n = patches.hold_n[i] - hold.slope_pull / hold.holders;
+            hold_n.abs() * r <= brake_nm[i] - spin.drive_torque_nm[i].abs()
+                && hold_n.abs() <= room[i]
+        };
+        fx[i] = if held {
             ws.omega = 0.0;
-            hold_n
+            patches.hold_n[i] - hold.slope_pull / hold.holders
         } else {
-            let fx = clamp_towards(
-                linear.clamp(-room, room),
-                (ws.omega * r - patches.vx[i]) * m_eff / h,
-            );
-            ws.omega += h * r * (linear - fx) / iw;
-            fx
+            ws.omega = rolling_omega[i];
+            rolling_fx[i]
         };
         ws.force_long_n = fx[i];
     }
@@ -649,7 +675,7 @@ pub(crate) fn vehicle_forces(
     (force, torque)
 }
 
-/// [`clamp_towards`] on four wheels at once.
+/// Clamps each tyre force to lie between zero and the force that would stop its slip.
 // Inlined into both builds (x86-64 and AVX2) of the force pass's per-car step.
 #[inline(always)]
 fn clamp_towards4(force: f32x4, stop: f32x4) -> f32x4 {
@@ -661,19 +687,11 @@ fn clamp_towards4(force: f32x4, stop: f32x4) -> f32x4 {
     )
 }
 
-/// Clamps a tyre force to lie between zero and the force that would stop the slip.
-pub(crate) fn clamp_towards(force: f32, stop: f32) -> f32 {
-    if stop >= 0.0 {
-        force.clamp(0.0, stop)
-    } else {
-        force.clamp(stop, 0.0)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::components::WheelState;
+    use crate::drivetrain::apply_brake;
     use crate::spawn::rest_pose;
     use flockway_road::{RoadId, RoadSpec};
     use glam::DVec3;
@@ -910,6 +928,89 @@ mod tests {
         assert!((brake[2] - rolling - t.params.brakes.max_handbrake_torque_nm).abs() < 1e-2);
     }
 
+    /// The brakes wheel by wheel, in scalar arithmetic: what the four-wide stage must reproduce
+    /// bit for bit.
+    fn brakes_per_wheel(
+        t: &VehicleType,
+        controls: &Controls,
+        pedals: &Pedals,
+        forward_mps: f32,
+        state: &VehicleState,
+        patches: &TyrePatches,
+        h: f32,
+    ) -> ([f32; 4], [f32; 4]) {
+        let p = &t.params;
+        let r = p.wheels.radius_m;
+        let mut out = ([0.0f32; 4], [0.0f32; 4]);
+        for i in 0..4 {
+            let ws = &state.wheels[i];
+            let mut brake = pedals.brake * p.brakes.max_brake_torque_nm;
+            if p.brakes.abs && forward_mps.abs() > 1.0 {
+                let excess = (-ws.slip_ratio / t.tyre.peak_slip_ratio - 0.7) / 0.6;
+                let release = 1.0 - excess.clamp(0.0, 1.0);
+                brake = (brake * release).min(patches.peak_n[i] * r);
+            }
+            if controls.handbrake && i >= 2 {
+                brake += p.brakes.max_handbrake_torque_nm;
+            }
+            brake += p.chassis.rolling_resistance * ws.load_n * r;
+            out.0[i] = brake;
+            out.1[i] = apply_brake(ws.omega, brake, t.driveline.wheel_inertia, h);
+        }
+        out
+    }
+
+    #[test]
+    fn the_four_wide_brakes_have_the_per_wheel_bits() {
+        // Pedals of either sign of zero and part way, ABS on and off, the handbrake, slips
+        // around the peak, wheels turning either way and stopped, loads and grips of zero.
+        let (_, _, mut t, _, _, mut state) = parked();
+        let mut seed = 0x9e37_79b9_u32;
+        let mut next = |lo: f32, hi: f32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            lo + (hi - lo) * (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let peak = t.tyre.peak_slip_ratio;
+        let mut checked = 0;
+        for abs in [true, false] {
+            t.params.brakes.abs = abs;
+            for handbrake in [false, true] {
+                let controls = Controls {
+                    handbrake,
+                    ..Controls::default()
+                };
+                for n in 0..200 {
+                    let brake = [0.0, -0.0, 1.0, next(0.0, 1.0)][n % 4];
+                    let pedals = Pedals {
+                        accelerator: 0.0,
+                        brake,
+                    };
+                    for w in &mut state.wheels {
+                        w.omega = if n % 6 == 0 { 0.0 } else { next(-40.0, 120.0) };
+                        w.slip_ratio = -peak * next(-0.5, 2.0);
+                        w.load_n = if n % 5 == 0 { 0.0 } else { next(0.0, 9000.0) };
+                    }
+                    let patches = TyrePatches {
+                        peak_n: array4(|_| if n % 3 == 0 { 0.0 } else { next(0.0, 9000.0) }),
+                        ..TyrePatches::default()
+                    };
+                    let forward = next(-30.0, 30.0);
+                    let h = 1.0 / 120.0;
+                    let (brake, omega) =
+                        brakes_and_abs(&t, &controls, &pedals, forward, &state, &patches, h);
+                    let want =
+                        brakes_per_wheel(&t, &controls, &pedals, forward, &state, &patches, h);
+                    assert_eq!(brake.map(f32::to_bits), want.0.map(f32::to_bits));
+                    assert_eq!(omega.map(f32::to_bits), want.1.map(f32::to_bits));
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 800);
+    }
+
     #[test]
     fn a_braked_car_at_a_standstill_holds_on_a_slope_unless_the_brakes_are_too_weak() {
         let (_, _, t, _, _, mut state) = parked();
@@ -992,9 +1093,29 @@ mod tests {
 
     #[test]
     fn clamp_towards_never_reverses_a_slip() {
-        assert_eq!(clamp_towards(500.0, 200.0), 200.0);
-        assert_eq!(clamp_towards(-50.0, 200.0), 0.0);
-        assert_eq!(clamp_towards(-500.0, -200.0), -200.0);
-        assert_eq!(clamp_towards(100.0, -200.0), 0.0);
+        let clamp = |force: f32, stop: f32| {
+            let got = clamp_towards4(f32x4::splat(force), f32x4::splat(stop)).to_array();
+            assert!(got.iter().all(|x| x.to_bits() == got[0].to_bits()));
+            got[0]
+        };
+        assert_eq!(clamp(500.0, 200.0), 200.0);
+        assert_eq!(clamp(-50.0, 200.0), 0.0);
+        assert_eq!(clamp(-500.0, -200.0), -200.0);
+        assert_eq!(clamp(100.0, -200.0), 0.0);
+        // Scalar clamping between zero and the stop, with its signed zeros.
+        for force in [-3.0f32, -0.0, 0.0, 2.5, 1.0e9] {
+            for stop in [-2.0f32, -0.0, 0.0, 1.5] {
+                let want = if stop >= 0.0 {
+                    force.clamp(0.0, stop)
+                } else {
+                    force.clamp(stop, 0.0)
+                };
+                assert_eq!(
+                    clamp(force, stop).to_bits(),
+                    want.to_bits(),
+                    "{force} {stop}"
+                );
+            }
+        }
     }
 }
