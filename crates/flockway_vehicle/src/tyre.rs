@@ -68,6 +68,9 @@ impl MagicFormula {
 pub struct SampledCurve {
     inv_step: f32,
     values: Vec<f32>,
+    /// Each sample with the next, so that the four-wide evaluation reads a lane's two samples
+    /// at once.
+    pairs: Vec<[f32; 2]>,
 }
 
 /// Number of samples in a [`SampledCurve`].
@@ -77,11 +80,13 @@ impl SampledCurve {
     /// Samples `mf` from zero to `x_max`.
     pub fn new(mf: &MagicFormula, x_max: f32) -> SampledCurve {
         let step = x_max / (CURVE_SAMPLES - 1) as f32;
+        let values: Vec<f32> = (0..CURVE_SAMPLES)
+            .map(|i| mf.eval(i as f32 * step))
+            .collect();
         SampledCurve {
             inv_step: 1.0 / step,
-            values: (0..CURVE_SAMPLES)
-                .map(|i| mf.eval(i as f32 * step))
-                .collect(),
+            pairs: values.windows(2).map(|w| [w[0], w[1]]).collect(),
+            values,
         }
     }
 
@@ -104,9 +109,11 @@ impl SampledCurve {
                 usize::try_from(trunc[k]).unwrap_or(0)
             }
         });
+        // A lane replaced below may read past the pairs (a table of fewer than two samples).
+        let pair: [[f32; 2]; 4] = array4(|k| self.pairs.get(index[k]).copied().unwrap_or([0.0; 2]));
+        let a = f32x4::new(array4(|k| pair[k][0]));
+        let b = f32x4::new(array4(|k| pair[k][1]));
         let sample = |i: usize| self.values.get(i).copied().unwrap_or(0.0);
-        let a = f32x4::new(array4(|k| sample(index[k])));
-        let b = f32x4::new(array4(|k| sample(index[k] + 1)));
         let t = pos - f32x4::new(array4(|k| index[k] as f32));
         let rise = b - a;
         let value = copysign(a + rise * t, x);
