@@ -168,6 +168,8 @@ pub struct CloseCars {
     /// Each run of `cells` in one grid cell: its start and end.
     runs: Vec<(u32, u32)>,
     near: Vec<bool>,
+    /// The pairs found by a search on one thread, in pairs.
+    hits: Vec<u32>,
 }
 
 /// A grid cell's key: ordered by column, then row, so a column's neighbouring rows are adjacent
@@ -240,17 +242,28 @@ impl CloseCars {
             start += len;
         }
         let (cells, boxes) = (&self.cells, &self.boxes);
+        if n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
+            // On one thread: one pass over all the runs, into a buffer kept from search to
+            // search (parts would each make their own).
+            let (mut hits, mut next_column) =
+                (std::mem::take(&mut self.hits), NextColumn::default());
+            hits.clear();
+            for &run in &self.runs {
+                pairs_from(cells, boxes, run, &mut next_column, &mut hits);
+            }
+            for &i in &hits {
+                self.near[i as usize] = true;
+            }
+            self.hits = hits;
+            return;
+        }
         // About eight parts per thread; each part's hits, in pairs.
         let threads = task_threads();
         let per_part = self.runs.len().div_ceil(8 * threads).max(1);
         let parts: Vec<&[(u32, u32)]> = self.runs.chunks(per_part).collect();
         let hits = map_in_order(
             &parts,
-            if n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
-                usize::MAX
-            } else {
-                2
-            },
+            2,
             || (),
             |(), runs| {
                 let (mut hits, mut next_column) = (Vec::new(), NextColumn::default());
