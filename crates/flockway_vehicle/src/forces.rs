@@ -215,39 +215,50 @@ pub(crate) fn wheel_contact(
     let left = on_frame(|f| f.left.as_vec3());
     let dn = Vec3x4::splat(down).dot(up);
     let lateral = (mounts - origin).dot(left).to_array();
-    let dist = ((origin - mounts).dot(up) / dn).to_array();
-    let dn = dn.to_array();
+    let dist = (origin - mounts).dot(up) / dn;
     let velocity = Vec3x4::splat(v) + Vec3x4::splat(w).cross(mounts - com4);
+    // A wheel far above or below the road's surface (a bridge overhead, a fall) is not on it:
+    // on the road is facing its surface, within reach of it, and over the road's width (its
+    // shoulders included).
+    let reach = travel + r + 0.5;
+    let facing_in_reach = (dn.simd_lt(f32x4::splat(-0.2))
+        & dist.simd_ge(f32x4::ZERO)
+        & dist.simd_le(f32x4::splat(reach)))
+    .to_bitmask();
+    let on_road: [bool; 4] = array4(|i| {
+        facing_in_reach >> i & 1 != 0
+            && frames[i / 2].as_ref().is_some_and(|frame| {
+                f64::from(lateral[i]).abs() <= frame.width_m / 2.0 + SHOULDER_M
+            })
+    });
     // Each wheel's surface: the road's where the wheel is over it, else rapier's ground (off
     // the road, after a crash), else none.
-    let mut has_surface = [false; 4];
-    let mut surface_dist = [0.0f32; 4];
-    let mut normal = Vec3x4::default();
-    let mut friction = [0.0f32; 4];
-    for i in 0..4 {
-        // A wheel far above or below the road's surface (a bridge overhead, a fall) is not on
-        // it.
-        let on_road = frames[i / 2].as_ref().is_some_and(|frame| {
-            dn[i] < -0.2
-                && f64::from(lateral[i]).abs() <= frame.width_m / 2.0 + SHOULDER_M
-                && (0.0..=travel + r + 0.5).contains(&dist[i])
-        });
-        let surface = if on_road {
-            Some((dist[i], up.lane(i), 1.0))
-        } else {
-            physics
-                .cast_ground(mounts.lane(i), down, travel + r + 0.5)
-                .map(|(dist, n)| (dist, n, OFF_ROAD_FRICTION))
-        };
-        if let Some((d, n, mu)) = surface {
-            has_surface[i] = true;
-            surface_dist[i] = d;
-            normal.set(i, n);
-            friction[i] = mu;
+    let (has_surface, dist, normal, friction) = if on_road == [true; 4] {
+        ([true; 4], dist, up, [1.0f32; 4])
+    } else {
+        let dist = dist.to_array();
+        let mut has_surface = [false; 4];
+        let mut surface_dist = [0.0f32; 4];
+        let mut normal = Vec3x4::default();
+        let mut friction = [0.0f32; 4];
+        for i in 0..4 {
+            let surface = if on_road[i] {
+                Some((dist[i], up.lane(i), 1.0))
+            } else {
+                physics
+                    .cast_ground(mounts.lane(i), down, reach)
+                    .map(|(dist, n)| (dist, n, OFF_ROAD_FRICTION))
+            };
+            if let Some((d, n, mu)) = surface {
+                has_surface[i] = true;
+                surface_dist[i] = d;
+                normal.set(i, n);
+                friction[i] = mu;
+            }
         }
-    }
+        (has_surface, f32x4::new(surface_dist), normal, friction)
+    };
     // The springs, dampers and bump stops of all four at once.
-    let dist = f32x4::new(surface_dist);
     let (travel4, k4) = (f32x4::splat(travel), f32x4::splat(k));
     let x = travel4 - (dist - f32x4::splat(r));
     let compressed = x.simd_gt(f32x4::ZERO).to_bitmask();
@@ -291,7 +302,6 @@ pub(crate) fn tyre_forces(
 ) -> f32 {
     let p = &t.params;
     let Kinematics { com, rot, v, w } = *body;
-    let fwd = body.forward();
     let r = p.wheels.radius_m;
     // A quarter of the car's mass moves with each contact patch.
     let m_eff = p.chassis.mass_kg / 4.0;
@@ -299,13 +309,15 @@ pub(crate) fn tyre_forces(
     // The directions and slips of all four tyres at once (a wheel in the air has a zero
     // normal, and its lanes are dropped below). The rear wheels never steer: no trigonometry
     // for them.
+    // (`rotated_by` has glam's bits: an unsteered wheel's heading is the body's forward axis.)
     let heading = Vec3x4::from_fn(|i| {
         if steer[i] == 0.0 {
-            fwd
+            Vec3::X
         } else {
-            rot * Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
+            Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
         }
-    });
+    })
+    .rotated_by(rot);
     let n = contacts.normal;
     let along = heading.dot(n);
     let f_dir = (heading - n * along).normalize_or_zero();
@@ -603,8 +615,8 @@ pub(crate) fn contact_forces(
     }
     // Each tyre's force and its moment about the centre of mass, all four at once, then summed
     // in wheel order over the grounded ones.
+    // (The lateral forces are those read above: the loop does not change them.)
     let load = f32x4::new(array4(|i| state.wheels[i].load_n));
-    let fy = f32x4::new(array4(|i| state.wheels[i].force_lat_n));
     let fx = f32x4::new(fx);
     let f = (patches.normal * load + patches.forward * fx) + patches.lateral * fy;
     let moment = patches.arm.cross(f);
