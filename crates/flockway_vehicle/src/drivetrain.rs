@@ -573,13 +573,7 @@ mod tests {
                 words(o.drive_torque_nm),
             )
         };
-        let mut seed = 0x2545_f491_u32;
-        let mut next = |lo: f32, hi: f32| {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            lo + (hi - lo) * (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = crate::lanes::uniform(0x2545_f491);
         let signed = [0.0f32, -0.0, 1.0e-30, -250.0];
         let mut checked = 0;
         for drive in [

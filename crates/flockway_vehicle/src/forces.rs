@@ -977,13 +977,7 @@ mod tests {
         // Pedals of either sign of zero and part way, ABS on and off, the handbrake, slips
         // around the peak, wheels turning either way and stopped, loads and grips of zero.
         let (_, _, mut t, _, _, mut state) = parked();
-        let mut seed = 0x9e37_79b9_u32;
-        let mut next = |lo: f32, hi: f32| {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            lo + (hi - lo) * (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = crate::lanes::uniform(0x9e37_79b9);
         let peak = t.tyre.peak_slip_ratio;
         let mut checked = 0;
         for abs in [true, false] {

@@ -182,6 +182,18 @@ impl Mul<f32x4> for Vec3x4 {
     }
 }
 
+/// Test inputs: numbers spread evenly over `[lo, hi)` from a seeded xorshift, the same on every
+/// machine.
+#[cfg(test)]
+pub(crate) fn uniform(mut seed: u32) -> impl FnMut(f32, f32) -> f32 {
+    move |lo, hi| {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        lo + (hi - lo) * (seed >> 8) as f32 / (1u32 << 24) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
