@@ -245,12 +245,9 @@ impl CloseCars {
         if n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
             // On one thread: one pass over all the runs, into a buffer kept from search to
             // search (parts would each make their own).
-            let (mut hits, mut next_column) =
-                (std::mem::take(&mut self.hits), NextColumn::default());
+            let mut hits = std::mem::take(&mut self.hits);
             hits.clear();
-            for &run in &self.runs {
-                pairs_from(cells, boxes, run, &mut next_column, &mut hits);
-            }
+            pairs_among(cells, boxes, &self.runs, &mut hits);
             for &i in &hits {
                 self.near[i as usize] = true;
             }
@@ -266,16 +263,24 @@ impl CloseCars {
             2,
             || (),
             |(), runs| {
-                let (mut hits, mut next_column) = (Vec::new(), NextColumn::default());
-                for &run in *runs {
-                    pairs_from(cells, boxes, run, &mut next_column, &mut hits);
-                }
+                let mut hits = Vec::new();
+                pairs_among(cells, boxes, runs, &mut hits);
                 hits
             },
         );
         for i in hits.into_iter().flatten() {
             self.near[i as usize] = true;
         }
+    }
+}
+
+/// The boxes within reach of one another from `runs` (consecutive runs of `cells`, in key
+/// order) and the cells neighbouring them: [`pairs_from`] for each run, one walk over the next
+/// column for them all. Pushes both boxes of each pair found.
+fn pairs_among(cells: &[(u64, u32)], boxes: &[BoxNow], runs: &[(u32, u32)], hits: &mut Vec<u32>) {
+    let mut next_column = NextColumn::default();
+    for &run in runs {
+        pairs_from(cells, boxes, run, &mut next_column, hits);
     }
 }
 
