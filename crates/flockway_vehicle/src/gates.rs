@@ -14,6 +14,7 @@ use flockway_core::{
 };
 use flockway_road::RoadNetwork;
 use glam::{Mat3, Vec2, Vec3};
+use multiversion::multiversion;
 use rapier3d::prelude::*;
 
 impl ContactGate {
@@ -91,6 +92,8 @@ struct BoxNow {
 }
 
 impl BoxNow {
+    // Inlined into `boxes_of`'s two builds.
+    #[inline(always)]
     fn of(gate: &ContactGate, motion: &Motion) -> BoxNow {
         let m = Mat3::from_quat(motion.rotation);
         let h = gate.half_extents;
@@ -276,7 +279,8 @@ impl CloseCars {
 
 /// The boxes within reach of one another from `runs` (consecutive runs of `cells`, in key
 /// order) and the cells neighbouring them: [`pairs_from`] for each run, one walk over the next
-/// column for them all. Pushes both boxes of each pair found.
+/// column for them all. Pushes both boxes of each pair found. Built twice as [`boxes_of`] is.
+#[multiversion(targets("x86_64+avx2"))]
 fn pairs_among(cells: &[(u64, u32)], boxes: &[BoxNow], runs: &[(u32, u32)], hits: &mut Vec<u32>) {
     let mut next_column = NextColumn::default();
     for &run in runs {
@@ -437,12 +441,7 @@ pub fn find_close_cars(
         return;
     }
     let mut search = physics.close_cars.buffers();
-    search.boxes.clear();
-    search.boxes.extend(
-        gates
-            .iter()
-            .map(|(_, gate, motion)| BoxNow::of(gate, motion)),
-    );
+    boxes_of(&mut search.boxes, &gates);
     search.cars.clear();
     let n = search.boxes.len();
     // From as many cars as a pass splits from: below, handing the search over costs about
@@ -464,6 +463,17 @@ pub fn find_close_cars(
         }
     }
     physics.close_cars = CloseCarSearch::Kept(search);
+}
+
+/// Every car's box now, in the query's order, in place of `boxes`. Built twice, for x86-64 and
+/// for AVX2 (taken at run time where the CPU has it; the same boxes to the bit: see
+/// `multiversion` in Cargo.toml).
+#[multiversion(targets("x86_64+avx2"))]
+fn boxes_of(boxes: &mut Vec<BoxNow>, gates: &Query<(Entity, &mut ContactGate, &Motion)>) {
+    boxes.clear();
+    for (_, gate, motion) in gates.iter() {
+        boxes.push(BoxNow::of(gate, motion));
+    }
 }
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
