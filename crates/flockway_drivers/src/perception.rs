@@ -260,10 +260,22 @@ impl LaneIndex {
         // The vehicles come in the query's order, which a running simulation keeps from tick to
         // tick, so each lane arrives as a few long runs (a ring's cars past its join, cars that
         // changed lane): the stable sort merges runs in linear time where the unstable one
-        // sorts from scratch. Every `(s, entity)` is distinct, so the order is the same.
+        // sorts from scratch. Cars spawned first come first and are the farthest along, so a
+        // lane mostly arrives descending, which the sort (insertion on a short lane) takes
+        // quadratic time over: such a lane is turned round first. Every `(s, entity)` is
+        // distinct, so the order is the same either way.
+        let by_place =
+            |a: &LaneEntry, b: &LaneEntry| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity));
         for road in self.roads.iter_mut().flatten() {
             for lane in &mut road.lanes {
-                lane.sort_by(|a, b| a.s_m.total_cmp(&b.s_m).then(a.entity.cmp(&b.entity)));
+                let descents = lane
+                    .windows(2)
+                    .filter(|w| by_place(&w[0], &w[1]).is_gt())
+                    .count();
+                if 2 * descents > lane.len() {
+                    lane.reverse();
+                }
+                lane.sort_by(by_place);
             }
         }
     }
@@ -986,6 +998,65 @@ mod tests {
             gaps.push(len0 - from.1 + to.1);
         }
         gaps
+    }
+
+    #[test]
+    fn a_lane_is_in_place_order_however_its_cars_arrive() {
+        let network = RoadNetwork::build(&ring_or_road_on(false, 2)).expect("valid roads");
+        let g = network.get(RoadId(0)).expect("road");
+        let mut world = World::new();
+        let mut rng = Lcg(11);
+        for n in [0, 1, 2, 3, 12, 20, 21, 40] {
+            // Ascending, descending (the query's usual order), descending but for one car put
+            // in another's place (a despawn), shuffled; two cars at the same place among them.
+            let mut tracks: Vec<(Entity, RoadTrack)> = (0..n)
+                .map(|i| {
+                    let s = if i == 1 {
+                        150.0
+                    } else {
+                        10.0 + 250.0 * rng.next()
+                    };
+                    let lateral = flockway_road::lane_offset(g.frame_at(s).width_m, g.lanes(), 1);
+                    (
+                        world.spawn_empty().id(),
+                        RoadTrack::new(RoadId(0), g, s, lateral),
+                    )
+                })
+                .collect();
+            if n > 2 {
+                tracks[2].1 = tracks[1].1;
+            }
+            let mut expected: Vec<(f64, Entity)> =
+                tracks.iter().map(|(e, t)| (t.s_m, *e)).collect();
+            expected.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let mut orders = vec![expected.clone()];
+            orders.push(expected.iter().rev().copied().collect());
+            let mut despawned = orders[1].clone();
+            if n > 3 {
+                let last = despawned.pop().expect("cars");
+                despawned.insert(1, last);
+            }
+            orders.push(despawned);
+            let mut shuffled = expected.clone();
+            for i in (1..shuffled.len()).rev() {
+                shuffled.swap(i, (rng.next() * (i + 1) as f64) as usize);
+            }
+            orders.push(shuffled);
+            for (k, order) in orders.iter().enumerate() {
+                let by_entity = |e: &Entity| &tracks.iter().find(|(t, _)| t == e).expect("car").1;
+                let mut index = LaneIndex::default();
+                index.rebuild(
+                    &network,
+                    order.iter().map(|(_, e)| (*e, by_entity(e), 4.6, 0)),
+                );
+                let got: Vec<(f64, Entity)> = index
+                    .lane(RoadId(0), 1)
+                    .iter()
+                    .map(|e| (e.s_m, e.entity))
+                    .collect();
+                assert_eq!(got, expected, "{n} cars, order {k}");
+            }
+        }
     }
 
     #[test]
