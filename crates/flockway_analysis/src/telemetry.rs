@@ -172,16 +172,16 @@ impl TelemetryRow {
     /// files byte-identical across platforms' float formatting, and diffable.
     pub fn to_record(&self) -> [String; 17] {
         [
-            format!("{:.3}", self.time_s),
+            format!("{:.*}", TIME_DECIMALS as usize, self.time_s),
             self.vehicle_id.to_string(),
             self.driver.clone(),
             self.road.clone(),
             self.lane.to_string(),
-            format!("{:.3}", self.s_m),
+            format!("{:.*}", S_DECIMALS as usize, self.s_m),
             format!("{:.3}", self.pos_m[0]),
             format!("{:.3}", self.pos_m[1]),
             format!("{:.3}", self.pos_m[2]),
-            format!("{:.3}", self.speed_kmh),
+            format!("{:.*}", SPEED_DECIMALS as usize, self.speed_kmh),
             format!("{:.3}", self.accel_mps2),
             format!("{:.4}", self.throttle),
             format!("{:.4}", self.steering),
@@ -195,15 +195,12 @@ impl TelemetryRow {
     /// The row as a reader of its CSV sees it: every number rounded to the decimals it is
     /// written with, so what is measured from a run and from its CSV agrees.
     pub fn as_written(&self) -> TelemetryRow {
-        let round = |v: f64, d: i32| {
-            let k = 10f64.powi(d);
-            (v * k).round() / k
-        };
+        let round = rounded_as_written;
         TelemetryRow {
-            time_s: round(self.time_s, 3),
-            s_m: round(self.s_m, 3),
+            time_s: round(self.time_s, TIME_DECIMALS),
+            s_m: round(self.s_m, S_DECIMALS),
             pos_m: self.pos_m.map(|v| round(v, 3)),
-            speed_kmh: round(self.speed_kmh, 3),
+            speed_kmh: round(self.speed_kmh, SPEED_DECIMALS),
             accel_mps2: round(self.accel_mps2, 3),
             throttle: round(self.throttle, 4),
             steering: round(self.steering, 4),
@@ -211,6 +208,19 @@ impl TelemetryRow {
             ..self.clone()
         }
     }
+}
+
+/// Decimals the CSV writes `time_s` with.
+pub const TIME_DECIMALS: i32 = 3;
+/// Decimals the CSV writes `s_m` with.
+pub const S_DECIMALS: i32 = 3;
+/// Decimals the CSV writes `speed_kmh` with.
+pub const SPEED_DECIMALS: i32 = 3;
+
+/// `v` as a reader of the CSV sees it, written with `decimals` decimals.
+pub fn rounded_as_written(v: f64, decimals: i32) -> f64 {
+    let k = 10f64.powi(decimals);
+    (v * k).round() / k
 }
 
 /// Writes telemetry rows to a CSV file, flushing after every sample time so that a run stopped

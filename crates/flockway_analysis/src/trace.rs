@@ -1,7 +1,9 @@
 //! A run's telemetry in memory: the columns analysis needs, read from a CSV or pushed by a runner.
 
 use crate::AnalysisError;
-use crate::telemetry::{Column, TelemetryRow};
+use crate::telemetry::{
+    Column, S_DECIMALS, SPEED_DECIMALS, TIME_DECIMALS, TelemetryRow, rounded_as_written,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -95,6 +97,36 @@ impl Trace {
             row.s_m,
             row.speed_kmh,
             &row.model,
+        );
+    }
+
+    /// Appends one vehicle's sample as its telemetry CSV row holds it (what
+    /// [`push_row`](Self::push_row) of the row's [`as_written`](TelemetryRow::as_written)
+    /// appends), from the sampled values, without making the row.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one sample's columns, each named at the call"
+    )]
+    pub fn push_as_written(
+        &mut self,
+        time_s: f64,
+        vehicle_id: u32,
+        driver: &str,
+        road: &str,
+        lane: u32,
+        s_m: f64,
+        speed_kmh: f64,
+        model: &str,
+    ) {
+        self.push_with_model(
+            rounded_as_written(time_s, TIME_DECIMALS),
+            vehicle_id,
+            driver,
+            road,
+            lane,
+            rounded_as_written(s_m, S_DECIMALS),
+            rounded_as_written(speed_kmh, SPEED_DECIMALS),
+            model,
         );
     }
 
@@ -336,6 +368,59 @@ mod tests {
 
     fn read(text: &str) -> Result<Trace, AnalysisError> {
         Trace::from_reader(text.as_bytes(), Path::new("run.csv"))
+    }
+
+    #[test]
+    fn a_sample_pushed_as_written_is_its_row_as_written() {
+        let (mut by_row, mut by_values) = (Trace::new(), Trace::new());
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for i in 0..500u32 {
+            // Times in order, some on the halfway points; halfway cases and values either side
+            // of them among the random places and speeds.
+            let time_s = f64::from(i) * 0.0025;
+            let (s_m, speed_kmh) = match i % 4 {
+                0 => (0.0005 * f64::from(i), 12.3445),
+                1 => (-2.5e-4, 1.0e9 * next()),
+                _ => (5000.0 * next() - 10.0, 200.0 * next()),
+            };
+            let row = TelemetryRow {
+                time_s,
+                vehicle_id: i % 7,
+                driver: ["human", "auto"][(i % 2) as usize].into(),
+                road: ["main", "ramp", ""][(i % 3) as usize].into(),
+                lane: i % 3,
+                s_m,
+                pos_m: [next(), next(), next()],
+                speed_kmh,
+                accel_mps2: next(),
+                throttle: next(),
+                steering: next(),
+                gear: 2,
+                rpm: 3000.0 * next(),
+                model: ["flock", "idm"][(i % 2) as usize].into(),
+                route: String::new(),
+            };
+            by_row.push_row(&row.as_written());
+            by_values.push_as_written(
+                time_s,
+                row.vehicle_id,
+                &row.driver,
+                &row.road,
+                row.lane,
+                s_m,
+                speed_kmh,
+                &row.model,
+            );
+        }
+        assert_eq!(by_row.samples(), by_values.samples());
+        assert_eq!(by_row.roads(), by_values.roads());
+        assert_eq!(by_row.models(), by_values.models());
     }
 
     #[test]

@@ -513,8 +513,25 @@ impl Runner {
             .iter()
             .map(|(id, g)| (id, g.name().to_owned()))
             .collect();
+        let writing = self.csv.is_some() || self.per_vehicle.is_some();
         for (tick, samples) in pending {
             let time_s = tick as f64 / f64::from(TICKS_PER_SECOND);
+            // Kept as the CSV writes them, so analysing the run or its CSV agrees.
+            for r in &samples {
+                self.trace.push_as_written(
+                    time_s,
+                    r.vehicle_id,
+                    &r.driver,
+                    names.get(&r.road).map_or("", String::as_str),
+                    r.lane,
+                    r.s_m,
+                    f64::from(r.speed_kmh),
+                    &r.model,
+                );
+            }
+            if !writing {
+                continue;
+            }
             let rows: Vec<TelemetryRow> = samples
                 .iter()
                 .map(|r| TelemetryRow {
@@ -535,10 +552,6 @@ impl Runner {
                     route: r.route.to_string(),
                 })
                 .collect();
-            // Kept as the CSV writes them, so analysing the run or its CSV agrees.
-            for r in &rows {
-                self.trace.push_row(&r.as_written());
-            }
             if let Some(csv) = &mut self.csv {
                 csv.write_sample(&rows).map_err(|source| RunError::Output {
                     path: csv.path().to_owned(),
