@@ -28,6 +28,15 @@ pub struct FreeBody {
     pub(crate) angvel: Vec3,
     /// The body's local mass properties, as rapier computed them.
     pub(crate) mass: MassProperties,
+    /// The mass its inverse gives back, kg, on each axis (what gravity acts on), kept with it.
+    pub(crate) mass_kg: Vec3,
+    /// Its principal inertia (the inverse of `mass`'s inverse), kept with it.
+    pub(crate) principal_inertia: Vec3,
+}
+
+/// The mass on each axis that inverse mass `inv_mass` gives back (none for none).
+fn mass_of(inv_mass: f32) -> Vec3 {
+    Vec3::splat(inv_mass).map(|x| if x != 0.0 { 1.0 / x } else { 0.0 })
 }
 
 /// What one step of integration needs from rapier's settings.
@@ -79,6 +88,8 @@ impl FreeBody {
         self.linvel = body.linvel();
         self.angvel = body.angvel();
         self.mass = body.mass_properties().local_mprops;
+        self.mass_kg = mass_of(self.mass.inv_mass);
+        self.principal_inertia = self.mass.principal_inertia();
         self.free = true;
         body.set_enabled(false);
     }
@@ -104,8 +115,7 @@ impl FreeBody {
         // rapier's user forces accumulate from zero (which turns a -0 component into +0), and
         // gravity acts on the mass its inverse gives back.
         let inv_mass = Vec3::splat(m.inv_mass);
-        let mass = inv_mass.map(|x| if x != 0.0 { 1.0 / x } else { 0.0 });
-        let force = (Vec3::ZERO + force) + settings.gravity * mass;
+        let force = (Vec3::ZERO + force) + settings.gravity * self.mass_kg;
         let torque = Vec3::ZERO + torque;
         let inv_inertia = world_inv_inertia(m, self.pose.rotation);
         // The solver works on the pose of the centre of mass.
@@ -115,7 +125,7 @@ impl FreeBody {
         angvel = gyroscopic_corrected_angvel(
             angvel,
             com.rotation * m.principal_inertia_local_frame,
-            m.principal_inertia(),
+            self.principal_inertia,
             m.inv_principal_inertia,
             dt,
         );
