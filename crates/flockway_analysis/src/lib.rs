@@ -23,7 +23,7 @@ pub use summary::{
     CapacitySample, ExpectationResult, SATURATED_SHARE, Summary, plot_info, wave_of,
 };
 pub use telemetry::{CSV_COLUMNS, Column, TelemetryRow, TelemetryWriter};
-pub use trace::{REQUIRED, REQUIRED_COLUMNS, Sample, Trace};
+pub use trace::{NamedSample, REQUIRED, REQUIRED_COLUMNS, Sample, Trace};
 pub use wave::{Wave, WaveSettings, measure_wave};
 
 use std::path::PathBuf;

@@ -28,6 +28,27 @@ pub struct Sample {
     pub model: u16,
 }
 
+/// One vehicle at one sample time, its names as text: what [`Trace::push_as_written`] takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NamedSample<'a> {
+    /// Simulated time, seconds.
+    pub time_s: f64,
+    /// Stable vehicle number.
+    pub vehicle_id: u32,
+    /// Driver profile name.
+    pub driver: &'a str,
+    /// Road name.
+    pub road: &'a str,
+    /// Lane index (0 is the rightmost).
+    pub lane: u32,
+    /// Arc position along the road, metres.
+    pub s_m: f64,
+    /// Speed along the direction of travel, km/h.
+    pub speed_kmh: f64,
+    /// Driver model name (empty when not known).
+    pub model: &'a str,
+}
+
 /// The columns [`Trace::read_csv`] needs; any others are ignored (and `model` is used when
 /// there).
 pub const REQUIRED: [Column; 7] = [
@@ -83,75 +104,7 @@ impl Trace {
         s_m: f64,
         speed_kmh: f64,
     ) {
-        self.push_with_model(time_s, vehicle_id, driver, road, lane, s_m, speed_kmh, "");
-    }
-
-    /// Appends a row of the telemetry CSV contract, as its CSV holds it.
-    pub fn push_row(&mut self, row: &TelemetryRow) {
-        self.push_with_model(
-            row.time_s,
-            row.vehicle_id,
-            &row.driver,
-            &row.road,
-            row.lane,
-            row.s_m,
-            row.speed_kmh,
-            &row.model,
-        );
-    }
-
-    /// Appends one vehicle's sample as its telemetry CSV row holds it (what
-    /// [`push_row`](Self::push_row) of the row's [`as_written`](TelemetryRow::as_written)
-    /// appends), from the sampled values, without making the row.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one sample's columns, each named at the call"
-    )]
-    pub fn push_as_written(
-        &mut self,
-        time_s: f64,
-        vehicle_id: u32,
-        driver: &str,
-        road: &str,
-        lane: u32,
-        s_m: f64,
-        speed_kmh: f64,
-        model: &str,
-    ) {
-        self.push_with_model(
-            rounded_as_written(time_s, TIME_DECIMALS),
-            vehicle_id,
-            driver,
-            road,
-            lane,
-            rounded_as_written(s_m, S_DECIMALS),
-            rounded_as_written(speed_kmh, SPEED_DECIMALS),
-            model,
-        );
-    }
-
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one sample's columns, each named at the call"
-    )]
-    fn push_with_model(
-        &mut self,
-        time_s: f64,
-        vehicle_id: u32,
-        driver: &str,
-        road: &str,
-        lane: u32,
-        s_m: f64,
-        speed_kmh: f64,
-        model: &str,
-    ) {
-        let driver = intern(&mut self.drivers, driver);
-        let road = intern(&mut self.roads, road);
-        let model = intern(&mut self.models, model);
-        if usize::from(driver) == self.driver_models.len() {
-            self.driver_models.push(model);
-        }
-        self.samples.push(Sample {
+        self.push_named(NamedSample {
             time_s,
             vehicle_id,
             driver,
@@ -159,6 +112,52 @@ impl Trace {
             lane,
             s_m,
             speed_kmh,
+            model: "",
+        });
+    }
+
+    /// Appends a row of the telemetry CSV contract, as its CSV holds it.
+    pub fn push_row(&mut self, row: &TelemetryRow) {
+        self.push_named(NamedSample {
+            time_s: row.time_s,
+            vehicle_id: row.vehicle_id,
+            driver: &row.driver,
+            road: &row.road,
+            lane: row.lane,
+            s_m: row.s_m,
+            speed_kmh: row.speed_kmh,
+            model: &row.model,
+        });
+    }
+
+    /// Appends a sample as its telemetry CSV row holds it (what [`push_row`](Self::push_row)
+    /// of the row's [`as_written`](TelemetryRow::as_written) appends), from the values sampled,
+    /// without making the row.
+    pub fn push_as_written(&mut self, sample: NamedSample) {
+        self.push_named(NamedSample {
+            time_s: rounded_as_written(sample.time_s, TIME_DECIMALS),
+            s_m: rounded_as_written(sample.s_m, S_DECIMALS),
+            speed_kmh: rounded_as_written(sample.speed_kmh, SPEED_DECIMALS),
+            ..sample
+        });
+    }
+
+    /// Appends a sample, its names interned.
+    fn push_named(&mut self, named: NamedSample) {
+        let driver = intern(&mut self.drivers, named.driver);
+        let road = intern(&mut self.roads, named.road);
+        let model = intern(&mut self.models, named.model);
+        if usize::from(driver) == self.driver_models.len() {
+            self.driver_models.push(model);
+        }
+        self.samples.push(Sample {
+            time_s: named.time_s,
+            vehicle_id: named.vehicle_id,
+            driver,
+            road,
+            lane: named.lane,
+            s_m: named.s_m,
+            speed_kmh: named.speed_kmh,
             model,
         });
     }
@@ -321,16 +320,16 @@ impl Trace {
             let s_m = number(5)?;
             let speed_kmh = number(6)?;
             let model = model_at.and_then(|i| record.get(i)).unwrap_or("").trim();
-            trace.push_with_model(
+            trace.push_named(NamedSample {
                 time_s,
                 vehicle_id,
-                field(2),
-                field(3),
+                driver: field(2),
+                road: field(3),
                 lane,
                 s_m,
                 speed_kmh,
                 model,
-            );
+            });
         }
         if trace.is_empty() {
             return Err(AnalysisError::Empty {
@@ -407,16 +406,16 @@ mod tests {
                 route: String::new(),
             };
             by_row.push_row(&row.as_written());
-            by_values.push_as_written(
+            by_values.push_as_written(NamedSample {
                 time_s,
-                row.vehicle_id,
-                &row.driver,
-                &row.road,
-                row.lane,
+                vehicle_id: row.vehicle_id,
+                driver: &row.driver,
+                road: &row.road,
+                lane: row.lane,
                 s_m,
                 speed_kmh,
-                &row.model,
-            );
+                model: &row.model,
+            });
         }
         assert_eq!(by_row.samples(), by_values.samples());
         assert_eq!(by_row.roads(), by_values.roads());

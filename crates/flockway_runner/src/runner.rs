@@ -7,7 +7,7 @@ use crate::assets::{
 use crate::summary::measure;
 use crate::world::{build_sim, populate};
 use flockway_analysis::compare::{EdgeCounts, ScenarioRun, Trip};
-use flockway_analysis::{PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
+use flockway_analysis::{NamedSample, PlotFormat, Summary, TelemetryRow, TelemetryWriter, Trace};
 use flockway_core::{Sim, TICKS_PER_SECOND};
 use flockway_drivers::BuiltinModel;
 use flockway_level::{Level, LevelError};
@@ -518,16 +518,16 @@ impl Runner {
             let time_s = tick as f64 / f64::from(TICKS_PER_SECOND);
             // Kept as the CSV writes them, so analysing the run or its CSV agrees.
             for r in &samples {
-                self.trace.push_as_written(
+                self.trace.push_as_written(NamedSample {
                     time_s,
-                    r.vehicle_id,
-                    &r.driver,
-                    names.get(&r.road).map_or("", String::as_str),
-                    r.lane,
-                    r.s_m,
-                    f64::from(r.speed_kmh),
-                    &r.model,
-                );
+                    vehicle_id: r.vehicle_id,
+                    driver: &r.driver,
+                    road: names.get(&r.road).map_or("", String::as_str),
+                    lane: r.lane,
+                    s_m: r.s_m,
+                    speed_kmh: f64::from(r.speed_kmh),
+                    model: &r.model,
+                });
             }
             if !writing {
                 continue;
