@@ -414,12 +414,33 @@ pub fn drive<M: DrivingModel>(
     )>,
 ) {
     let tick = clock.tick();
-    let run = |seen: &mut Vec<Seen>, item: Item<M>| {
-        decide_one(&network, &index, &ahead, tick, seen, item);
+    let run = |seen: &mut KeptSeen, item: Item<M>| {
+        decide_one(&network, &index, &ahead, tick, &mut seen.0, item);
     };
     // Each car reads the shared index and road network and writes only its own components,
     // so the decisions are the same whichever thread makes them.
-    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, Vec::new, run);
+    for_each_car(&mut vehicles, PARALLEL_MIN_VEHICLES, KeptSeen::take, run);
+}
+
+thread_local! {
+    /// Each thread's neighbours' list, kept from pass to pass with the room it grew to.
+    static SEEN: std::cell::Cell<Vec<Seen>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// A thread's neighbours' list for one pass of [`drive`], given back to the thread at its end.
+struct KeptSeen(Vec<Seen>);
+
+impl KeptSeen {
+    /// This thread's list (empty, with the room it had).
+    fn take() -> KeptSeen {
+        KeptSeen(SEEN.take())
+    }
+}
+
+impl Drop for KeptSeen {
+    fn drop(&mut self) {
+        SEEN.set(std::mem::take(&mut self.0));
+    }
 }
 
 /// One vehicle through the pipeline; `seen` is scratch space for its neighbours.
