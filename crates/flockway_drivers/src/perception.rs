@@ -228,19 +228,20 @@ impl LaneIndex {
             self.read_network(network);
         }
         self.vehicles = 0;
-        for (entity, track, length_m, signal) in vehicles {
+        // `for_each`: a query's fold walks its tables directly, fewer instructions than `next`.
+        vehicles.for_each(|(entity, track, length_m, signal)| {
             if !track.on_road {
-                continue;
+                return;
             }
             let Some(road) = self
                 .roads
                 .get_mut(track.road.0 as usize)
                 .and_then(Option::as_mut)
             else {
-                continue;
+                return;
             };
             let Some(lane) = road.lanes.get_mut(track.lane as usize) else {
-                continue;
+                return;
             };
             self.signalling += usize::from(signal != 0);
             let lateral_m = track.lateral_m as f32;
@@ -256,7 +257,7 @@ impl LaneIndex {
                 signal,
             });
             self.vehicles += 1;
-        }
+        });
         // The vehicles come in the query's order, which a running simulation keeps from tick to
         // tick, so each lane arrives as a few long runs (a ring's cars past its join, cars that
         // changed lane): the stable sort merges runs in linear time where the unstable one
