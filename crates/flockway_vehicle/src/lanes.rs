@@ -8,7 +8,7 @@
 
 use flockway_core::arrays::array4;
 use glam::{Quat, Vec3};
-use std::ops::{Add, Mul, Sub};
+use std::ops::{Add, Mul, Neg, Sub};
 use wide::f32x4;
 
 /// One `f32` per wheel.
@@ -168,6 +168,20 @@ impl Sub for Vec3x4 {
     }
 }
 
+/// Each lane's sign flipped (glam's `-Vec3`: `-0.0` from `0.0`, unlike a subtraction).
+impl Neg for Vec3x4 {
+    type Output = Vec3x4;
+
+    #[inline(always)]
+    fn neg(self) -> Vec3x4 {
+        Vec3x4 {
+            x: -self.x,
+            y: -self.y,
+            z: -self.z,
+        }
+    }
+}
+
 /// Each lane scaled by its own factor.
 impl Mul<f32x4> for Vec3x4 {
     type Output = Vec3x4;
@@ -178,6 +192,128 @@ impl Mul<f32x4> for Vec3x4 {
             x: self.x * s,
             y: self.y * s,
             z: self.z * s,
+        }
+    }
+}
+
+/// Four quaternions, one per lane, stored by component.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Quatx4 {
+    /// The four x components.
+    pub x: f32x4,
+    /// The four y components.
+    pub y: f32x4,
+    /// The four z components.
+    pub z: f32x4,
+    /// The four w components.
+    pub w: f32x4,
+}
+
+impl Quatx4 {
+    /// Lane `i` from `f(i)`.
+    #[inline(always)]
+    pub fn from_fn(f: impl FnMut(usize) -> Quat) -> Quatx4 {
+        let q: [Quat; 4] = array4(f);
+        Quatx4 {
+            x: f32x4::new(array4(|i| q[i].x)),
+            y: f32x4::new(array4(|i| q[i].y)),
+            z: f32x4::new(array4(|i| q[i].z)),
+            w: f32x4::new(array4(|i| q[i].w)),
+        }
+    }
+
+    /// Lane `i` as a quaternion.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Quat {
+        Quat::from_xyzw(
+            self.x.as_array()[i],
+            self.y.as_array()[i],
+            self.z.as_array()[i],
+            self.w.as_array()[i],
+        )
+    }
+
+    /// Each lane's product with the same lane of `rhs`, as glam's `Quat * Quat` orders it.
+    #[inline(always)]
+    pub fn mul(self, rhs: Quatx4) -> Quatx4 {
+        let (x0, y0, z0, w0) = (self.x, self.y, self.z, self.w);
+        let (x1, y1, z1, w1) = (rhs.x, rhs.y, rhs.z, rhs.w);
+        Quatx4 {
+            x: w0 * x1 + x0 * w1 + y0 * z1 - z0 * y1,
+            y: w0 * y1 - x0 * z1 + y0 * w1 + z0 * x1,
+            z: w0 * z1 + x0 * y1 - y0 * x1 + z0 * w1,
+            w: w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1,
+        }
+    }
+
+    /// Each lane's conjugate (a unit quaternion's inverse, as glam's `Quat::inverse`).
+    #[inline(always)]
+    pub fn conjugate(self) -> Quatx4 {
+        Quatx4 {
+            x: -self.x,
+            y: -self.y,
+            z: -self.z,
+            w: self.w,
+        }
+    }
+
+    /// Each lane normalised as glam's `Quat::normalize` does it (times one over its length).
+    #[inline(always)]
+    pub fn normalize(self) -> Quatx4 {
+        let dot = self.x * self.x + self.y * self.y + self.z * self.z + self.w * self.w;
+        let recip = f32x4::ONE / dot.sqrt();
+        Quatx4 {
+            x: self.x * recip,
+            y: self.y * recip,
+            z: self.z * recip,
+            w: self.w * recip,
+        }
+    }
+
+    /// Each lane of `v` rotated by the same lane, as glam's scalar `Quat * Vec3` computes it.
+    #[inline(always)]
+    pub fn rotate(self, v: Vec3x4) -> Vec3x4 {
+        let b = Vec3x4 {
+            x: self.x,
+            y: self.y,
+            z: self.z,
+        };
+        let b2 = b.dot(b);
+        let along = v.dot(b) * f32x4::splat(2.0);
+        (v * (self.w * self.w - b2) + b * along) + b.cross(v) * (self.w * f32x4::splat(2.0))
+    }
+
+    /// A mask of the lanes whose four components are all finite.
+    #[inline(always)]
+    pub fn is_finite(self) -> f32x4 {
+        self.x.is_finite() & self.y.is_finite() & self.z.is_finite() & self.w.is_finite()
+    }
+}
+
+impl Vec3x4 {
+    /// Each lane's components times the same lane's components of `rhs` (glam's `Vec3 * Vec3`).
+    #[inline(always)]
+    pub fn mul_lanes(self, rhs: Vec3x4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x * rhs.x,
+            y: self.y * rhs.y,
+            z: self.z * rhs.z,
+        }
+    }
+
+    /// A mask of the lanes whose three components are all finite.
+    #[inline(always)]
+    pub fn is_finite(self) -> f32x4 {
+        self.x.is_finite() & self.y.is_finite() & self.z.is_finite()
+    }
+
+    /// Each lane of `a` where `mask` is set, of `b` elsewhere.
+    #[inline(always)]
+    pub fn select(mask: f32x4, a: Vec3x4, b: Vec3x4) -> Vec3x4 {
+        Vec3x4 {
+            x: mask.select(a.x, b.x),
+            y: mask.select(a.y, b.y),
+            z: mask.select(a.z, b.z),
         }
     }
 }
