@@ -269,6 +269,9 @@ pub struct DestroyerPlaces {
     on_road_at: Vec<usize>,
     /// The positions of those that are volumes, ascending.
     volumes: Vec<usize>,
+    /// Where each road's destroyers are in [`on_road_at`](Self::on_road_at), by road id (up to
+    /// the last road with one), so that a vehicle finds its road's in one look.
+    by_road: Vec<(usize, usize)>,
 }
 
 impl DestroyerPlaces {
@@ -286,13 +289,21 @@ impl DestroyerPlaces {
         self.on_road.sort_by_key(|&(road, _)| road);
         self.on_road_at.clear();
         self.on_road_at.extend(self.on_road.iter().map(|&(_, k)| k));
+        self.by_road.clear();
+        for (at, &(road, _)) in self.on_road.iter().enumerate() {
+            let road = road.0 as usize;
+            if self.by_road.len() <= road {
+                self.by_road.resize(road + 1, (at, at));
+            }
+            self.by_road[road].1 = at + 1;
+        }
     }
 
     /// The positions, ascending, of the destroyers on `road`.
     fn on(&self, road: RoadId) -> &[usize] {
-        let from = self.on_road.partition_point(|&(r, _)| r < road);
-        let to = from + self.on_road[from..].partition_point(|&(r, _)| r == road);
-        &self.on_road_at[from..to]
+        self.by_road
+            .get(road.0 as usize)
+            .map_or(&[], |&(from, to)| &self.on_road_at[from..to])
     }
 }
 
@@ -340,33 +351,39 @@ pub fn run_destroyers(
     let places = &*places;
     for (entity, track, motion, mut travel, label, limit, route, id) in &mut vehicles {
         // The first that takes it in the query's order, as if every destroyer were asked.
-        let passed = merged(places.on(track.road), &places.volumes)
-            .map(|k| all[k])
-            .find(|d| match d.place {
-                DestroyerPlace::OnRoad { road, s_m } => {
-                    if track.road != road
-                        || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
-                    {
-                        return false;
+        let on = places.on(track.road);
+        // Most vehicles are on a road without a destroyer, and most levels have no volume.
+        let passed = if on.is_empty() && places.volumes.is_empty() {
+            None
+        } else {
+            merged(on, &places.volumes)
+                .map(|k| all[k])
+                .find(|d| match d.place {
+                    DestroyerPlace::OnRoad { road, s_m } => {
+                        if track.road != road
+                            || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
+                        {
+                            return false;
+                        }
+                        let Some(g) = network.get(road) else {
+                            return false;
+                        };
+                        if travel.road == road {
+                            // Crossed between last tick and this one (forwards, across a loop's join too).
+                            let moved = g.delta_s(travel.s_m, track.s_m);
+                            let to_point = g.delta_s(travel.s_m, s_m);
+                            moved > 0.0 && to_point > 0.0 && to_point <= moved
+                        } else {
+                            // Came onto the road this tick already past the point.
+                            track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+                        }
                     }
-                    let Some(g) = network.get(road) else {
-                        return false;
-                    };
-                    if travel.road == road {
-                        // Crossed between last tick and this one (forwards, across a loop's join too).
-                        let moved = g.delta_s(travel.s_m, track.s_m);
-                        let to_point = g.delta_s(travel.s_m, s_m);
-                        moved > 0.0 && to_point > 0.0 && to_point <= moved
-                    } else {
-                        // Came onto the road this tick already past the point.
-                        track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+                    DestroyerPlace::Volume { min, max } => {
+                        let p = motion.position;
+                        p.cmpge(min).all() && p.cmple(max).all()
                     }
-                }
-                DestroyerPlace::Volume { min, max } => {
-                    let p = motion.position;
-                    p.cmpge(min).all() && p.cmple(max).all()
-                }
-            });
+                })
+        };
         if let Some(d) = passed {
             stats.destroyed += 1;
             if let Some(log) = trips.as_deref_mut() {
