@@ -286,27 +286,33 @@ pub fn follow_routes(
     mut stats: ResMut<RouteStats>,
     mut vehicles: Query<(&mut Route, &mut RoadTrack, Option<&DriverLabel>)>,
 ) {
-    for (mut route, mut track, label) in &mut vehicles {
-        if network.get(track.road).is_none() {
-            continue;
-        }
-        if route.bypass_update(track.road) {
-            continue;
-        }
-        if route.update(&network, track.road) {
-            stats.missed_exits += 1;
-            if let Some(l) = label {
-                *stats
-                    .missed_by_profile
-                    .entry(l.profile.to_string())
-                    .or_default() += 1;
+    // The query's fold walks its tables directly, and the step inlined into it makes each car's
+    // item in registers: fewer instructions a car than the iterator's `next`.
+    vehicles.iter_mut().fold(
+        (),
+        #[inline(always)]
+        |(), (mut route, mut track, label)| {
+            if network.get(track.road).is_none() {
+                return;
             }
-        }
-        let next = route.next_road();
-        if track.next_road != next {
-            track.next_road = next;
-        }
-    }
+            if route.bypass_update(track.road) {
+                return;
+            }
+            if route.update(&network, track.road) {
+                stats.missed_exits += 1;
+                if let Some(l) = label {
+                    *stats
+                        .missed_by_profile
+                        .entry(l.profile.to_string())
+                        .or_default() += 1;
+                }
+            }
+            let next = route.next_road();
+            if track.next_road != next {
+                track.next_road = next;
+            }
+        },
+    );
 }
 
 impl Route {

@@ -498,50 +498,56 @@ pub fn gate_colliders(
     let mut in_rapier = std::mem::take(&mut physics.in_rapier.0);
     in_rapier.clear();
     physics.in_rapier.1 = gates.iter().len();
-    for (car, mut gate, track, chassis, mut free) in &mut gates {
-        if let Some(near) = near_of.as_mut().and_then(|n| n.get(car))
-            && gate.near != near
-        {
-            gate.near = near;
-        }
-        if crossings {
-            physics.note_vehicle_road(gate.collider, track.road);
-        }
-        let rails = gate.want_rails || !gating;
-        let enabled = rails || gate.near;
-        if enabled {
-            in_rapier.push(car);
-        }
-        if rails == gate.rails_open && enabled == gate.enabled {
-            continue;
-        }
-        if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
-            if rails != gate.rails_open {
-                let filter = if rails {
-                    VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
-                } else {
-                    VEHICLE_GROUP | GROUND_GROUP
-                };
-                collider.set_collision_groups(InteractionGroups::new(
-                    VEHICLE_GROUP,
-                    filter,
-                    InteractionTestMode::And,
-                ));
+    // The query's fold walks its tables directly, and the step inlined into it makes each car's
+    // item in registers: fewer instructions a car than the iterator's `next`.
+    gates.iter_mut().fold(
+        (),
+        #[inline(always)]
+        |(), (car, mut gate, track, chassis, mut free)| {
+            if let Some(near) = near_of.as_mut().and_then(|n| n.get(car))
+                && gate.near != near
+            {
+                gate.near = near;
             }
-            if enabled != gate.enabled {
-                collider.set_enabled(enabled);
-                if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
-                    if enabled {
-                        free.enter(body);
+            if crossings {
+                physics.note_vehicle_road(gate.collider, track.road);
+            }
+            let rails = gate.want_rails || !gating;
+            let enabled = rails || gate.near;
+            if enabled {
+                in_rapier.push(car);
+            }
+            if rails == gate.rails_open && enabled == gate.enabled {
+                return;
+            }
+            if let Some(collider) = physics.world.colliders.get_mut(gate.collider) {
+                if rails != gate.rails_open {
+                    let filter = if rails {
+                        VEHICLE_GROUP | GUARDRAIL_GROUP | GROUND_GROUP
                     } else {
-                        free.leave(body);
+                        VEHICLE_GROUP | GROUND_GROUP
+                    };
+                    collider.set_collision_groups(InteractionGroups::new(
+                        VEHICLE_GROUP,
+                        filter,
+                        InteractionTestMode::And,
+                    ));
+                }
+                if enabled != gate.enabled {
+                    collider.set_enabled(enabled);
+                    if let Some(body) = physics.world.bodies.get_mut(chassis.body) {
+                        if enabled {
+                            free.enter(body);
+                        } else {
+                            free.leave(body);
+                        }
                     }
                 }
             }
-        }
-        gate.rails_open = rails;
-        gate.enabled = enabled;
-    }
+            gate.rails_open = rails;
+            gate.enabled = enabled;
+        },
+    );
     physics.in_rapier.0 = in_rapier;
     if let Some(cars) = answers {
         physics.close_cars = CloseCarSearch::Kept(cars);
