@@ -186,16 +186,20 @@ fn partition_near(
     }
 }
 
-/// The vehicles of a lane (sorted by arc position, `length_m` long) from `from` to `to`, by
-/// index. Inlined into each of its uses in a window search (called, its arguments and the call
+/// The vehicles of a lane (sorted by arc position, `length_m` long) from `from` to `to`, in
+/// order. Inlined into each of its uses in a window search (called, its arguments and the call
 /// were a good part of the search's instructions).
 #[inline(always)]
-fn window(entries: &[LaneEntry], length_m: f64, from: f64, to: f64) -> std::ops::Range<usize> {
+fn window(
+    entries: &[LaneEntry],
+    length_m: f64,
+    from: f64,
+    to: f64,
+) -> impl Iterator<Item = &LaneEntry> {
     let a = partition_near(entries, from, length_m, |e| e.s_m < from);
-    // A window holds a few vehicles: walking to its end beats a second binary search (which
-    // misses the cache on long lanes).
-    let b = a + entries[a..].iter().take_while(|e| e.s_m <= to).count();
-    a..b
+    // A window holds a few vehicles: taking them while walking to its end beats a second binary
+    // search (which misses the cache on long lanes), and beats counting them first.
+    entries[a..].iter().take_while(move |e| e.s_m <= to)
 }
 
 /// Every vehicle on the roads, per road and lane, sorted by arc position (ties by entity), as of
@@ -542,15 +546,15 @@ impl LaneIndex {
         }
         let range = |from: f64, to: f64| window(entries, r.length_m, from, to);
         if r.closed && lo < 0.0 {
-            for e in &entries[range(lo + r.length_m, r.length_m)] {
+            for e in range(lo + r.length_m, r.length_m) {
                 push(e, e.s_m - r.length_m - s_m);
             }
         }
-        for e in &entries[range(lo.max(0.0), hi.min(r.length_m))] {
+        for e in range(lo.max(0.0), hi.min(r.length_m)) {
             push(e, e.s_m - s_m);
         }
         if r.closed && hi > r.length_m {
-            for e in &entries[range(0.0, hi - r.length_m)] {
+            for e in range(0.0, hi - r.length_m) {
                 push(e, e.s_m + r.length_m - s_m);
             }
         }
