@@ -369,7 +369,8 @@ pub fn run_destroyers(
                             return false;
                         };
                         if travel.road == road {
-                            // Crossed between last tick and this one (forwards, across a loop's join too).
+                            // Crossed between last tick and this one (forwards, across a
+                            // loop's join too).
                             let moved = g.delta_s(travel.s_m, track.s_m);
                             let to_point = g.delta_s(travel.s_m, s_m);
                             moved > 0.0 && to_point > 0.0 && to_point <= moved

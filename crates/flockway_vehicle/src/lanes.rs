@@ -133,12 +133,7 @@ impl Vec3x4 {
     /// Each lane rotated by `q`, as glam's scalar `Quat * Vec3` computes it.
     #[inline(always)]
     pub fn rotated_by(self, q: Quat) -> Vec3x4 {
-        let w = q.w;
-        let b = Vec3::new(q.x, q.y, q.z);
-        let b2 = b.dot(b);
-        let bs = Vec3x4::splat(b);
-        let along = self.dot(bs) * f32x4::splat(2.0);
-        (self * f32x4::splat(w * w - b2) + bs * along) + bs.cross(self) * f32x4::splat(w * 2.0)
+        Quatx4::splat(q).rotate(self)
     }
 }
 
@@ -210,6 +205,17 @@ pub(crate) struct Quatx4 {
 }
 
 impl Quatx4 {
+    /// The same quaternion in every lane.
+    #[inline(always)]
+    pub fn splat(q: Quat) -> Quatx4 {
+        Quatx4 {
+            x: f32x4::splat(q.x),
+            y: f32x4::splat(q.y),
+            z: f32x4::splat(q.z),
+            w: f32x4::splat(q.w),
+        }
+    }
+
     /// Lane `i` from `f(i)`.
     #[inline(always)]
     pub fn from_fn(f: impl FnMut(usize) -> Quat) -> Quatx4 {
