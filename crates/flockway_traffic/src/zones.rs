@@ -349,108 +349,132 @@ pub fn run_destroyers(
     let all: Vec<&Destroyer> = destroyers.iter().collect();
     places.gather(&all);
     let places = &*places;
-    for (entity, track, motion, mut travel, label, limit, route, id) in &mut vehicles {
-        // The first that takes it in the query's order, as if every destroyer were asked.
-        let on = places.on(track.road);
-        // Most vehicles are on a road without a destroyer, and most levels have no volume.
-        let passed = if on.is_empty() && places.volumes.is_empty() {
-            None
-        } else {
-            merged(on, &places.volumes)
-                .map(|k| all[k])
-                .find(|d| match d.place {
-                    DestroyerPlace::OnRoad { road, s_m } => {
-                        if track.road != road
-                            || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
-                        {
-                            return false;
-                        }
-                        let Some(g) = network.get(road) else {
-                            return false;
-                        };
-                        if travel.road == road {
-                            // Crossed between last tick and this one (forwards, across a
-                            // loop's join too).
-                            let moved = g.delta_s(travel.s_m, track.s_m);
-                            let to_point = g.delta_s(travel.s_m, s_m);
-                            moved > 0.0 && to_point > 0.0 && to_point <= moved
-                        } else {
-                            // Came onto the road this tick already past the point.
-                            track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
-                        }
-                    }
-                    DestroyerPlace::Volume { min, max } => {
-                        let p = motion.position;
-                        p.cmpge(min).all() && p.cmple(max).all()
-                    }
-                })
-        };
-        if let Some(d) = passed {
-            stats.destroyed += 1;
-            if let Some(log) = trips.as_deref_mut() {
-                let seconds = |t: u64| t as f64 / f64::from(TICKS_PER_SECOND);
-                log.arrived(TripRecord {
-                    vehicle: id.map_or(u32::MAX, |v| v.0),
-                    profile: label.map_or_else(|| Arc::from(""), |l| l.profile.clone()),
-                    route: route.map_or_else(|| Arc::from(""), |r| r.name.clone()),
-                    depart_s: seconds(travel.spawned_tick),
-                    depart_road: travel.depart_road,
-                    arrival_s: seconds(tick),
-                    arrival_road: track.road,
-                    length_m: travel.length_m + travel.moved_m(&network, track).max(0.0),
-                    time_loss_s: travel.delay_s(tick),
-                });
-            }
-            if tick >= settings.stats_from_tick {
-                *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
-                stats.travel_times_s.push(travel.time_s(tick));
-                let delay_s = travel.delay_s(tick);
-                stats.delay.add(delay_s);
-                if let Some(l) = label {
-                    stats
-                        .delay_by_profile
-                        .entry(l.profile.to_string())
-                        .or_default()
-                        .add(delay_s);
+    // The query's fold walks its tables directly, and the step inlined into it makes each
+    // vehicle's item in registers: fewer instructions a vehicle than the iterator's `next`.
+    vehicles.iter_mut().fold(
+        (),
+        #[inline(always)]
+        |(), (entity, track, motion, mut travel, label, limit, route, id)| {
+            let passed = destroyer_taking(&all, places, &network, track, motion, &travel, route);
+            if let Some(d) = passed {
+                stats.destroyed += 1;
+                if let Some(log) = trips.as_deref_mut() {
+                    let seconds = |t: u64| t as f64 / f64::from(TICKS_PER_SECOND);
+                    log.arrived(TripRecord {
+                        vehicle: id.map_or(u32::MAX, |v| v.0),
+                        profile: label.map_or_else(|| Arc::from(""), |l| l.profile.clone()),
+                        route: route.map_or_else(|| Arc::from(""), |r| r.name.clone()),
+                        depart_s: seconds(travel.spawned_tick),
+                        depart_road: travel.depart_road,
+                        arrival_s: seconds(tick),
+                        arrival_road: track.road,
+                        length_m: travel.length_m + travel.moved_m(&network, track).max(0.0),
+                        time_loss_s: travel.delay_s(tick),
+                    });
                 }
-                let kmh = f64::from(motion.forward_mps) * 3.6;
-                stats.final_speed.add(kmh);
-                let limit_kmh = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh));
-                stats.final_at_limit.add(kmh, limit_kmh);
-                if let Some(l) = label {
-                    stats
-                        .final_speed_by_profile
-                        .entry(l.profile.to_string())
-                        .or_default()
-                        .add(kmh);
-                    stats
-                        .final_at_limit_by_profile
-                        .entry(l.profile.to_string())
-                        .or_default()
-                        .add(kmh, limit_kmh);
+                if tick >= settings.stats_from_tick {
+                    *stats.destroyed_by.entry(d.name.clone()).or_insert(0) += 1;
+                    stats.travel_times_s.push(travel.time_s(tick));
+                    let delay_s = travel.delay_s(tick);
+                    stats.delay.add(delay_s);
+                    if let Some(l) = label {
+                        stats
+                            .delay_by_profile
+                            .entry(l.profile.to_string())
+                            .or_default()
+                            .add(delay_s);
+                    }
+                    let kmh = f64::from(motion.forward_mps) * 3.6;
+                    stats.final_speed.add(kmh);
+                    let limit_kmh = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh));
+                    stats.final_at_limit.add(kmh, limit_kmh);
+                    if let Some(l) = label {
+                        stats
+                            .final_speed_by_profile
+                            .entry(l.profile.to_string())
+                            .or_default()
+                            .add(kmh);
+                        stats
+                            .final_at_limit_by_profile
+                            .entry(l.profile.to_string())
+                            .or_default()
+                            .add(kmh, limit_kmh);
+                    }
                 }
+                commands.entity(entity).despawn();
+            } else {
+                // The distance driven since last tick, at the limit in force, adds to the free-flow
+                // time.
+                let moved = travel.moved_m(&network, track);
+                let limit_mps = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh)) / 3.6;
+                if moved > 0.0 && limit_mps > 0.0 {
+                    travel.free_flow_s += moved / limit_mps;
+                }
+                if moved > 0.0 {
+                    travel.length_m += moved;
+                }
+                if travel.road != track.road
+                    && let Some(log) = trips.as_deref_mut()
+                {
+                    log.entered(track.road);
+                }
+                travel.road = track.road;
+                travel.s_m = track.s_m;
             }
-            commands.entity(entity).despawn();
-        } else {
-            // The distance driven since last tick, at the limit in force, adds to the free-flow
-            // time.
-            let moved = travel.moved_m(&network, track);
-            let limit_mps = f64::from(limit.map_or(f32::INFINITY, |l| l.kmh)) / 3.6;
-            if moved > 0.0 && limit_mps > 0.0 {
-                travel.free_flow_s += moved / limit_mps;
-            }
-            if moved > 0.0 {
-                travel.length_m += moved;
-            }
-            if travel.road != track.road
-                && let Some(log) = trips.as_deref_mut()
+        },
+    );
+}
+
+/// The first destroyer in the query's order that takes a vehicle this tick, as if every
+/// destroyer were asked: those on its road and the volumes, in their order. A loop over the
+/// positions, not an iterator's `find`, which stayed a call a vehicle where the walk inlines
+/// its step.
+#[inline(always)]
+fn destroyer_taking<'d>(
+    all: &[&'d Destroyer],
+    places: &DestroyerPlaces,
+    network: &RoadNetwork,
+    track: &RoadTrack,
+    motion: &Motion,
+    travel: &Travel,
+    route: Option<&Route>,
+) -> Option<&'d Destroyer> {
+    let on = places.on(track.road);
+    // Most vehicles are on a road without a destroyer, and most levels have no volume.
+    if on.is_empty() && places.volumes.is_empty() {
+        return None;
+    }
+    let takes = |d: &Destroyer| match d.place {
+        DestroyerPlace::OnRoad { road, s_m } => {
+            if track.road != road
+                || (d.arrivals_only && route.and_then(Route::destination) != Some(road))
             {
-                log.entered(track.road);
+                return false;
             }
-            travel.road = track.road;
-            travel.s_m = track.s_m;
+            let Some(g) = network.get(road) else {
+                return false;
+            };
+            if travel.road == road {
+                // Crossed between last tick and this one (forwards, across a loop's join too).
+                let moved = g.delta_s(travel.s_m, track.s_m);
+                let to_point = g.delta_s(travel.s_m, s_m);
+                moved > 0.0 && to_point > 0.0 && to_point <= moved
+            } else {
+                // Came onto the road this tick already past the point.
+                track.s_m >= s_m && g.delta_s(s_m, track.s_m) < 50.0
+            }
+        }
+        DestroyerPlace::Volume { min, max } => {
+            let p = motion.position;
+            p.cmpge(min).all() && p.cmple(max).all()
+        }
+    };
+    for k in merged(on, &places.volumes) {
+        if takes(all[k]) {
+            return Some(all[k]);
         }
     }
+    None
 }
 
 #[cfg(test)]
