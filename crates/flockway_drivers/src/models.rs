@@ -7,6 +7,7 @@ use crate::perception::Seen;
 use crate::pipeline::{DrivingModel, LaneStyle, Longitudinal, Proposal, Situation};
 use crate::safety::SafetyParams;
 use bevy_ecs::prelude::*;
+use flockway_core::arrays::array4;
 use flockway_core::{DT_S, EntityRng};
 use flockway_road::{RoadGeometry, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::RoadTrack;
@@ -14,6 +15,7 @@ use glam::Vec3;
 use multiversion::multiversion;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
+use wide::f32x4;
 
 /// Parameters of the flocking drivers (thesis §3.2.4–3.2.5). Units are in the names.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -323,7 +325,6 @@ pub fn flock_law(
     let (lane, lanes, v, dir) = (at.lane, at.lanes, at.v, at.dir);
     let me_lat = track.lateral_m as f32;
     let me_speed = at.motion.linvel.dot(track.tangent);
-    let mut avoid = Vec3::ZERO;
     seen.clear();
     // Its own lane first, then the lanes right and left of it that there are.
     let adj = f64::from(p.adjacent_range_m);
@@ -347,26 +348,14 @@ pub fn flock_law(
             seen.push(s);
         },
     );
-    for (i, s) in seen.iter().enumerate() {
-        let range = if i < own_count {
-            p.detection_range_m
-        } else {
-            p.adjacent_range_m
-        };
-        let share = if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
-        avoid += share
-            * avoid_push(
-                s,
-                me_lat,
-                me_speed,
-                length,
-                range,
-                p.avoid_weight_m2_per_s,
-                p.anticipation_s,
-                track.tangent,
-                track.left,
-            );
-    }
+    let me = Observer {
+        lateral_m: me_lat,
+        speed_mps: me_speed,
+        length_m: length,
+        tangent: track.tangent,
+        left: track.left,
+    };
+    let mut avoid = avoid_sum(p, &me, seen, own_count);
     // Free flocking swerves only between junctions: on a junction's path (crossing and merging
     // traffic, no room beside the path) it keeps to its path as the lane-keeping car does.
     let swerves = !keep_lane && at.network.junction_path(track.road).is_none();
@@ -571,6 +560,103 @@ impl DriveTarget {
     }
 }
 
+/// The vehicle that feels the avoidance pushes: where it is across the road, its speed along it,
+/// its length, and the road's directions at it.
+struct Observer {
+    lateral_m: f32,
+    speed_mps: f32,
+    length_m: f32,
+    tangent: Vec3,
+    left: Vec3,
+}
+
+/// The avoidance pushes of every seen vehicle summed in their order, each [`avoid_push`] at the
+/// range of its lane (the first `own_count` in the observer's own lane) and weighted by the rear
+/// weight if it is behind. Four pushes at once ([`avoid_push4`]) and the rest one by one, summed
+/// one at a time in order: the same bits as the scalar loop.
+// Inlined into both builds of the flocking law.
+#[inline(always)]
+fn avoid_sum(p: &FlockParams, me: &Observer, seen: &[Seen], own_count: usize) -> Vec3 {
+    let range = |i: usize| {
+        if i < own_count {
+            p.detection_range_m
+        } else {
+            p.adjacent_range_m
+        }
+    };
+    let share = |s: &Seen| if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
+    let mut avoid = Vec3::ZERO;
+    let mut fours = seen.chunks_exact(4);
+    let mut first = 0;
+    for four in &mut fours {
+        let pushes = avoid_push4(
+            array4(|k| &four[k]),
+            me,
+            f32x4::new(array4(|k| range(first + k))),
+            f32x4::new(array4(|k| share(&four[k]))),
+            p,
+        );
+        for push in pushes {
+            avoid += push;
+        }
+        first += 4;
+    }
+    for (k, s) in fours.remainder().iter().enumerate() {
+        avoid += share(s)
+            * avoid_push(
+                s,
+                me.lateral_m,
+                me.speed_mps,
+                me.length_m,
+                range(first + k),
+                p.avoid_weight_m2_per_s,
+                p.anticipation_s,
+                me.tangent,
+                me.left,
+            );
+    }
+    avoid
+}
+
+/// Four seen vehicles' [`avoid_push`]es, each times its `share`, one per lane: each lane in the
+/// scalar order of operations, `f32::max`, `signum` and `abs` as the scalar ones answer
+/// (IEEE arithmetic and square root round a lane as they round a scalar).
+#[inline(always)]
+fn avoid_push4(
+    seen: [&Seen; 4],
+    me: &Observer,
+    range_m: f32x4,
+    share: f32x4,
+    p: &FlockParams,
+) -> [Vec3; 4] {
+    let splat = f32x4::splat;
+    let along = f32x4::new(array4(|k| seen[k].gap_m as f32));
+    let across = f32x4::new(array4(|k| seen[k].entry.lateral_m)) - splat(me.lateral_m);
+    let dist = (along * along + across * across).sqrt().max(splat(1.0e-3));
+    let half_lengths =
+        splat(0.5) * (splat(me.length_m) + f32x4::new(array4(|k| seen[k].entry.length_m)));
+    // `f32::signum`: ±1 with the sign of zeros too, NaN for NaN.
+    let sign_bit = splat(-0.0);
+    let signum = along
+        .is_nan()
+        .select(splat(f32::NAN), splat(1.0) | (along & sign_bit));
+    let closing = (splat(me.speed_mps) - f32x4::new(array4(|k| seen[k].entry.speed_mps)))
+        * signum
+        * (along.abs() / dist);
+    let clearance =
+        (dist - half_lengths - closing.max(f32x4::ZERO) * splat(p.anticipation_s)).max(splat(0.3));
+    let reach = (range_m - half_lengths).max(splat(1.0));
+    let strength = splat(p.avoid_weight_m2_per_s)
+        * (splat(1.0) / clearance - splat(1.0) / reach).max(f32x4::ZERO);
+    // glam's `-(t * along + l * across) / dist * strength`, one axis at a time, then the share.
+    let axis = |t: f32, l: f32| {
+        (share * ((-(splat(t) * along + splat(l) * across) / dist) * strength)).to_array()
+    };
+    let (t, l) = (me.tangent, me.left);
+    let (x, y, z) = (axis(t.x, l.x), axis(t.y, l.y), axis(t.z, l.z));
+    array4(|k| Vec3::new(x[k], y[k], z[k]))
+}
+
 /// The avoidance push from one seen vehicle, m/s, in the road's frame at the observer. The
 /// clearance between bumpers is taken as it will be after `anticipation_s` at the current
 /// closing speed, so a fast approach pushes as hard as a near one. Vehicles ahead push back and
@@ -668,6 +754,111 @@ fn within_edges(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The avoidance pushes four at a time sum to the scalar loop's bits (a NaN to a NaN), over
+    /// neighbours of every count up to a few fours: ahead and behind, ±0 gaps, overlapping
+    /// cars, closing and opening, far beyond the range, and non-finite gaps and offsets.
+    #[test]
+    fn avoidance_pushes_four_at_a_time_sum_to_the_scalar_loop_s_bits() {
+        use crate::perception::LaneEntry;
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let special = [
+            0.0,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1.0e-30,
+            3.0,
+        ];
+        let pick = |scale: f32, next: &mut dyn FnMut() -> u32| {
+            let r = next();
+            if r.is_multiple_of(23) {
+                special[(r / 23) as usize % special.len()]
+            } else {
+                ((r >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0) * scale
+            }
+        };
+        let entity = Entity::from_raw_u32(7).expect("an entity");
+        let mut scalar_bits = Vec::new();
+        let mut four_bits = Vec::new();
+        for case in 0..4000 {
+            let p = FlockParams {
+                rear_weight: 0.25 + (case % 3) as f32 * 0.5,
+                ..FlockParams::default()
+            };
+            let me = Observer {
+                lateral_m: pick(6.0, &mut next),
+                speed_mps: pick(30.0, &mut next).abs(),
+                length_m: 4.0 + pick(1.0, &mut next).abs(),
+                tangent: Vec3::new(0.6, 0.8, pick(0.1, &mut next)),
+                left: Vec3::new(-0.8, 0.6, 0.0),
+            };
+            let n = case % 14;
+            let seen: Vec<Seen> = (0..n)
+                .map(|_| Seen {
+                    gap_m: f64::from(pick(80.0, &mut next)),
+                    lane: 0,
+                    entry: LaneEntry {
+                        entity,
+                        s_m: 0.0,
+                        lateral_m: pick(6.0, &mut next),
+                        speed_mps: pick(30.0, &mut next),
+                        length_m: 4.0 + pick(1.0, &mut next).abs(),
+                        signal: 0,
+                    },
+                })
+                .collect();
+            let own_count = (next() as usize) % (n + 1);
+            let mut want = Vec3::ZERO;
+            for (i, s) in seen.iter().enumerate() {
+                let range = if i < own_count {
+                    p.detection_range_m
+                } else {
+                    p.adjacent_range_m
+                };
+                let share = if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
+                want += share
+                    * avoid_push(
+                        s,
+                        me.lateral_m,
+                        me.speed_mps,
+                        me.length_m,
+                        range,
+                        p.avoid_weight_m2_per_s,
+                        p.anticipation_s,
+                        me.tangent,
+                        me.left,
+                    );
+            }
+            let got = avoid_sum(&p, &me, &seen, own_count);
+            let bits = |v: Vec3| {
+                v.to_array()
+                    .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+            };
+            scalar_bits.push(bits(want));
+            four_bits.push(bits(got));
+            assert_eq!(bits(got), bits(want), "case {case}: {got} against {want}");
+        }
+        // The cases reach every kind of answer: zero, finite pushes both ways, and NaN.
+        let all: Vec<u32> = scalar_bits.iter().flatten().copied().collect();
+        assert!(all.contains(&u32::MAX) && all.contains(&0));
+        assert!(
+            all.iter()
+                .any(|&b| b != u32::MAX && f32::from_bits(b) > 0.1)
+        );
+        assert!(
+            all.iter()
+                .any(|&b| b != u32::MAX && f32::from_bits(b) < -0.1)
+        );
+        assert_eq!(scalar_bits, four_bits);
+    }
 
     #[test]
     fn a_humans_speed_wander_has_its_spread_and_memory_and_repeats() {
