@@ -572,50 +572,58 @@ struct Observer {
 
 /// The avoidance pushes of every seen vehicle summed in their order, each [`avoid_push`] at the
 /// range of its lane (the first `own_count` in the observer's own lane) and weighted by the rear
-/// weight if it is behind. Four pushes at once ([`avoid_push4`]) and the rest one by one, summed
-/// one at a time in order: the same bits as the scalar loop.
+/// weight if it is behind. Four pushes at once ([`avoid_push4`]), summed one at a time in order:
+/// the same bits as the scalar loop.
 // Inlined into both builds of the flocking law.
 #[inline(always)]
 fn avoid_sum(p: &FlockParams, me: &Observer, seen: &[Seen], own_count: usize) -> Vec3 {
-    let range = |i: usize| {
-        if i < own_count {
-            p.detection_range_m
-        } else {
-            p.adjacent_range_m
-        }
-    };
-    let share = |s: &Seen| if s.gap_m < 0.0 { p.rear_weight } else { 1.0 };
     let mut avoid = Vec3::ZERO;
     let mut fours = seen.chunks_exact(4);
     let mut first = 0;
     for four in &mut fours {
-        let pushes = avoid_push4(
-            array4(|k| &four[k]),
-            me,
-            f32x4::new(array4(|k| range(first + k))),
-            f32x4::new(array4(|k| share(&four[k]))),
-            p,
-        );
-        for push in pushes {
-            avoid += push;
-        }
+        add_pushes(&mut avoid, p, me, array4(|k| &four[k]), first, 4, own_count);
         first += 4;
     }
-    for (k, s) in fours.remainder().iter().enumerate() {
-        avoid += share(s)
-            * avoid_push(
-                s,
-                me.lateral_m,
-                me.speed_mps,
-                me.length_m,
-                range(first + k),
-                p.avoid_weight_m2_per_s,
-                p.anticipation_s,
-                me.tangent,
-                me.left,
-            );
+    // The last few in one more four, its spare lanes repeating the first of them, not summed.
+    let rest = fours.remainder();
+    if let Some(spare) = rest.first() {
+        let four = array4(|k| rest.get(k).unwrap_or(spare));
+        add_pushes(&mut avoid, p, me, four, first, rest.len(), own_count);
     }
     avoid
+}
+
+/// Adds to `avoid` the pushes of the first `count` of `four`, the seen vehicles from position
+/// `first` on, in order.
+// Inlined at both of its calls.
+#[inline(always)]
+fn add_pushes(
+    avoid: &mut Vec3,
+    p: &FlockParams,
+    me: &Observer,
+    four: [&Seen; 4],
+    first: usize,
+    count: usize,
+    own_count: usize,
+) {
+    let range = array4(|k| {
+        if first + k < own_count {
+            p.detection_range_m
+        } else {
+            p.adjacent_range_m
+        }
+    });
+    let share = array4(|k| {
+        if four[k].gap_m < 0.0 {
+            p.rear_weight
+        } else {
+            1.0
+        }
+    });
+    let pushes = avoid_push4(four, me, f32x4::new(range), f32x4::new(share), p);
+    for push in &pushes[..count] {
+        *avoid += *push;
+    }
 }
 
 /// Four seen vehicles' [`avoid_push`]es, each times its `share`, one per lane: each lane in the
@@ -661,7 +669,9 @@ fn avoid_push4(
 /// clearance between bumpers is taken as it will be after `anticipation_s` at the current
 /// closing speed, so a fast approach pushes as hard as a near one. Vehicles ahead push back and
 /// vehicles behind push forward alike (thesis §3.2.4): in a platoon the two cancel, which is
-/// what lets dense traffic hold the limit.
+/// what lets dense traffic hold the limit. The definition: the flocking law computes four at a
+/// time ([`avoid_push4`]), held to this one's bits by a test.
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
 fn avoid_push(
     seen: &Seen,
