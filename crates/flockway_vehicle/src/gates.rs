@@ -471,9 +471,13 @@ pub fn find_close_cars(
 #[multiversion(targets("x86_64+avx2"))]
 fn boxes_of(boxes: &mut Vec<BoxNow>, gates: &Query<(Entity, &mut ContactGate, &Motion)>) {
     boxes.clear();
-    for (_, gate, motion) in gates.iter() {
-        boxes.push(BoxNow::of(gate, motion));
-    }
+    // The query's fold walks its tables directly, and the step inlined into it makes each car's
+    // item in registers: fewer instructions a car than the iterator's `next`.
+    gates.iter().fold(
+        (),
+        #[inline(always)]
+        |(), (_, gate, motion)| boxes.push(BoxNow::of(gate, motion)),
+    );
 }
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
