@@ -7,15 +7,18 @@ use crate::components::{
     RAIL_GATE_END_M, RAIL_GATE_HYSTERESIS_M, RAIL_GATE_MARGIN_M, RoadTrack,
 };
 use crate::free_body::FreeBody;
+use crate::lanes::{Quatx4, Vec3x4};
 use crate::physics::{GROUND_GROUP, GUARDRAIL_GROUP, Physics, VEHICLE_GROUP};
 use bevy_ecs::prelude::*;
+use flockway_core::arrays::array4;
 use flockway_core::{
     Beside, DT_S, JOIN_MIN_CARS, beside, map_in_order, parallel_min, task_threads,
 };
 use flockway_road::RoadNetwork;
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Quat, Vec2, Vec3};
 use multiversion::multiversion;
 use rapier3d::prelude::*;
+use wide::f32x4;
 
 impl ContactGate {
     /// Whether, from the car's track and motion, guardrails must be in its filter for the next
@@ -119,6 +122,66 @@ impl BoxNow {
             was_near: gate.near,
         }
     }
+}
+
+/// Four cars' boxes at once: each lane in [`BoxNow::of`]'s scalar order of operations (glam's
+/// `Mat3::from_quat`, `Vec2::normalize_or`, dot products and lengths as glam orders them, no
+/// fused multiply–add), so each box has the bits of that car's `BoxNow::of`.
+#[inline(always)]
+fn boxes_of_four(cars: [(&ContactGate, &Motion); 4]) -> [BoxNow; 4] {
+    let (zero, one) = (f32x4::ZERO, f32x4::ONE);
+    let q = Quatx4::from_fn(|i| cars[i].1.rotation);
+    let h = Vec3x4::from_fn(|i| cars[i].0.half_extents);
+    let (x2, y2, z2) = (q.x + q.x, q.y + q.y, q.z + q.z);
+    let (xx, xy, xz) = (q.x * x2, q.x * y2, q.x * z2);
+    let (yy, yz, zz) = (q.y * y2, q.y * z2, q.z * z2);
+    let (wx, wy, wz) = (q.w * x2, q.w * y2, q.w * z2);
+    let x_axis = Vec3x4 {
+        x: one - (yy + zz),
+        y: xy + wz,
+        z: xz - wy,
+    };
+    let y_axis = Vec3x4 {
+        x: xy - wz,
+        y: one - (xx + zz),
+        z: yz + wx,
+    };
+    let z_axis = Vec3x4 {
+        x: xz + wy,
+        y: yz - wx,
+        z: one - (xx + yy),
+    };
+    let half_axes = [x_axis * h.x, y_axis * h.y, z_axis * h.z];
+    let rcp = one / (x_axis.x * x_axis.x + x_axis.y * x_axis.y).sqrt();
+    let normal = rcp.is_finite() & rcp.simd_gt(zero);
+    let axis = (
+        normal.select(x_axis.x * rcp, one),
+        normal.select(x_axis.y * rcp, zero),
+    );
+    let across = (-axis.1, axis.0);
+    let along = |(dx, dy): (f32x4, f32x4)| {
+        let [a, b, c] = half_axes.map(|v| (v.x * dx + v.y * dy).abs());
+        a + b + c
+    };
+    let (half_along, half_across) = (along(axis), along(across));
+    let [a, b, c] = half_axes.map(|v| v.z.abs());
+    let half_z = a + b + c;
+    let offset = f32x4::new(array4(|i| cars[i].0.offset_z_m));
+    let centre = Vec3x4::from_fn(|i| cars[i].1.position) + z_axis * offset;
+    let length = |v: Vec3x4| v.dot(v).sqrt();
+    let linvel = Vec3x4::from_fn(|i| cars[i].1.linvel);
+    let angvel = Vec3x4::from_fn(|i| cars[i].1.angvel);
+    let reach = f32x4::splat(2.0 * DT_S as f32) * (length(linvel) + length(angvel) * length(h));
+    let lane = |v: f32x4, i: usize| v.as_array()[i];
+    array4(|i| BoxNow {
+        centre: Vec2::new(lane(centre.x, i), lane(centre.y, i)),
+        z: lane(centre.z, i),
+        half_z: lane(half_z, i),
+        axis: Vec2::new(lane(axis.0, i), lane(axis.1, i)),
+        half: Vec2::new(lane(half_along, i), lane(half_across, i)),
+        reach_m: lane(reach, i),
+        was_near: cars[i].0.near,
+    })
 }
 
 /// A lower bound of the distance between two boxes: the largest gap between their footprints'
@@ -471,13 +534,37 @@ pub fn find_close_cars(
 #[multiversion(targets("x86_64+avx2"))]
 fn boxes_of(boxes: &mut Vec<BoxNow>, gates: &Query<(Entity, &mut ContactGate, &Motion)>) {
     boxes.clear();
-    // The query's fold walks its tables directly, and the step inlined into it makes each car's
-    // item in registers: fewer instructions a car than the iterator's `next`.
-    gates.iter().fold(
-        (),
-        #[inline(always)]
-        |(), (_, gate, motion)| boxes.push(BoxNow::of(gate, motion)),
+    // Four cars at a time, the last few one by one. The query's fold walks its tables directly,
+    // and the step inlined into it makes each car's item in registers: fewer instructions a car
+    // than the iterator's `next`.
+    let spare = (
+        ContactGate::new(ColliderHandle::invalid(), Vec3::ZERO, 0.0),
+        Motion {
+            position: Vec3::ZERO,
+            rotation: Quat::IDENTITY,
+            linvel: Vec3::ZERO,
+            angvel: Vec3::ZERO,
+            forward_mps: 0.0,
+            accel_mps2: 0.0,
+        },
     );
+    let mut held = [(&spare.0, &spare.1); 4];
+    let last = gates.iter().fold(
+        0,
+        #[inline(always)]
+        |k: usize, (_, gate, motion)| {
+            held[k & 3] = (gate, motion);
+            if k == 3 {
+                boxes.extend_from_slice(&boxes_of_four(held));
+                0
+            } else {
+                k + 1
+            }
+        },
+    );
+    for (gate, motion) in &held[..last] {
+        boxes.push(BoxNow::of(gate, motion));
+    }
 }
 
 /// Puts each vehicle's collider into rapier or takes it out, and guardrails into or out of its
@@ -627,6 +714,80 @@ mod tests {
         let mut b = BoxNow::of(&gate, &motion(x, y, heading, speed));
         b.was_near = false;
         b
+    }
+
+    /// Each lane of four boxes at once has the bits of that car's scalar box (a NaN to a NaN),
+    /// over random poses and motions with ±0, tiny, huge and non-finite components, and
+    /// cars pointing straight up (no flattened heading).
+    #[test]
+    fn four_boxes_at_once_have_the_scalar_boxes_bits() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let special = [
+            0.0,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1.0e-30,
+            1.0e30,
+        ];
+        let mut pick = |scale: f32| {
+            let r = next();
+            if r.is_multiple_of(29) {
+                special[(r / 29) as usize % special.len()]
+            } else {
+                ((r >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0) * scale
+            }
+        };
+        let bits = |b: &BoxNow| {
+            let f = [
+                b.centre.x, b.centre.y, b.z, b.half_z, b.axis.x, b.axis.y, b.half.x, b.half.y,
+                b.reach_m,
+            ];
+            (
+                f.map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() }),
+                b.was_near,
+            )
+        };
+        for case in 0..4000 {
+            let cars: [(ContactGate, Motion); 4] = array4(|i| {
+                let mut gate = ContactGate::new(
+                    ColliderHandle::invalid(),
+                    Vec3::new(pick(3.0), pick(1.0), pick(1.0)),
+                    pick(0.5),
+                );
+                gate.near = (case + i) % 3 == 0;
+                let rotation = if (case + i) % 17 == 0 {
+                    // Nose straight up: the flattened heading falls back to +x.
+                    Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2)
+                } else {
+                    Quat::from_xyzw(pick(1.0), pick(1.0), pick(1.0), pick(1.0)).normalize()
+                };
+                let motion = Motion {
+                    position: Vec3::new(pick(1000.0), pick(1000.0), pick(10.0)),
+                    rotation,
+                    linvel: Vec3::new(pick(40.0), pick(40.0), pick(5.0)),
+                    angvel: Vec3::new(pick(2.0), pick(2.0), pick(2.0)),
+                    forward_mps: 0.0,
+                    accel_mps2: 0.0,
+                };
+                (gate, motion)
+            });
+            let four = boxes_of_four(array4(|i| (&cars[i].0, &cars[i].1)));
+            for (i, (gate, motion)) in cars.iter().enumerate() {
+                assert_eq!(
+                    bits(&four[i]),
+                    bits(&BoxNow::of(gate, motion)),
+                    "case {case}, lane {i}"
+                );
+            }
+        }
     }
 
     /// The eight corners of the collider box.
