@@ -88,6 +88,9 @@ struct BoxNow {
     axis: Vec2,
     /// The footprint's half extents along `axis` and across it, m.
     half: Vec2,
+    /// `half.length()`: the radius of the circle around the footprint, m (kept, for it is read
+    /// at every pair tested).
+    radius_m: f32,
     /// How far any point of the box can move in two steps, m.
     reach_m: f32,
     /// Whether it had a car within reach at the last search (which widens its threshold).
@@ -110,12 +113,14 @@ impl BoxNow {
                 .sum::<f32>()
         };
         let centre = motion.position + m.z_axis * gate.offset_z_m;
+        let half = Vec2::new(along(axis), along(across));
         BoxNow {
             centre: centre.truncate(),
             z: centre.z,
             half_z: half_axes.iter().map(|a| a.z.abs()).sum(),
             axis,
-            half: Vec2::new(along(axis), along(across)),
+            half,
+            radius_m: half.length(),
             reach_m: 2.0
                 * DT_S as f32
                 * (motion.linvel.length() + motion.angvel.length() * h.length()),
@@ -164,6 +169,7 @@ fn boxes_of_four(cars: [(&ContactGate, &Motion); 4]) -> [BoxNow; 4] {
         a + b + c
     };
     let (half_along, half_across) = (along(axis), along(across));
+    let radius = (half_along * half_along + half_across * half_across).sqrt();
     let [a, b, c] = half_axes.map(|v| v.z.abs());
     let half_z = a + b + c;
     let offset = f32x4::new(array4(|i| cars[i].0.offset_z_m));
@@ -179,6 +185,7 @@ fn boxes_of_four(cars: [(&ContactGate, &Motion); 4]) -> [BoxNow; 4] {
         half_z: lane(half_z, i),
         axis: Vec2::new(lane(axis.0, i), lane(axis.1, i)),
         half: Vec2::new(lane(half_along, i), lane(half_across, i)),
+        radius_m: lane(radius, i),
         reach_m: lane(reach, i),
         was_near: cars[i].0.near,
     })
@@ -214,7 +221,7 @@ fn within_reach(a: &BoxNow, b: &BoxNow) -> bool {
     };
     let threshold = a.reach_m + b.reach_m + CONTACT_GATE_MARGIN_M + hysteresis;
     // Most pairs fail on the circles around the footprints already.
-    let circles = a.half.length() + b.half.length() + threshold;
+    let circles = a.radius_m + b.radius_m + threshold;
     (b.centre - a.centre).length_squared() < circles * circles && gap_lower_bound(a, b) < threshold
 }
 
@@ -268,7 +275,7 @@ impl CloseCars {
         let widest = self
             .boxes
             .iter()
-            .map(|b| b.half.length() + b.reach_m)
+            .map(|b| b.radius_m + b.reach_m)
             .fold(0.0_f32, f32::max);
         let side = 2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M;
         // Rounded down by a plain conversion, not the C library's `floorf`, so the cells never
@@ -748,7 +755,7 @@ mod tests {
         let bits = |b: &BoxNow| {
             let f = [
                 b.centre.x, b.centre.y, b.z, b.half_z, b.axis.x, b.axis.y, b.half.x, b.half.y,
-                b.reach_m,
+                b.radius_m, b.reach_m,
             ];
             (
                 f.map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() }),
