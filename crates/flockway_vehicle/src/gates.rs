@@ -728,13 +728,7 @@ mod tests {
     /// cars pointing straight up (no flattened heading).
     #[test]
     fn four_boxes_at_once_have_the_scalar_boxes_bits() {
-        let mut state = 0x9e37_79b9_u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
+        let mut uniform = crate::lanes::uniform(0x9e37_79b9);
         let special = [
             0.0,
             -0.0,
@@ -744,12 +738,12 @@ mod tests {
             1.0e-30,
             1.0e30,
         ];
+        // About one component in thirty awkward, the rest spread over ±scale.
         let mut pick = |scale: f32| {
-            let r = next();
-            if r.is_multiple_of(29) {
-                special[(r / 29) as usize % special.len()]
+            if uniform(0.0, 1.0) < 1.0 / 30.0 {
+                special[(uniform(0.0, special.len() as f32) as usize).min(special.len() - 1)]
             } else {
-                ((r >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0) * scale
+                uniform(-scale, scale)
             }
         };
         let bits = |b: &BoxNow| {
