@@ -765,8 +765,9 @@ mod tests {
                 );
                 gate.near = (case + i) % 3 == 0;
                 let rotation = if (case + i) % 17 == 0 {
-                    // Nose straight up: the flattened heading falls back to +x.
-                    Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2)
+                    // Nose straight up, exactly (every component a half): the forward axis has
+                    // no horizontal part, and the flattened heading falls back to +x.
+                    Quat::from_xyzw(0.5, 0.5, 0.5, -0.5)
                 } else {
                     Quat::from_xyzw(pick(1.0), pick(1.0), pick(1.0), pick(1.0)).normalize()
                 };
@@ -787,6 +788,9 @@ mod tests {
                     bits(&BoxNow::of(gate, motion)),
                     "case {case}, lane {i}"
                 );
+                if (case + i) % 17 == 0 {
+                    assert_eq!(four[i].axis, Vec2::X, "case {case}, lane {i}: nose up");
+                }
             }
         }
     }
