@@ -284,6 +284,20 @@ pub(crate) fn wheel_contact(
     };
 }
 
+/// A wheel's heading in the body's frame at steering angle `steer` (rad): +x unsteered.
+// Inlined into both builds (x86-64 and AVX2) of the per-car functions that call it.
+#[inline(always)]
+fn steered_heading(steer: f32) -> Vec3 {
+    if steer == 0.0 {
+        Vec3::X
+    } else {
+        // One range reduction for both: every f32's sine and cosine from `sincosf` are `sinf`'s
+        // and `cosf`'s bits (checked over all 2^32 inputs).
+        let (sin, cos) = libm::sincosf(steer);
+        Vec3::new(cos, sin, 0.0)
+    }
+}
+
 /// Stage 4, tyre forces: each grounded tyre's slips and forces, the lateral one limited so it
 /// stops a sideways slide within the step without reversing it (and near a standstill holding
 /// like static friction against the slope), the longitudinal one linearised in wheel speed for
@@ -310,14 +324,14 @@ pub(crate) fn tyre_forces(
     // normal, and its lanes are dropped below). The rear wheels never steer: no trigonometry
     // for them.
     // (`rotated_by` has glam's bits: an unsteered wheel's heading is the body's forward axis.)
-    let heading = Vec3x4::from_fn(|i| {
-        if steer[i] == 0.0 {
-            Vec3::X
-        } else {
-            Vec3::new(libm::cosf(steer[i]), libm::sinf(steer[i]), 0.0)
-        }
-    })
-    .rotated_by(rot);
+    // Four calls written out, not a closure over the lanes: the closure stayed a call.
+    let steered = [
+        steered_heading(steer[0]),
+        steered_heading(steer[1]),
+        steered_heading(steer[2]),
+        steered_heading(steer[3]),
+    ];
+    let heading = Vec3x4::from_fn(|i| steered[i]).rotated_by(rot);
     let n = contacts.normal;
     let along = heading.dot(n);
     let f_dir = (heading - n * along).normalize_or_zero();
@@ -766,6 +780,26 @@ mod tests {
         let mut p = TyrePatches::default();
         let pull = tyre_forces(t, kin, contacts, &[0.0; 4], state, 1.0 / 120.0, &mut p);
         (p, pull)
+    }
+
+    /// The wheel headings take sine and cosine from one `sincosf`, which must answer `sinf`'s
+    /// and `cosf`'s bits. Every input was compared once; this keeps a sweep of the steering
+    /// range and a stride through all 2^32 patterns, so a libm that changes either fails here.
+    #[test]
+    fn sincos_has_the_bits_of_sine_and_cosine() {
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        let steering = (-20_000..=20_000).map(|i| i as f32 * 1.0e-4);
+        let strided = (0..=u32::MAX).step_by(4_099).map(f32::from_bits);
+        let specials = [0.0, -0.0, f32::NAN, f32::INFINITY, -f32::INFINITY, 1.0e-40];
+        let mut seen = 0;
+        for x in steering.chain(strided).chain(specials) {
+            let (sin, cos) = libm::sincosf(x);
+            let bits = x.to_bits();
+            assert!(same(sin, libm::sinf(x)), "sine of {x:e} ({bits:#x})");
+            assert!(same(cos, libm::cosf(x)), "cosine of {x:e} ({bits:#x})");
+            seen += 1;
+        }
+        assert!(seen > 1_000_000);
     }
 
     #[test]
