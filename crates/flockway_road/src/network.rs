@@ -448,6 +448,29 @@ impl RoadNetwork {
         self.slot(id).map(|s| &s.meshes)
     }
 
+    /// Whether this network was built from exactly these level roads (in id order) and
+    /// junctions: the same ids with equal specs, and no other road but the junctions' paths.
+    pub fn is_built_from<'a>(
+        &self,
+        roads: impl IntoIterator<Item = (RoadId, &'a RoadSpec)>,
+        junctions: &[JunctionSpec],
+    ) -> bool {
+        let mut roads = roads.into_iter();
+        let own = self.slots.iter().enumerate().filter_map(|(i, s)| {
+            s.as_ref()
+                .filter(|s| s.path.is_none())
+                .map(|s| (RoadId(i as u32), s.geometry.spec()))
+        });
+        for (id, spec) in own {
+            if !roads.next().is_some_and(|(i, s)| i == id && s == spec) {
+                return false;
+            }
+        }
+        self.revision != 0
+            && roads.next().is_none()
+            && self.junctions.iter().map(|j| &j.spec).eq(junctions)
+    }
+
     fn slot(&self, id: RoadId) -> Option<&Slot> {
         self.slots.get(id.0 as usize).and_then(Option::as_ref)
     }
@@ -742,6 +765,25 @@ pub fn rebuild_roads(
     }
     let mut sorted: Vec<_> = roads.iter().collect();
     sorted.sort_by_key(|(_, id, _, _)| **id);
+    // Before the roads have shapes, a network built already from exactly these roads and
+    // junctions (a level's loader builds it before the first step, for its initial vehicles)
+    // is kept: building it again would give the same network, and on a city's thousands of
+    // roads take as long as loading did. Each road takes its shape from it, so a later edit
+    // builds only the roads edited.
+    let unshaped = sorted.iter().all(|(_, _, _, shape)| shape.is_none());
+    let level_roads = sorted.iter().map(|(_, id, road, _)| (**id, &road.0));
+    if unshaped && !removed_any && network.is_built_from(level_roads, &junctions.0) {
+        for (entity, id, _, _) in &sorted {
+            if let Some(slot) = network.slot(**id) {
+                commands.entity(*entity).insert(RoadShape {
+                    geometry: slot.geometry.clone(),
+                    meshes: slot.meshes.clone(),
+                });
+            }
+        }
+        error.0 = None;
+        return;
+    }
     let mut shapes = Vec::with_capacity(sorted.len());
     for (entity, id, road, shape) in sorted {
         let (geometry, meshes) = match shape {
@@ -824,6 +866,81 @@ mod tests {
             sim.world().resource::<RoadNetworkError>().0,
             Some(NetworkError::Road(RoadError::Lanes { .. }))
         ));
+    }
+
+    #[test]
+    fn a_network_built_from_the_same_roads_is_kept_and_an_edit_rebuilds_it() {
+        let a = RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+        let b = RoadSpec::through(
+            "b",
+            1,
+            50.0,
+            &[DVec3::new(120.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
+        );
+        let junction = crate::JunctionSpec {
+            name: "j".into(),
+            control: crate::Control::RightBeforeLeft,
+            connections: vec![crate::ConnectionSpec {
+                from: "a".into(),
+                from_lane: 0,
+                to: "b".into(),
+                to_lane: 0,
+            }],
+            signal: None,
+        };
+        let specs = [a, b];
+        // As a level's loader does: the network first, then the roads and junctions.
+        let built = RoadNetwork::build_with(&specs, std::slice::from_ref(&junction))
+            .expect("the network builds");
+        assert!(built.is_built_from(
+            specs.iter().enumerate().map(|(i, s)| (RoadId(i as u32), s)),
+            std::slice::from_ref(&junction),
+        ));
+        let mut sim = sim_with(&specs);
+        sim.world_mut().insert_resource(built.clone());
+        sim.world_mut().resource_mut::<Junctions>().0 = vec![junction.clone()];
+        sim.step();
+        let revision = |sim: &Sim| sim.world().resource::<RoadNetwork>().revision();
+        assert_eq!(revision(&sim), built.revision(), "the same roads: kept");
+        let mut shapes = sim.world_mut().query::<(&RoadId, &RoadShape)>();
+        let shaped: Vec<_> = shapes.iter(sim.world()).collect();
+        assert_eq!(shaped.len(), 2);
+        for (id, shape) in shaped {
+            let kept = built.get(*id).expect("the road");
+            assert!(
+                Arc::ptr_eq(&shape.geometry, kept),
+                "road {id:?} takes the kept shape"
+            );
+        }
+
+        // A network of other roads is not kept: another junction.
+        let mut other = junction.clone();
+        other.connections[0].from_lane = 1;
+        assert!(!built.is_built_from(
+            specs.iter().enumerate().map(|(i, s)| (RoadId(i as u32), s)),
+            std::slice::from_ref(&other),
+        ));
+        // Nor one road fewer, or one more.
+        let js = std::slice::from_ref(&junction);
+        let one = specs.iter().take(1).enumerate();
+        assert!(!built.is_built_from(one.map(|(i, s)| (RoadId(i as u32), s)), js));
+        let three = specs.iter().chain(&specs[..1]).enumerate();
+        assert!(!built.is_built_from(three.map(|(i, s)| (RoadId(i as u32), s)), js));
+        let swapped = [(RoadId(0), &specs[1]), (RoadId(1), &specs[0])];
+        assert!(!built.is_built_from(swapped, js));
+
+        // An edit after that rebuilds the network.
+        let mut q = sim.world_mut().query::<&mut Road>();
+        for mut road in q.iter_mut(sim.world_mut()) {
+            if road.0.name == "b" {
+                road.0.points[1].pos.x = 300.0;
+            }
+        }
+        sim.step();
+        assert_ne!(revision(&sim), built.revision());
+        let net = sim.world().resource::<RoadNetwork>();
+        let b = net.id("b").expect("road b");
+        assert!((net.get(b).expect("b").length_m() - 180.0).abs() < 1e-6);
     }
 
     #[test]

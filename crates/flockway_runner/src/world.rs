@@ -273,8 +273,8 @@ pub fn populate(
         }
         world.insert_resource(Detectors::new(list));
     }
-    // Initial vehicles need the network now, before the first step builds it (to the same
-    // result) from the road components.
+    // Initial vehicles need the network now; the first step finds it built from the same road
+    // components and keeps it.
     world.insert_resource(network.clone());
     for (gi, group) in level.vehicles.iter().enumerate() {
         let id = road(&group.road)?;
