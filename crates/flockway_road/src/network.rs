@@ -868,9 +868,10 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn a_network_built_from_the_same_roads_is_kept_and_an_edit_rebuilds_it() {
-        let a = RoadSpec::through("a", 2, 60.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
+    /// Road `a` (0-100 m along x), road `b` (120-200 m), one lane each, and a junction `j`
+    /// joining them.
+    fn two_roads_and_a_junction() -> ([RoadSpec; 2], crate::JunctionSpec) {
+        let a = RoadSpec::through("a", 1, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
         let b = RoadSpec::through(
             "b",
             1,
@@ -888,7 +889,12 @@ mod tests {
             }],
             signal: None,
         };
-        let specs = [a, b];
+        ([a, b], junction)
+    }
+
+    #[test]
+    fn a_network_built_from_the_same_roads_is_kept_and_an_edit_rebuilds_it() {
+        let (specs, junction) = two_roads_and_a_junction();
         // As a level's loader does: the network first, then the roads and junctions.
         let built = RoadNetwork::build_with(&specs, std::slice::from_ref(&junction))
             .expect("the network builds");
@@ -915,7 +921,7 @@ mod tests {
 
         // A network of other roads is not kept: another junction.
         let mut other = junction.clone();
-        other.connections[0].from_lane = 1;
+        other.connections[0].to_lane = 1;
         assert!(!built.is_built_from(
             specs.iter().enumerate().map(|(i, s)| (RoadId(i as u32), s)),
             std::slice::from_ref(&other),
@@ -945,27 +951,11 @@ mod tests {
 
     #[test]
     fn junctions_are_rebuilt_when_they_change() {
-        let a = RoadSpec::through("a", 1, 50.0, &[DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)]);
-        let b = RoadSpec::through(
-            "b",
-            1,
-            50.0,
-            &[DVec3::new(120.0, 0.0, 0.0), DVec3::new(200.0, 0.0, 0.0)],
-        );
-        let mut sim = sim_with(&[a, b]);
+        let (specs, junction) = two_roads_and_a_junction();
+        let mut sim = sim_with(&specs);
         sim.step();
         assert_eq!(sim.world().resource::<RoadNetwork>().len(), 2);
-        sim.world_mut().resource_mut::<Junctions>().0 = vec![crate::JunctionSpec {
-            name: "j".into(),
-            control: crate::Control::RightBeforeLeft,
-            connections: vec![crate::ConnectionSpec {
-                from: "a".into(),
-                from_lane: 0,
-                to: "b".into(),
-                to_lane: 0,
-            }],
-            signal: None,
-        }];
+        sim.world_mut().resource_mut::<Junctions>().0 = vec![junction];
         sim.step();
         let net = sim.world().resource::<RoadNetwork>();
         assert_eq!(net.len(), 3);
