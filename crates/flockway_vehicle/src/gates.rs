@@ -241,8 +241,97 @@ pub struct CloseCars {
     /// Each run of `cells` in one grid cell: its start and end.
     runs: Vec<(u32, u32)>,
     near: Vec<bool>,
-    /// The pairs found by a search on one thread, in pairs.
-    hits: Vec<u32>,
+    /// What a search over the grid on one thread found.
+    found: Found,
+    /// The pairs the last search over the grid found that can come within reach before the
+    /// cars have moved far.
+    kept: KeptPairs,
+}
+
+/// How much closer than their reach two cars' boxes may be before the close-car search keeps
+/// them as a pair to test each step, m: until the cars have moved by about this much relative
+/// to one another, the kept pairs hold every pair within reach, and the search tests them alone.
+const CLOSE_CARS_SKIN_M: f32 = 2.0;
+
+/// What the kept pairs' bound leaves for the rounding of the centres and extents it compares, m:
+/// many times the largest rounding of a centre within [`KEPT_PAIRS_EXTENT_M`].
+const KEPT_PAIRS_ROUNDING_M: f32 = 0.05;
+
+/// How far from the origin every centre must be for the kept pairs to be tested alone, m (past
+/// it, a centre's rounding nears the allowance for it).
+const KEPT_PAIRS_EXTENT_M: f32 = 65_536.0;
+
+/// A grid search's finds.
+#[derive(Default)]
+struct Found {
+    /// Both boxes of each pair within reach.
+    near: Vec<u32>,
+    /// Each pair within reach and [`CLOSE_CARS_SKIN_M`]: the pairs to keep.
+    kept: Vec<(u32, u32)>,
+}
+
+/// The pairs of boxes that the last search over the grid found within reach and
+/// [`CLOSE_CARS_SKIN_M`] of each other, with what each box was then. No other pair can come
+/// within reach while no two cars have moved closer by more than the skin: a pair's centres
+/// close by at most how far apart the two cars' moves since are, and its reach grows by at most
+/// the two boxes' growth in radius and reach. While that holds, testing the kept pairs finds
+/// exactly what a search over the grid would: a Verlet list, as molecular dynamics keeps one.
+#[derive(Default)]
+struct KeptPairs {
+    /// The car of each box at the search (the same cars in the same order, or none is kept).
+    cars: Vec<Entity>,
+    /// Each box's centre at the search.
+    centres: Vec<Vec2>,
+    /// Each box's radius and reach at the search, m.
+    extents: Vec<f32>,
+    /// The pairs, as indices into the boxes.
+    pairs: Vec<(u32, u32)>,
+}
+
+impl KeptPairs {
+    /// Keeps `pairs` for `boxes` of `cars`.
+    fn keep(&mut self, cars: &[Entity], boxes: &[BoxNow], pairs: &[(u32, u32)]) {
+        self.cars.clear();
+        self.centres.clear();
+        self.extents.clear();
+        self.pairs.clear();
+        if cars.len() != boxes.len() {
+            return;
+        }
+        self.cars.extend_from_slice(cars);
+        self.centres.extend(boxes.iter().map(|b| b.centre));
+        self.extents
+            .extend(boxes.iter().map(|b| b.radius_m + b.reach_m));
+        self.pairs.extend_from_slice(pairs);
+    }
+
+    /// Whether the kept pairs still hold every pair of `boxes` (of `cars`) within reach: the
+    /// same cars, each centre finite and within [`KEPT_PAIRS_EXTENT_M`], and the spread of
+    /// their moves since (the diagonal of the box around them, which bounds how much closer any
+    /// two have come) plus twice the largest growth of a box's radius and reach short of the
+    /// skin.
+    fn hold_for(&self, cars: &[Entity], boxes: &[BoxNow]) -> bool {
+        if cars.is_empty() || cars.len() != boxes.len() || self.cars != cars {
+            return false;
+        }
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let mut growth = 0.0_f32;
+        let mut inside = true;
+        for ((b, &was), &extent) in boxes.iter().zip(&self.centres).zip(&self.extents) {
+            let moved = b.centre - was;
+            let grown = b.radius_m + b.reach_m - extent;
+            lo = lo.min(moved);
+            hi = hi.max(moved);
+            growth = growth.max(grown);
+            // Each comparison false for a NaN too (which `min` and `max` pass over).
+            inside &= b.centre.x.abs() < KEPT_PAIRS_EXTENT_M
+                && b.centre.y.abs() < KEPT_PAIRS_EXTENT_M
+                && moved.x.abs() < KEPT_PAIRS_EXTENT_M
+                && moved.y.abs() < KEPT_PAIRS_EXTENT_M
+                && grown < KEPT_PAIRS_EXTENT_M;
+        }
+        inside && (hi - lo).length() + 2.0 * growth < CLOSE_CARS_SKIN_M - KEPT_PAIRS_ROUNDING_M
+    }
 }
 
 /// A grid cell's key: ordered by column, then row, so a column's neighbouring rows are adjacent
@@ -260,11 +349,12 @@ fn cell_of_key(k: u64) -> (i32, i32) {
 }
 
 impl CloseCars {
-    /// Marks in `near` every box with another box within reach. Each box goes into the grid
-    /// cell of its centre, cells as wide as the farthest two boxes can interact, so only
-    /// neighbouring cells are compared: O(n log n), never every pair. The cells' comparisons
-    /// are split over the task pool from [`CLOSE_CARS_PARALLEL_MIN`] boxes; what each part finds
-    /// is only ever added to `near`, so the answer does not depend on the split.
+    /// Marks in `near` every box with another box within reach. While the [`KeptPairs`] of the
+    /// last search over the grid hold, only they are tested. Otherwise each box goes into the
+    /// grid cell of its centre, cells as wide as the farthest two boxes can interact and the
+    /// skin, so only neighbouring cells are compared: O(n log n), never every pair. The cells'
+    /// comparisons are split over the task pool from [`CLOSE_CARS_PARALLEL_MIN`] boxes; what
+    /// each part finds is only ever added to `near`, so the answer does not depend on the split.
     fn search(&mut self) {
         let n = self.boxes.len();
         self.near.clear();
@@ -272,12 +362,23 @@ impl CloseCars {
         if n < 2 {
             return;
         }
+        if self.kept.hold_for(&self.cars, &self.boxes) {
+            for &(i, j) in &self.kept.pairs {
+                if within_reach(&self.boxes[i as usize], &self.boxes[j as usize]) {
+                    self.near[i as usize] = true;
+                    self.near[j as usize] = true;
+                }
+            }
+            return;
+        }
         let widest = self
             .boxes
             .iter()
             .map(|b| b.radius_m + b.reach_m)
             .fold(0.0_f32, f32::max);
-        let side = 2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M;
+        // Wide enough for every pair within reach and the skin to be in neighbouring cells.
+        let side =
+            2.0 * widest + CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M + CLOSE_CARS_SKIN_M;
         // Rounded down by a plain conversion, not the C library's `floorf`, so the cells never
         // depend on the maths library. The conversion saturates far out (a box flung some
         // 10¹⁰ m), and so does the step down: the farthest boxes share the last cell.
@@ -316,45 +417,52 @@ impl CloseCars {
         }
         let (cells, boxes) = (&self.cells, &self.boxes);
         if n < parallel_min(CLOSE_CARS_PARALLEL_MIN) {
-            // On one thread: one pass over all the runs, into a buffer kept from search to
+            // On one thread: one pass over all the runs, into buffers kept from search to
             // search (parts would each make their own).
-            let mut hits = std::mem::take(&mut self.hits);
-            hits.clear();
-            pairs_among(cells, boxes, &self.runs, &mut hits);
-            for &i in &hits {
+            let mut found = std::mem::take(&mut self.found);
+            found.near.clear();
+            found.kept.clear();
+            pairs_among(cells, boxes, &self.runs, &mut found);
+            for &i in &found.near {
                 self.near[i as usize] = true;
             }
-            self.hits = hits;
+            self.kept.keep(&self.cars, boxes, &found.kept);
+            self.found = found;
             return;
         }
-        // About eight parts per thread; each part's hits, in pairs.
+        // About eight parts per thread; each part's finds.
         let threads = task_threads();
         let per_part = self.runs.len().div_ceil(8 * threads).max(1);
         let parts: Vec<&[(u32, u32)]> = self.runs.chunks(per_part).collect();
-        let hits = map_in_order(
+        let finds = map_in_order(
             &parts,
             2,
             || (),
             |(), runs| {
-                let mut hits = Vec::new();
-                pairs_among(cells, boxes, runs, &mut hits);
-                hits
+                let mut found = Found::default();
+                pairs_among(cells, boxes, runs, &mut found);
+                found
             },
         );
-        for i in hits.into_iter().flatten() {
-            self.near[i as usize] = true;
+        let mut kept = Vec::new();
+        for found in finds {
+            for &i in &found.near {
+                self.near[i as usize] = true;
+            }
+            kept.extend_from_slice(&found.kept);
         }
+        self.kept.keep(&self.cars, boxes, &kept);
     }
 }
 
 /// The boxes within reach of one another from `runs` (consecutive runs of `cells`, in key
 /// order) and the cells neighbouring them: [`pairs_from`] for each run, one walk over the next
-/// column for them all. Pushes both boxes of each pair found. Built twice as [`boxes_of`] is.
+/// column for them all. Built twice as [`boxes_of`] is.
 #[multiversion(targets("x86_64+avx2"))]
-fn pairs_among(cells: &[(u64, u32)], boxes: &[BoxNow], runs: &[(u32, u32)], hits: &mut Vec<u32>) {
+fn pairs_among(cells: &[(u64, u32)], boxes: &[BoxNow], runs: &[(u32, u32)], found: &mut Found) {
     let mut next_column = NextColumn::default();
     for &run in runs {
-        pairs_from(cells, boxes, run, &mut next_column, hits);
+        pairs_from(cells, boxes, run, &mut next_column, found);
     }
 }
 
@@ -407,36 +515,47 @@ impl NextColumn {
 /// cells after it that neighbour it: the one above it, and the three of the next column
 /// (adjacent keys, found through `next_column`, the same for the whole pass over the runs).
 /// Each pair of neighbouring cells is compared once over all runs. Pushes both boxes of each
-/// pair found.
+/// pair within reach, and each pair within reach and the skin.
 #[inline(always)]
 fn pairs_from(
     cells: &[(u64, u32)],
     boxes: &[BoxNow],
     run: (u32, u32),
     next_column: &mut NextColumn,
-    hits: &mut Vec<u32>,
+    found: &mut Found,
 ) {
     let (start, end) = (run.0 as usize, run.1 as usize);
     let here = &cells[start..end];
     let k = here[0].0;
     // Inlined at each of its three uses (as a closure it stayed a call per pair).
     #[inline(always)]
-    fn pair(boxes: &[BoxNow], hits: &mut Vec<u32>, i: u32, j: u32) {
-        if within_reach(&boxes[i as usize], &boxes[j as usize]) {
-            hits.push(i);
-            hits.push(j);
+    fn pair(boxes: &[BoxNow], found: &mut Found, i: u32, j: u32) {
+        let (a, b) = (&boxes[i as usize], &boxes[j as usize]);
+        if within_reach(a, b) {
+            found.near.push(i);
+            found.near.push(j);
+            found.kept.push((i, j));
+        } else {
+            // Within reach at the widest (with the hysteresis) and the skin.
+            let kept = a.radius_m
+                + a.reach_m
+                + (b.radius_m + b.reach_m)
+                + (CONTACT_GATE_MARGIN_M + CONTACT_GATE_HYSTERESIS_M + CLOSE_CARS_SKIN_M);
+            if (b.centre - a.centre).length_squared() < kept * kept {
+                found.kept.push((i, j));
+            }
         }
     }
     for (m, &(_, i)) in here.iter().enumerate() {
         for &(_, j) in &here[m + 1..] {
-            pair(boxes, hits, i, j);
+            pair(boxes, found, i, j);
         }
     }
     let (x, y) = cell_of_key(k);
     let above = cell_key(x, y.wrapping_add(1));
     for &(_, j) in cells[end..].iter().take_while(|c| c.0 == above) {
         for &(_, i) in here {
-            pair(boxes, hits, i, j);
+            pair(boxes, found, i, j);
         }
     }
     let x1 = x.wrapping_add(1);
@@ -447,7 +566,7 @@ fn pairs_from(
     let from = next_column.find(cells, end, lo);
     for &(_, j) in cells[from..].iter().take_while(|c| c.0 <= hi) {
         for &(_, i) in here {
-            pair(boxes, hits, i, j);
+            pair(boxes, found, i, j);
         }
     }
 }
@@ -511,14 +630,12 @@ pub fn find_close_cars(
         return;
     }
     let mut search = physics.close_cars.buffers();
-    boxes_of(&mut search.boxes, &gates);
-    search.cars.clear();
+    boxes_of(&mut search.boxes, &mut search.cars, &gates);
     let n = search.boxes.len();
     // From as many cars as a pass splits from: below, handing the search over costs about
     // what it saves.
     let beside_from = parallel_min(JOIN_MIN_CARS.min(CLOSE_CARS_PARALLEL_MIN));
     if task_threads() >= 2 && (beside_from..parallel_min(CLOSE_CARS_PARALLEL_MIN)).contains(&n) {
-        search.cars.extend(gates.iter().map(|(car, _, _)| car));
         physics.close_cars = CloseCarSearch::Searching(beside(move || {
             search.search();
             search
@@ -535,12 +652,17 @@ pub fn find_close_cars(
     physics.close_cars = CloseCarSearch::Kept(search);
 }
 
-/// Every car's box now, in the query's order, in place of `boxes`. Built twice, for x86-64 and
-/// for AVX2 (taken at run time where the CPU has it; the same boxes to the bit: see
-/// `multiversion` in Cargo.toml).
+/// Every car's box now, in the query's order, in place of `boxes`, and the cars in place of
+/// `cars`. Built twice, for x86-64 and for AVX2 (taken at run time where the CPU has it; the
+/// same boxes to the bit: see `multiversion` in Cargo.toml).
 #[multiversion(targets("x86_64+avx2"))]
-fn boxes_of(boxes: &mut Vec<BoxNow>, gates: &Query<(Entity, &mut ContactGate, &Motion)>) {
+fn boxes_of(
+    boxes: &mut Vec<BoxNow>,
+    cars: &mut Vec<Entity>,
+    gates: &Query<(Entity, &mut ContactGate, &Motion)>,
+) {
     boxes.clear();
+    cars.clear();
     // Four cars at a time, the last few one by one. The query's fold walks its tables directly,
     // and the step inlined into it makes each car's item in registers: fewer instructions a car
     // than the iterator's `next`.
@@ -559,7 +681,8 @@ fn boxes_of(boxes: &mut Vec<BoxNow>, gates: &Query<(Entity, &mut ContactGate, &M
     let last = gates.iter().fold(
         0,
         #[inline(always)]
-        |k: usize, (_, gate, motion)| {
+        |k: usize, (car, gate, motion)| {
+            cars.push(car);
             held[k & 3] = (gate, motion);
             if k == 3 {
                 boxes.extend_from_slice(&boxes_of_four(held));
@@ -1006,5 +1129,158 @@ mod tests {
             [true, true]
         );
         assert_eq!(near_of(vec![boxed(0.0, 0.0, 0.0, 0.0)]), [false]);
+    }
+
+    /// A four-lane road's traffic, both ways, changing lanes and speed, searched step after
+    /// step as the gates search it: each step's answer is every pair's, whether the kept pairs
+    /// alone were tested or the grid searched.
+    #[test]
+    fn the_kept_pairs_find_the_same_close_cars_as_every_pair_while_cars_move() {
+        let mut seed = 23_u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1 << 24) as f32
+        };
+        // (x, y, heading, speed, lateral speed) of each car.
+        let mut cars: Vec<[f32; 5]> = (0..160)
+            .map(|k| {
+                let lane = (k % 4) as f32;
+                let backwards = k % 4 >= 2;
+                let heading = if backwards { std::f32::consts::PI } else { 0.0 };
+                let x = (k / 4) as f32 * 12.0 + next() * 4.0;
+                [x, lane * 3.6, heading, 5.0 + next() * 30.0, 0.0]
+            })
+            .collect();
+        let entities: Vec<Entity> = (0..cars.len() as u32)
+            .map(|k| Entity::from_raw_u32(k + 1).expect("an entity"))
+            .collect();
+        let mut search = CloseCars::default();
+        let (mut kept, mut grid, mut close, mut lone) = (0, 0, 0, 0);
+        let mut near = vec![false; cars.len()];
+        for step in 0..720 {
+            for c in &mut cars {
+                let dir = if c[2] == 0.0 { 1.0 } else { -1.0 };
+                c[0] += dir * c[3] * DT_S as f32;
+                c[1] += c[4] * DT_S as f32;
+                // Speeds and lane changes drift; now and then a car brakes hard.
+                c[3] = (c[3] + (next() - 0.5) * 0.4).clamp(0.0, 40.0);
+                if next() < 0.002 {
+                    c[3] *= 0.5;
+                }
+                c[4] = if next() < 0.01 {
+                    (next() - 0.5) * 4.0
+                } else {
+                    c[4]
+                };
+            }
+            let boxes: Vec<BoxNow> = cars
+                .iter()
+                .zip(&near)
+                .map(|(c, &was_near)| BoxNow {
+                    was_near,
+                    ..boxed(c[0], c[1], c[2], c[3])
+                })
+                .collect();
+            search.boxes = boxes.clone();
+            search.cars = entities.clone();
+            if search.kept.hold_for(&search.cars, &search.boxes) {
+                kept += 1;
+            } else {
+                grid += 1;
+            }
+            search.search();
+            assert_eq!(search.near, every_pair(&boxes), "step {step}");
+            near.clone_from(&search.near);
+            close += near.iter().filter(|&&n| n).count();
+            lone += near.iter().filter(|&&n| !n).count();
+        }
+        assert!(kept > 360 && grid > 20, "kept {kept}, grid {grid}");
+        assert!(close > 7_200 && lone > 7_200, "close {close}, lone {lone}");
+    }
+
+    #[test]
+    fn kept_pairs_hold_only_for_the_same_cars_while_they_have_not_moved_far() {
+        let car = |k: u32| Entity::from_raw_u32(k).expect("an entity");
+        let boxes = vec![boxed(0.0, 0.0, 0.0, 10.0), boxed(30.0, 0.0, 0.0, 10.0)];
+        let cars = vec![car(1), car(2)];
+        let mut kept = KeptPairs::default();
+        kept.keep(&cars, &boxes, &[]);
+        assert!(kept.hold_for(&cars, &boxes));
+        // Both moved alike, however far: no closer to each other.
+        let alike: Vec<BoxNow> = boxes
+            .iter()
+            .map(|b| BoxNow {
+                centre: b.centre + Vec2::new(500.0, 3.0),
+                ..*b
+            })
+            .collect();
+        assert!(kept.hold_for(&cars, &alike));
+        // One moved towards the other by the skin.
+        let mut closer = boxes.clone();
+        closer[0].centre.x += CLOSE_CARS_SKIN_M;
+        assert!(!kept.hold_for(&cars, &closer));
+        // Grown by half the skin: its reach.
+        let mut grown = boxes.clone();
+        grown[1].reach_m += 0.5 * CLOSE_CARS_SKIN_M;
+        assert!(!kept.hold_for(&cars, &grown));
+        // Other cars, or the same in another order, or one fewer.
+        assert!(!kept.hold_for(&[car(1), car(3)], &boxes));
+        assert!(!kept.hold_for(&[car(2), car(1)], &boxes));
+        assert!(!kept.hold_for(&[car(1)], &boxes[..1]));
+        // A box lost (NaN) or flung far out.
+        for bad in [f32::NAN, 1.0e6] {
+            let mut lost = boxes.clone();
+            lost[1].centre.y = bad;
+            assert!(!kept.hold_for(&cars, &lost));
+        }
+        let mut lost = boxes.clone();
+        lost[0].radius_m = f32::NAN;
+        assert!(!kept.hold_for(&cars, &lost));
+        // Nothing kept for boxes without their cars.
+        kept.keep(&[], &boxes, &[]);
+        assert!(!kept.hold_for(&[], &boxes));
+    }
+
+    /// Two boxes kept as a pair only for the hysteresis' width (a third car near each, say,
+    /// could widen their reach by it) are tested once they come within that reach.
+    #[test]
+    fn a_pair_within_the_skin_of_the_widest_reach_is_kept() {
+        let car = |k: u32| Entity::from_raw_u32(k).expect("an entity");
+        let half = Vec2::new(2.3, 0.9);
+        let lone = |centre: Vec2| BoxNow {
+            centre,
+            z: 0.5,
+            half_z: 0.6,
+            axis: Vec2::X,
+            half,
+            radius_m: half.length(),
+            reach_m: 0.1,
+            was_near: false,
+        };
+        // Corner to corner along the first box's diagonal, where the footprints' circles bound
+        // the gap closely; just within the skin of the reach the hysteresis widens.
+        let widest = 2.0 * (half.length() + 0.1) + CONTACT_GATE_MARGIN_M;
+        let widest = widest + CONTACT_GATE_HYSTERESIS_M;
+        let dir = half.normalize();
+        let mut search = CloseCars {
+            cars: vec![car(1), car(2)],
+            boxes: vec![
+                lone(Vec2::ZERO),
+                lone(dir * (widest + CLOSE_CARS_SKIN_M - 0.3)),
+            ],
+            ..CloseCars::default()
+        };
+        search.search();
+        assert_eq!(search.near, [false, false]);
+        // Closer by less than the skin, both with the hysteresis: within reach.
+        search.boxes[1].centre = dir * (widest - 0.1);
+        for b in &mut search.boxes {
+            b.was_near = true;
+        }
+        assert!(search.kept.hold_for(&search.cars, &search.boxes));
+        let boxes = search.boxes.clone();
+        search.search();
+        assert_eq!(search.near, [true, true]);
+        assert_eq!(search.near, every_pair(&boxes));
     }
 }
