@@ -40,6 +40,7 @@ pub(super) fn level(
     connections: &[Connection],
     path: &Path,
     name: &str,
+    demand: bool,
 ) -> Result<(Level, LaneMaps), ImportError> {
     let mut level = Level::new(1, DURATION_S);
     level.name = name.to_owned();
@@ -69,12 +70,14 @@ pub(super) fn level(
     }
 
     let fringe = Fringe::of(&net.edges, connections);
-    if fringe.sources.is_empty() {
+    // A demand's vehicles leave on their own routes, in place of the fringe's spawners.
+    if fringe.sources.is_empty() && !demand {
         return Err(net.at.error(
             path,
             "the network has no entry: every edge is reached from another, so no traffic can \
              come in; give it fringe edges (netgenerate `--grid.attach-length 100` or \
-             `--spider.attach-length 100`, or a road that starts at a dead end)"
+             `--spider.attach-length 100`, or a road that starts at a dead end), or SUMO demand \
+             whose vehicles leave on their own routes"
                 .to_owned(),
         ));
     }
@@ -366,7 +369,7 @@ mod tests {
         let mut net = net::read(&format!("<net>\n{body}\n</net>\n"), path)?;
         let mut conns = network::car_connections(&net, path)?;
         network::close_simple_nodes(&mut net.edges, &mut conns);
-        level(&net, &conns, path, "t").map(|(level, _)| level)
+        level(&net, &conns, path, "t", false).map(|(level, _)| level)
     }
 
     /// An edge `id` from node `a` to node `b` with `lanes` lanes, 3.2 m apart, from `p` to `q`.

@@ -123,7 +123,7 @@ pub fn import_sumo(
         lane_maps,
         warnings: net_warnings,
         inside_junctions,
-    } = super::import_net(net, net_path, name)?;
+    } = super::import_net(net, net_path, name, !routes.is_empty())?;
     if routes.is_empty() {
         let report = DemandReport {
             warnings: net_warnings,
@@ -1141,6 +1141,35 @@ mod tests {
 <connection from="s" to="b" fromLane="0" toLane="0" dir="s"/>
 <connection from="d" to="b" fromLane="0" toLane="0" dir="r"/>
 </net>"#;
+
+    /// A loop of three one-lane edges, every edge reached from another: no way in.
+    const LOOP: &str = r#"<net>
+<edge id="a" from="A" to="B"><lane index="0" speed="13.89" shape="0,0 100,0"/></edge>
+<edge id="b" from="B" to="C"><lane index="0" speed="13.89" shape="100,0 50,80"/></edge>
+<edge id="c" from="C" to="A"><lane index="0" speed="13.89" shape="50,80 0,0"/></edge>
+<connection from="a" to="b" fromLane="0" toLane="0" dir="l"/>
+<connection from="b" to="c" fromLane="0" toLane="0" dir="l"/>
+<connection from="c" to="a" fromLane="0" toLane="0" dir="l"/>
+</net>"#;
+
+    #[test]
+    fn a_network_with_no_way_in_runs_a_demand() {
+        let net = Path::new("t.net.xml");
+        let e = import_sumo(LOOP, net, "t", &[]).expect_err("no traffic could come in");
+        assert!(e.message.contains("or SUMO demand"), "{e}");
+        let rou = r#"<routes>
+<vehicle id="v" depart="2"><route edges="a b"/></vehicle>
+</routes>"#;
+        let files = [(PathBuf::from("t.rou.xml"), rou.to_owned())];
+        let (level, report) = import_sumo(LOOP, net, "t", &files).expect("imports");
+        assert_eq!(report.vehicles, 1);
+        let on: Vec<&str> = level.spawners.iter().map(|s| s.road.as_str()).collect();
+        assert_eq!(on, ["a"]);
+        let arrive: Vec<&DestroyerSpec> = level.destroyers.iter().collect();
+        assert_eq!(arrive.len(), 1);
+        assert!(arrive[0].arrivals_only);
+        assert!(crate::validate(&level).is_empty());
+    }
 
     #[test]
     fn a_route_passes_over_an_edge_left_out_inside_a_junction() {

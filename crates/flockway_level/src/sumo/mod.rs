@@ -79,7 +79,7 @@ pub(crate) fn error_at(path: &Path, node: roxmltree::Node, message: String) -> I
 
 /// Reads a SUMO network file into a level named `name`.
 pub fn import_sumo_net(text: &str, path: &Path, name: &str) -> Result<Level, ImportError> {
-    import_net(text, path, name).map(|i| i.level)
+    import_net(text, path, name, false).map(|i| i.level)
 }
 
 /// For each imported edge, the car lane each of SUMO's lane indices became (`None`: a lane cars
@@ -97,13 +97,19 @@ pub(crate) struct Imported {
     pub inside_junctions: BTreeSet<String>,
 }
 
-/// [`import_sumo_net`], with what a demand read onto the level needs.
-pub(crate) fn import_net(text: &str, path: &Path, name: &str) -> Result<Imported, ImportError> {
+/// [`import_sumo_net`], with what a demand read onto the level needs. With `demand` to come,
+/// a network with no way in is no error: the demand's vehicles leave on their own routes.
+pub(crate) fn import_net(
+    text: &str,
+    path: &Path,
+    name: &str,
+    demand: bool,
+) -> Result<Imported, ImportError> {
     let mut net = net::read(text, path)?;
     let mut connections = network::car_connections(&net, path)?;
     network::close_simple_nodes(&mut net.edges, &mut connections);
     let inside_junctions = network::merge_close_junctions(&mut net, &mut connections);
-    let (level, lane_maps) = build::level(&net, &connections, path, name)?;
+    let (level, lane_maps) = build::level(&net, &connections, path, name, demand)?;
     Ok(Imported {
         level,
         lane_maps,
