@@ -117,6 +117,43 @@ const PRIORITY: &str = r#"(
     telemetry: (period_s: 0.1),
 )"#;
 
+/// Four cars set off from a standstill 5 m along a 100 m road, 8 s apart, towards a signal
+/// that is always green: nothing ever waits at the line.
+const STANDING_START: &str = r#"(
+    version: 1,
+    name: "standing_start",
+    seed: 1,
+    duration_s: 60.0,
+    roads: [
+        (name: "a", speed_limit_kmh: 50.0, points: [(pos: (0.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (100.0, 0.0, 0.0))]),
+        (name: "b", speed_limit_kmh: 50.0, points: [(pos: (116.0, 0.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (300.0, 0.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "j", control: Signal, connections: [(from: "a", to: "b")],
+            signal: (phases: [(duration_s: 60.0, state: "G")])),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [(name: "s", road: "a", s_m: 5.0, interval_s: (min: 8.0, max: 8.0), max_vehicles: 4,
+        profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 0.0)],
+    destroyers: [(name: "b", place: OnRoad(road: "b", s_m: 170.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_car_setting_off_far_from_a_green_line_is_no_queue() {
+    let (m, rows) = run_text("standing_start", STANDING_START);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    // Each started at a standstill about 93 m from the line, inside the measured 150 m.
+    let slow_far = rows
+        .iter()
+        .filter(|(_, _, road, s_m, v)| road == "a" && *s_m < 10.0 && *v < 2.0)
+        .count();
+    assert!(slow_far > 0, "no car was seen setting off");
+    assert!(m["junction_flow_veh_per_h.j"] > 0.0, "{m:#?}");
+    assert_eq!(m["max_queue_m.j"], 0.0, "{m:#?}");
+}
+
 /// When the first minor car entered the junction, s, the shortest time, s, any major car then
 /// needed to reach the line at its speed, and when the second minor car entered; `None` if the
 /// first never did.

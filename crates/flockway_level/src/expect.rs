@@ -306,7 +306,7 @@ impl Metric {
                 name: "max_queue_m",
                 qualifier: Qualifier::Junction,
                 unit: "m",
-                description: "longest queue at a junction after the warm-up: from the line to the back of the farthest car below 2 m/s within 150 m of it, on any approach lane",
+                description: "longest queue at a junction after the warm-up, on any approach lane: from the line to the back of the queue's last car (cars below 2 m/s one behind the other within 150 m of the line, the first within 20 m of it, each within 10 m of the one before)",
             },
             Metric::JunctionFlowVehPerH => MetricInfo {
                 name: "junction_flow_veh_per_h",

@@ -6,16 +6,13 @@ use crate::session::{Session, SessionError};
 use bevy_ecs::prelude::*;
 use flockway_drivers::{SignalError, SignalMode, Signals};
 use flockway_road::{RoadId, RoadNetwork, SignalProgram};
-use flockway_traffic::{HALTING_MPS, QUEUED_MPS, WaitingTimes};
+use flockway_traffic::{HALTING_MPS, OnApproach, WaitingTimes, queue_at_line};
+pub use flockway_traffic::{QUEUE_FRONT_M, QUEUE_GAP_M};
 use flockway_vehicle::{Motion, RoadTrack, VehicleModel};
 use std::collections::BTreeMap;
 
 /// How far before its line a vehicle counts as approaching a junction, m (front bumper).
 pub const APPROACHING_M: f64 = 100.0;
-/// A queue's first vehicle stands at most this far from the line, m (front bumper).
-pub const QUEUE_FRONT_M: f64 = 20.0;
-/// A queued vehicle stands at most this far behind the one before it, m (bumper to bumper).
-pub const QUEUE_GAP_M: f64 = 10.0;
 
 /// One signalised junction as a controller sees it.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,9 +56,10 @@ pub struct ApproachColumns {
     pub approaching: Vec<u32>,
     /// Vehicles on it slower than [`HALTING_MPS`].
     pub halting: Vec<u32>,
-    /// Vehicles in the queue at the line: standing or creeping (below [`QUEUED_MPS`]) one
-    /// behind the other from the line back (the first within [`QUEUE_FRONT_M`] of it, each
-    /// within [`QUEUE_GAP_M`] of the one before).
+    /// Vehicles in the queue at the line: standing or creeping (below
+    /// [`QUEUED_MPS`](flockway_traffic::QUEUED_MPS)) one behind the other from the line back
+    /// (the first within [`QUEUE_FRONT_M`] of it, each within [`QUEUE_GAP_M`] of the one
+    /// before).
     pub queue_vehicles: Vec<u32>,
     /// The queue's length from the line to its last vehicle's rear bumper, m.
     pub queue_m: Vec<f64>,
@@ -269,24 +267,13 @@ impl Session {
 }
 
 /// The queue at the line of a lane whose vehicles are sorted nearest the line first: how many,
-/// and how far back its last one's rear bumper is, m.
+/// and how far back its last one's rear bumper is, m (the junctions' measure of it).
 fn queue(sorted: &[OnLane]) -> (u32, f64) {
-    let mut count = 0;
-    // Where the queue ends so far: the line, then its last vehicle's rear bumper.
-    let mut rear_m = 0.0;
-    for v in sorted {
-        let allowed_m = if count == 0 {
-            QUEUE_FRONT_M
-        } else {
-            QUEUE_GAP_M
-        };
-        if !(v.speed_mps < f64::from(QUEUED_MPS) && v.to_line_m - rear_m <= allowed_m) {
-            break;
-        }
-        count += 1;
-        rear_m = v.to_line_m + v.length_m;
-    }
-    (count, rear_m.max(0.0))
+    queue_at_line(sorted.iter().map(|v| OnApproach {
+        to_line_m: v.to_line_m,
+        length_m: v.length_m,
+        speed_mps: v.speed_mps,
+    }))
 }
 
 impl From<SignalError> for SessionError {

@@ -13,6 +13,46 @@ use std::collections::BTreeMap;
 pub const APPROACH_ZONE_M: f64 = 150.0;
 /// Below this speed a car in the zone counts as queued, m/s.
 pub const QUEUED_MPS: f32 = 2.0;
+/// A queue's first vehicle stands at most this far from the line, m (front bumper).
+pub const QUEUE_FRONT_M: f64 = 20.0;
+/// A queued vehicle stands at most this far behind the one before it, m (bumper to bumper).
+pub const QUEUE_GAP_M: f64 = 10.0;
+
+/// A vehicle on a lane into a junction, as its queue is measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnApproach {
+    /// From its front bumper to the line, m.
+    pub to_line_m: f64,
+    /// Its length, m.
+    pub length_m: f64,
+    /// Its speed, m/s.
+    pub speed_mps: f64,
+}
+
+/// The queue at the line of a lane whose vehicles come nearest the line first: how many, and
+/// how far back its last one's rear bumper is, m. A queue is the vehicles standing or creeping
+/// (below [`QUEUED_MPS`]) one behind the other from the line back: the first within
+/// [`QUEUE_FRONT_M`] of it, each within [`QUEUE_GAP_M`] of the one before. A slow vehicle
+/// farther back with free road before it (one just setting off from a standstill where it
+/// entered the network) is not in the queue.
+pub fn queue_at_line(sorted: impl IntoIterator<Item = OnApproach>) -> (u32, f64) {
+    let mut count = 0;
+    // Where the queue ends so far: the line, then its last vehicle's rear bumper.
+    let mut rear_m = 0.0;
+    for v in sorted {
+        let allowed_m = if count == 0 {
+            QUEUE_FRONT_M
+        } else {
+            QUEUE_GAP_M
+        };
+        if !(v.speed_mps < f64::from(QUEUED_MPS) && v.to_line_m - rear_m <= allowed_m) {
+            break;
+        }
+        count += 1;
+        rear_m = v.to_line_m + v.length_m;
+    }
+    (count, rear_m.max(0.0))
+}
 /// The first vehicles of a queue leave at longer headways while they get going; the discharge
 /// headway is measured from this one on (the Highway Capacity Manual's convention).
 pub const DISCHARGE_FROM: u32 = 5;
@@ -141,7 +181,8 @@ pub fn measure_junctions(
         .resize_with(junctions.len(), JunctionTotals::default);
     let tick = clock.tick().0;
     let counting = tick >= settings.stats_from_tick;
-    let mut queue = vec![0.0f64; junctions.len()];
+    // Each vehicle in a zone (when counting): junction, approach road and lane, and where it is.
+    let mut in_zone: Vec<(usize, RoadId, u32, OnApproach)> = Vec::new();
     let window = windows.at(tick);
     let mut saturated: Vec<(usize, RoadId, u32)> = Vec::new();
     for (entity, track, motion, model, gaps) in &vehicles {
@@ -246,8 +287,17 @@ pub fn measure_junctions(
         });
         a.queued |= queued;
         a.lane = (track.road, track.lane);
-        if queued {
-            queue[j] = queue[j].max(to_line + 2.0 * half);
+        if counting {
+            in_zone.push((
+                j,
+                track.road,
+                track.lane,
+                OnApproach {
+                    to_line_m: to_line,
+                    length_m: 2.0 * half,
+                    speed_mps: f64::from(motion.forward_mps),
+                },
+            ));
         }
     }
     if let Some(w) = window {
@@ -263,9 +313,54 @@ pub fn measure_junctions(
     }
     // Vehicles gone (destroyed) are forgotten.
     measures.approaching.retain(|e, _| vehicles.contains(*e));
-    if counting {
-        for (totals, q) in measures.totals.iter_mut().zip(queue) {
-            totals.max_queue_m = totals.max_queue_m.max(q);
+    // Each approach lane's queue, nearest the line first (a stable sort: vehicles level with
+    // each other keep the query's order).
+    in_zone.sort_by(|a, b| {
+        (a.0, a.1, a.2)
+            .cmp(&(b.0, b.1, b.2))
+            .then(a.3.to_line_m.total_cmp(&b.3.to_line_m))
+    });
+    for lane in in_zone.chunk_by(|a, b| (a.0, a.1, a.2) == (b.0, b.1, b.2)) {
+        let (_, queue_m) = queue_at_line(lane.iter().map(|v| v.3));
+        let totals = &mut measures.totals[lane[0].0];
+        totals.max_queue_m = totals.max_queue_m.max(queue_m);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(to_line_m: f64, speed_mps: f64) -> OnApproach {
+        OnApproach {
+            to_line_m,
+            length_m: 4.5,
+            speed_mps,
         }
+    }
+
+    #[test]
+    fn a_queue_runs_from_the_line_back_while_slow_cars_stand_close_behind_each_other() {
+        assert_eq!(queue_at_line([]), (0, 0.0));
+        // Three standing or creeping one behind the other, then a gap of 30 m to a fourth.
+        let (n, m) = queue_at_line([at(2.0, 0.0), at(8.5, 0.0), at(15.0, 1.9), at(49.5, 0.0)]);
+        assert_eq!(n, 3);
+        assert!((m - 19.5).abs() < 1e-9, "{m}");
+        // Exactly at the limits: 20 m to the first, 10 m between bumpers.
+        let (n, m) = queue_at_line([at(20.0, 0.0), at(34.5, 0.0)]);
+        assert_eq!((n, m), (2, 39.0));
+        // A moving car at the front ends it before it starts; so does one at 2 m/s.
+        assert_eq!(queue_at_line([at(2.0, 8.0), at(8.5, 0.0)]), (0, 0.0));
+        assert_eq!(queue_at_line([at(2.0, 2.0)]), (0, 0.0));
+    }
+
+    #[test]
+    fn a_car_setting_off_far_from_the_line_is_not_a_queue() {
+        // Where a route begins on the approach a car starts from a standstill 90 m from the
+        // line with the road before it free: no queue, though it is the slowest car there.
+        assert_eq!(queue_at_line([at(40.0, 13.0), at(90.0, 0.0)]), (0, 0.0));
+        assert_eq!(queue_at_line([at(90.0, 0.0)]), (0, 0.0));
+        // Behind a real queue it is not part of it either.
+        assert_eq!(queue_at_line([at(1.0, 0.0), at(90.0, 0.0)]), (1, 5.5));
     }
 }

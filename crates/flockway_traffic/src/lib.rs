@@ -19,7 +19,8 @@ mod zones;
 pub use detectors::{Detector, DetectorReading, Detectors, LoopCounters, measure_detectors};
 pub use junctions::{
     APPROACH_ZONE_M, CapacityWindows, DISCHARGE_FROM, JunctionMeasures, JunctionTotals, LaneWindow,
-    QUEUED_MPS, SATURATED_M, measure_junctions,
+    OnApproach, QUEUE_FRONT_M, QUEUE_GAP_M, QUEUED_MPS, SATURATED_M, measure_junctions,
+    queue_at_line,
 };
 pub use spawn::{
     Departure, SpawnChoice, SpawnRoute, Spawner, SpawnerRate, VehicleId, VehicleIds, run_spawners,
