@@ -946,7 +946,16 @@ impl Junction {
                     // Merging onto the same lane: the turning car fits in behind the straight one.
                     return true;
                 }
-                from_right(a.heading_in, b.heading_in)
+                if a.to == b.to {
+                    return from_right(a.heading_in, b.heading_in);
+                }
+                // Two paths that cross: the one with the other's traffic from its right gives
+                // way. From headings near parallel or opposite (a multi-arm junction's nearly
+                // opposite arms, two lanes of one arm) neither comes clearly from the other's
+                // right, yet one must give way: the side the other comes from all the same,
+                // and exactly in line the later connection.
+                let cross = a.heading_in.x * b.heading_in.y - a.heading_in.y * b.heading_in.x;
+                if cross != 0.0 { cross > 0.0 } else { i > j }
             }
         }
     }
@@ -1456,6 +1465,76 @@ mod tests {
         let net = crossroads(stop);
         assert!(net.junctions()[0].must_stop(S_STRAIGHT));
         assert!(!net.junctions()[0].must_stop(W_STRAIGHT));
+    }
+
+    /// Seven arms of one lane each way, 360°/7 apart, their ends 12 m from the centre (as
+    /// netgenerate's spider has them), and every movement from each arm into each other.
+    fn star() -> RoadNetwork {
+        let mut roads = Vec::new();
+        let mut connections = Vec::new();
+        for k in 0..7 {
+            let angle = f64::from(k) * std::f64::consts::TAU / 7.0;
+            let (out, left) = (
+                DVec3::new(libm::cos(angle), libm::sin(angle), 0.0),
+                DVec3::new(-libm::sin(angle), libm::cos(angle), 0.0),
+            );
+            let at = |r: f64, side: f64| out * r + left * side;
+            roads.push(RoadSpec::through(
+                &format!("{k} in"),
+                1,
+                50.0,
+                &[at(112.0, 1.6), at(12.0, 1.6)],
+            ));
+            roads.push(RoadSpec::through(
+                &format!("{k} out"),
+                1,
+                50.0,
+                &[at(12.0, -1.6), at(112.0, -1.6)],
+            ));
+        }
+        for a in 0..7 {
+            for b in (0..7).filter(|b| *b != a) {
+                connections.push(ConnectionSpec {
+                    from: format!("{a} in"),
+                    from_lane: 0,
+                    to: format!("{b} out"),
+                    to_lane: 0,
+                });
+            }
+        }
+        let junction = JunctionSpec {
+            name: "star".into(),
+            control: Control::RightBeforeLeft,
+            connections,
+            signal: None,
+        };
+        RoadNetwork::build_with(&roads, &[junction]).expect("a valid star")
+    }
+
+    #[test]
+    fn of_two_paths_that_cross_exactly_one_gives_way_even_from_nearly_opposite_arms() {
+        let net = star();
+        let x = &net.junctions()[0];
+        let mut crossings = 0;
+        let mut near_opposite = 0;
+        for (i, path) in x.paths.iter().enumerate() {
+            for c in path.conflicts.iter().filter(|c| !c.merge) {
+                let j = c.other;
+                crossings += 1;
+                let (a, b) = (path.heading_in, x.paths[j].heading_in);
+                if a.dot(b) < -0.8 {
+                    near_opposite += 1;
+                }
+                assert_ne!(
+                    x.gives_way(i, j, None),
+                    x.gives_way(j, i, None),
+                    "paths {i} and {j} cross: exactly one gives way"
+                );
+            }
+        }
+        // Arms three apart meet at 154°: too near opposite for either to come clearly from
+        // the other's right, and their paths cross.
+        assert!(near_opposite > 0, "{near_opposite} of {crossings}");
     }
 
     /// Two phases of 30 s green and 3 s amber: east–west first (left turns permitted, giving
