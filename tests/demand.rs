@@ -263,6 +263,50 @@ fn route_and_type_distributions_are_drawn_per_vehicle() {
 }
 
 #[test]
+fn a_route_that_turns_back_leaves_its_vehicles_out_and_a_route_that_jumps_is_an_error() {
+    // `WC` then `CW` turns back at the centre, as SUMO may (randomTrips' routes often do); an
+    // imported level has no such turn: those vehicles are left out, the rest run.
+    let demand = r#"<routes>
+  <route id="back" edges="WC CW"/>
+  <vehicle id="a" depart="0" route="back"/>
+  <vehicle id="b" depart="1"><route edges="WC CE"/></vehicle>
+  <vehicle id="c" depart="2"><route edges="NC CN"/></vehicle>
+</routes>"#;
+    let net = fixture("cross.net.xml");
+    let text = std::fs::read_to_string(&net).expect("the fixture");
+    let (level, report) = import_sumo(
+        &text,
+        &net,
+        "demand",
+        &[(PathBuf::from("demand.rou.xml"), demand.to_owned())],
+    )
+    .expect("imports");
+    assert_eq!(report.vehicles, 1, "{report:?}");
+    let departures: usize = level.spawners.iter().map(|s| s.departures.len()).sum();
+    assert_eq!(departures, 1);
+    assert!(
+        report.warnings[0].starts_with(
+            "demand.rou.xml:3:3: `a`: route `back`: edge `WC` does not lead onto `CW`"
+        ) && report.warnings[0].ends_with("such trips are left out"),
+        "{:?}",
+        report.warnings
+    );
+    assert_eq!(
+        report.warnings.last().map(String::as_str),
+        Some("2 trips and flows left out in all")
+    );
+    // Edges that do not meet are a mistake in the demand, inline as on their own.
+    let jump = import_cross(
+        "<routes>\n  <vehicle id=\"v\" depart=\"0\"><route edges=\"WC NC\"/></vehicle>\n</routes>",
+    )
+    .expect_err("a route between edges that do not meet");
+    assert!(
+        jump.contains("demand.rou.xml:2:3: edge `WC` does not lead onto `NC`"),
+        "{jump}"
+    );
+}
+
+#[test]
 fn bad_demand_is_an_error_at_its_line_and_column() {
     let cases = [
         (

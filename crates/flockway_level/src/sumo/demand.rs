@@ -23,6 +23,11 @@ use rand_core::{Rng, SeedableRng};
 use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 use std::path::{Path, PathBuf};
 
+/// How near a route's next edge must start to where its edge ends, and end to where it starts,
+/// m, for a step between them no connection makes to be a turn back (the two directions of a
+/// street, their ends a few lanes apart at each node).
+const TURN_BACK_M: f64 = 20.0;
+
 /// The vehicle classes driven as the level's sedan; other classes are skipped and counted.
 const CAR_CLASSES: [&str; 6] = [
     "passenger",
@@ -106,8 +111,11 @@ struct Reader<'a> {
     rng: ChaCha8Rng,
     /// The file being read.
     file: PathBuf,
-    /// Trips and flows left out because their destination cannot be reached.
+    /// Trips and flows left out because their destination cannot be reached or their route
+    /// turns back.
     unroutable: usize,
+    /// Routes defined on their own that turn back, which imported levels leave out: why.
+    turning_back: BTreeMap<String, String>,
 }
 
 /// Reads a SUMO network and the demand in `routes` (each file's path and text, read in order:
@@ -173,6 +181,7 @@ pub(crate) fn apply_demand(
         rng: ChaCha8Rng::seed_from_u64(level.seed),
         file: PathBuf::new(),
         unroutable: 0,
+        turning_back: BTreeMap::new(),
     };
     reader.vtypes.insert(
         DEFAULT_VTYPE.to_owned(),
@@ -343,8 +352,17 @@ impl Reader<'_> {
                 "vType" => self.vtype(node).map_err(|m| at(node, m))?,
                 "route" => {
                     let id = need(node, "id").map_err(|m| at(node, m))?;
-                    let edges = self.route_edges(node).map_err(|m| at(node, m))?;
-                    self.routes.insert(id.to_owned(), edges);
+                    let edges = self.known_route_edges(node).map_err(|m| at(node, m))?;
+                    // The vehicles on a route that turns back are left out where they name it.
+                    match self.undrivable(&edges) {
+                        Some(Ok(why)) => {
+                            self.turning_back.insert(id.to_owned(), why);
+                        }
+                        Some(Err(why)) => return Err(at(node, why)),
+                        None => {
+                            self.routes.insert(id.to_owned(), edges);
+                        }
+                    }
                 }
                 "vehicle" | "trip" => self.vehicle(node).map_err(|m| at(node, m))?,
                 "flow" => self.flow(node).map_err(|m| at(node, m))?,
@@ -503,6 +521,64 @@ impl Reader<'_> {
 
     /// A route element's edges, checked: each known and leading onto the next.
     fn route_edges(&self, node: roxmltree::Node) -> Result<Vec<String>, String> {
+        let edges = self.known_route_edges(node)?;
+        match self.unconnected(&edges) {
+            Some(why) => Err(format!("{why} (imported levels leave out turns back)")),
+            None => Ok(edges),
+        }
+    }
+
+    /// Where a route's edges first do not lead one onto the next, said; `None` when each
+    /// leads onto the next.
+    fn unconnected(&self, edges: &[String]) -> Option<String> {
+        edges
+            .windows(2)
+            .find(|pair| !self.level.leads_to(&pair[0]).contains(&pair[1].as_str()))
+            .map(|pair| {
+                format!(
+                    "edge `{}` does not lead onto `{}`: no connection between their car lanes",
+                    pair[0], pair[1]
+                )
+            })
+    }
+
+    /// Whether a route's edges that do not lead one onto the next ([`Self::unconnected`]) only
+    /// turn back, and why it cannot be driven: `Some(Ok(why))` when it turns back (SUMO turns
+    /// there; the vehicles are left out), `Some(Err(why))` when it jumps between edges that do
+    /// not meet (a mistake in the demand), `None` when it can be driven.
+    fn undrivable(&self, edges: &[String]) -> Option<Result<String, String>> {
+        let why = self.unconnected(edges)?;
+        Some(if self.only_turns_back(edges) {
+            Ok(format!(
+                "{why} (it turns back there, which imported levels leave out)"
+            ))
+        } else {
+            Err(why)
+        })
+    }
+
+    /// Whether every step of `edges` that no connection makes goes back the way it came (the
+    /// next edge runs from about where this one ends to about where it starts): SUMO turns
+    /// there, the imported level cannot. A step between edges that do not meet at all is a
+    /// mistake in the demand, not a turn.
+    fn only_turns_back(&self, edges: &[String]) -> bool {
+        let ends = |name: &str| {
+            let points = &self.level.road(name)?.points;
+            Some((points.first()?.pos, points.last()?.pos))
+        };
+        edges
+            .windows(2)
+            .filter(|pair| !self.level.leads_to(&pair[0]).contains(&pair[1].as_str()))
+            .all(|pair| match (ends(&pair[0]), ends(&pair[1])) {
+                (Some((a0, a1)), Some((b0, b1))) => {
+                    a1.distance(b0) < TURN_BACK_M && b1.distance(a0) < TURN_BACK_M
+                }
+                _ => false,
+            })
+    }
+
+    /// A route element's edges, each known.
+    fn known_route_edges(&self, node: roxmltree::Node) -> Result<Vec<String>, String> {
         let edges: Vec<String> = need(node, "edges")?
             .split_whitespace()
             .filter(|e| !self.inside_junctions.contains(*e))
@@ -513,15 +589,6 @@ impl Reader<'_> {
         }
         for e in &edges {
             self.known_edge(e)?;
-        }
-        for pair in edges.windows(2) {
-            if !self.level.leads_to(&pair[0]).contains(&pair[1].as_str()) {
-                return Err(format!(
-                    "edge `{}` does not lead onto `{}`: no connection between their car lanes \
-                     (imported levels leave out turns back)",
-                    pair[0], pair[1]
-                ));
-            }
         }
         Ok(edges)
     }
@@ -545,16 +612,27 @@ impl Reader<'_> {
     /// The route a vehicle, trip or flow takes: its `route` (an id, or a child element), or
     /// the quickest path from `from` through each of `via` to `to`. Named after `own` when it
     /// is its own.
-    /// `None` when a trip's destination cannot be reached.
-    fn route_of(&mut self, node: roxmltree::Node, own: &str) -> Result<Option<String>, String> {
+    /// `Ok(Err(why))` when the imported network cannot take it: a trip's destination cannot be
+    /// reached, or its route turns back.
+    fn route_of(
+        &mut self,
+        node: roxmltree::Node,
+        own: &str,
+    ) -> Result<Result<String, String>, String> {
         if let Some(child) = node.children().find(|n| n.has_tag_name("route")) {
-            let edges = self.route_edges(child)?;
+            let edges = self.known_route_edges(child)?;
+            if let Some(why) = self.undrivable(&edges) {
+                return why.map(Err);
+            }
             self.routes.insert(own.to_owned(), edges);
-            return Ok(Some(own.to_owned()));
+            return Ok(Ok(own.to_owned()));
         }
         if let Some(id) = node.attribute("route") {
+            if let Some(why) = self.turning_back.get(id) {
+                return Ok(Err(format!("route `{id}`: {why}")));
+            }
             return if self.routes.contains_key(id) || self.route_dists.contains_key(id) {
-                Ok(Some(id.to_owned()))
+                Ok(Ok(id.to_owned()))
             } else {
                 Err(format!(
                     "unknown route `{id}` (routes must be defined before use)"
@@ -580,27 +658,27 @@ impl Reader<'_> {
         let mut edges: Vec<String> = vec![from.to_owned()];
         for pair in stops.windows(2) {
             let Some(leg) = quickest(self.level, pair[0], pair[1]) else {
-                return Ok(None);
+                return Ok(Err(
+                    "its destination cannot be reached from where it departs on the imported \
+                     network (SUMO's way may turn back, which imported levels leave out)"
+                        .to_owned(),
+                ));
             };
             edges.extend(leg.into_iter().skip(1));
         }
         self.routes.insert(own.to_owned(), edges);
-        Ok(Some(own.to_owned()))
+        Ok(Ok(own.to_owned()))
     }
 
-    /// Counts a trip the imported network cannot route (SUMO's route may turn back, which an
-    /// imported level leaves out), naming the first in a warning.
-    fn unroutable(&mut self, node: roxmltree::Node, id: &str) {
+    /// Counts a trip or flow the imported network cannot take (`why`: its destination cannot
+    /// be reached, its route turns back), naming the first in a warning.
+    fn unroutable(&mut self, node: roxmltree::Node, id: &str, why: &str) {
         self.unroutable += 1;
         if self.unroutable == 1 {
             let place = error_at(
                 &self.file,
                 node,
-                format!(
-                    "`{id}`: its destination cannot be reached from where it departs on the \
-                     imported network (SUMO's way may turn back, which imported levels leave \
-                     out); such trips are left out"
-                ),
+                format!("`{id}`: {why}; such trips are left out"),
             );
             self.report.warnings.push(place.to_string());
         }
@@ -634,9 +712,12 @@ impl Reader<'_> {
         };
         let time_s = time(need(node, "depart")?)
             .ok_or_else(|| format!("vehicle `{id}`: `depart` must be a time in seconds"))?;
-        let Some(route) = self.route_of(node, &id)? else {
-            self.unroutable(node, &id);
-            return Ok(());
+        let route = match self.route_of(node, &id)? {
+            Ok(route) => route,
+            Err(why) => {
+                self.unroutable(node, &id, &why);
+                return Ok(());
+            }
         };
         if let Some(vtype) = self.draw_type(&vtype) {
             let trip = self.trip(node, time_s, vtype, route)?;
@@ -662,9 +743,12 @@ impl Reader<'_> {
         let begin = number_attr("begin")?.unwrap_or(0.0);
         let end = number_attr("end")?;
         let number = number_attr("number")?;
-        let Some(route) = self.route_of(node, &id)? else {
-            self.unroutable(node, &id);
-            return Ok(());
+        let route = match self.route_of(node, &id)? {
+            Ok(route) => route,
+            Err(why) => {
+                self.unroutable(node, &id, &why);
+                return Ok(());
+            }
         };
         let rates: Vec<&str> = ["vehsPerHour", "period", "probability", "number"]
             .into_iter()
