@@ -310,6 +310,11 @@ impl Scene<'_> {
                 }
                 coming.push((eta, foe_gone - eta, f.speed_mps));
             }
+            // Setting off: whatever its critical gap leaves, no foe may reach the conflict
+            // before it has cleared it, with the margin of a car going through a gap.
+            let own_clear_s = clear_by
+                .is_none()
+                .then(|| arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S);
             for &(eta, through_s, speed) in &coming {
                 // The critical gap is a headway, front to front: the foe's own time through
                 // the conflict area is part of it; behind a foe that passes first, the gap is
@@ -318,7 +323,10 @@ impl Scene<'_> {
                 let needed_s = clear_by.map_or(gap_s, |c| gap_s.min(c));
                 let behind_lead =
                     clear_by.is_none() && lead.is_some_and(|l| l < eta && eta - l < critical_gap_s);
-                if eta - mine < needed_s || behind_lead {
+                // A long conflict area a foe takes slowly (a tight turn) leaves a gap of the
+                // critical gap less its time through: shorter than a start needs.
+                let too_soon = own_clear_s.is_some_and(|own| eta < own);
+                if eta - mine < needed_s || behind_lead || too_soon {
                     out.hold = true;
                     out.by_moving |= speed > STOPPED_MPS;
                 }
@@ -1152,6 +1160,91 @@ mod tests {
         assert!((expected_arrival_s(20.0, 10.0, 2.0, 6.0) - t).abs() < 1e-9);
         // A short way from a stop, still speeding up when it gets there.
         assert!((expected_arrival_s(0.0, 4.0, 0.0, 6.0) - 2.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_yielding_car_takes_no_gap_shorter_than_it_needs_to_clear_a_slow_foes_long_area() {
+        use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
+        use glam::DVec3;
+        // The corner of a grid of one-lane streets, as netgenerate draws it: `n` turns left
+        // into `e` round the corner on a 4.8 m radius; `w` turns right into `up` inside it on
+        // 1.6 m, which a sedan can only drive wide, across the end of `n`. Both are major: the
+        // right turn gives way to the left one, whose conflict area is long and taken slowly.
+        let road = |name: &str, a: [f64; 2], b: [f64; 2]| {
+            RoadSpec::through(
+                name,
+                1,
+                50.0,
+                &[DVec3::new(a[0], a[1], 0.0), DVec3::new(b[0], b[1], 0.0)],
+            )
+        };
+        let roads = [
+            road("n", [-1.6, 100.0], [-1.6, 3.2]),
+            road("e", [3.2, -1.6], [100.0, -1.6]),
+            road("w", [100.0, 1.6], [3.2, 1.6]),
+            road("up", [1.6, 3.2], [1.6, 100.0]),
+        ];
+        let connection = |from: &str, to: &str| ConnectionSpec {
+            from: from.into(),
+            from_lane: 0,
+            to: to.into(),
+            to_lane: 0,
+        };
+        let junction = JunctionSpec {
+            name: "j".into(),
+            control: Control::Priority {
+                major: vec!["n".into(), "w".into()],
+                stop: false,
+            },
+            connections: vec![connection("n", "e"), connection("w", "up")],
+            signal: None,
+        };
+        let network =
+            RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a corner");
+        let corner = &network.junctions()[0];
+        assert!(corner.gives_way(1, 0, None) && !corner.gives_way(0, 1, None));
+        let through: Vec<Vec<f64>> = vec![
+            (0..2)
+                .map(|k| through_mps(&network, network.path_road(0, k).expect("a path")))
+                .collect(),
+        ];
+        let index = LaneIndex::default();
+        let signals = [None];
+        let approach = |path: usize, to_line_m: f64, speed_mps: f32, held: bool| Approach {
+            entity: Entity::from_raw_u32(path as u32 + 1).expect("an entity"),
+            junction: 0,
+            path,
+            to_line_m,
+            half_m: 2.3,
+            speed_mps,
+            held,
+            inside: false,
+            stopped_tick: None,
+            blocked: false,
+        };
+        // The right-turner standing at its line; the left-turner coming at 16 km/h.
+        let waiting = approach(1, 0.2, 0.0, true);
+        let waits_for = |to_line_m: f64| {
+            let approaches = [waiting, approach(0, to_line_m, 4.5, false)];
+            let scene = Scene {
+                network: &network,
+                index: &index,
+                approaches: &approaches,
+                signals: &signals,
+                through: &through,
+            };
+            let conflicts = &corner.paths[1].conflicts;
+            scene
+                .gives_way_now(&waiting, conflicts.iter(), CRITICAL_GAP_S, None)
+                .hold
+        };
+        // 7 m out the left-turner is at the conflict in under 2 s, braking for its bend: less
+        // than the critical gap less its slow 3 s through the area leaves as enough, but about
+        // what the right-turner needs to clear it from a standstill.
+        assert!(waits_for(7.0));
+        assert!(waits_for(12.0));
+        // 40 m out it is no foe yet.
+        assert!(!waits_for(40.0));
     }
 
     #[test]
