@@ -220,6 +220,17 @@ impl Scene<'_> {
                 && committed(f.speed_mps, c.other_at_m - f.s_m);
             short |= f.s_m < foe_clear;
         }
+        // An area that reaches back over the other path's line (a turn driven wide across the
+        // end of that lane): a car still before that line with its body in the area is in it
+        // too, standing where its hold-back would have kept it clear had it been held in time.
+        if c.other_at_m < 0.0 && !occupied {
+            occupied = self.approaches.iter().any(|f| {
+                f.junction == j
+                    && f.path == c.other
+                    && !f.inside
+                    && -f.to_line_m - f.half_m > c.other_at_m
+            });
+        }
         (occupied, short, lead)
     }
 
@@ -1162,14 +1173,13 @@ mod tests {
         assert!((expected_arrival_s(0.0, 4.0, 0.0, 6.0) - 2.0).abs() < 1e-9);
     }
 
-    #[test]
-    fn a_yielding_car_takes_no_gap_shorter_than_it_needs_to_clear_a_slow_foes_long_area() {
+    /// The corner of a grid of one-lane streets, as netgenerate draws it: `n` turns left into
+    /// `e` round the corner on a 4.8 m radius (path 0); `w` turns right into `up` inside it on
+    /// 1.6 m (path 1), which a sedan can only drive wide, across the end of `n`. Both are
+    /// major: the right turn gives way to the left one. With each path's speed.
+    fn grid_corner() -> (RoadNetwork, Vec<Vec<f64>>) {
         use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
         use glam::DVec3;
-        // The corner of a grid of one-lane streets, as netgenerate draws it: `n` turns left
-        // into `e` round the corner on a 4.8 m radius; `w` turns right into `up` inside it on
-        // 1.6 m, which a sedan can only drive wide, across the end of `n`. Both are major: the
-        // right turn gives way to the left one, whose conflict area is long and taken slowly.
         let road = |name: &str, a: [f64; 2], b: [f64; 2]| {
             RoadSpec::through(
                 name,
@@ -1201,16 +1211,17 @@ mod tests {
         };
         let network =
             RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a corner");
-        let corner = &network.junctions()[0];
-        assert!(corner.gives_way(1, 0, None) && !corner.gives_way(0, 1, None));
-        let through: Vec<Vec<f64>> = vec![
+        let through = vec![
             (0..2)
                 .map(|k| through_mps(&network, network.path_road(0, k).expect("a path")))
                 .collect(),
         ];
-        let index = LaneIndex::default();
-        let signals = [None];
-        let approach = |path: usize, to_line_m: f64, speed_mps: f32, held: bool| Approach {
+        (network, through)
+    }
+
+    /// A car of [`grid_corner`] approaching path `path`, not yet on it.
+    fn corner_approach(path: usize, to_line_m: f64, speed_mps: f32, held: bool) -> Approach {
+        Approach {
             entity: Entity::from_raw_u32(path as u32 + 1).expect("an entity"),
             junction: 0,
             path,
@@ -1221,11 +1232,21 @@ mod tests {
             inside: false,
             stopped_tick: None,
             blocked: false,
-        };
+        }
+    }
+
+    #[test]
+    fn a_yielding_car_takes_no_gap_shorter_than_it_needs_to_clear_a_slow_foes_long_area() {
+        // At the corner the left turn's conflict area is long and taken slowly.
+        let (network, through) = grid_corner();
+        let corner = &network.junctions()[0];
+        assert!(corner.gives_way(1, 0, None) && !corner.gives_way(0, 1, None));
+        let index = LaneIndex::default();
+        let signals = [None];
         // The right-turner standing at its line; the left-turner coming at 16 km/h.
-        let waiting = approach(1, 0.2, 0.0, true);
+        let waiting = corner_approach(1, 0.2, 0.0, true);
         let waits_for = |to_line_m: f64| {
-            let approaches = [waiting, approach(0, to_line_m, 4.5, false)];
+            let approaches = [waiting, corner_approach(0, to_line_m, 4.5, false)];
             let scene = Scene {
                 network: &network,
                 index: &index,
@@ -1245,6 +1266,38 @@ mod tests {
         assert!(waits_for(12.0));
         // 40 m out it is no foe yet.
         assert!(!waits_for(40.0));
+    }
+
+    #[test]
+    fn a_car_standing_before_its_line_in_a_wide_turns_sweep_holds_the_turn_back() {
+        // The left-turner from `n` has stopped at its line, where the right turn from `w`
+        // runs wide: the right-turner waits, whoever has the right of way. Stopped at its
+        // hold-back place instead, it is clear of the sweep and in nobody's way.
+        let (network, through) = grid_corner();
+        let corner = &network.junctions()[0];
+        let index = LaneIndex::default();
+        let signals = [None];
+        let turner = corner_approach(1, 0.2, 0.0, true);
+        let occupied = |to_line_m: f64| {
+            let approaches = [turner, corner_approach(0, to_line_m, 0.0, true)];
+            let scene = Scene {
+                network: &network,
+                index: &index,
+                approaches: &approaches,
+                signals: &signals,
+                through: &through,
+            };
+            let c = corner.paths[1]
+                .conflicts
+                .iter()
+                .find(|c| c.other == 0)
+                .expect("the turns conflict");
+            scene.foes_on_path_at_line(&turner, c)
+        };
+        let hold_back = corner.paths[0].hold_back_m;
+        assert!(hold_back > 1.0, "{hold_back}");
+        assert!(occupied(0.2));
+        assert!(!occupied(hold_back + 0.5));
     }
 
     #[test]

@@ -838,15 +838,18 @@ impl Junction {
             }
             self.paths[i].hold_back_m = back;
         }
-        // Where a car's body is: from half over the line (its centre half a body before the
-        // path's start, along its lane's end) to the path's end.
+        // Where a car's body is: from where it waits (its centre half a body and its hold-back
+        // before the path's start, along its lane's end) to the path's end.
         let bodies: Vec<Vec<Sample>> = (0..self.paths.len())
             .map(|i| {
                 let Some(first) = samples[i].samples.first() else {
                     return Vec::new();
                 };
                 let heading = self.paths[i].heading_in;
-                let n = (0.5 * BODY_LENGTH_M / SAMPLE_M).ceil() as usize;
+                // Back to where it waits clear of the others: short of there, a body standing
+                // at the line is in the way of a turn that sweeps the end of its lane.
+                let lead_in = 0.5 * BODY_LENGTH_M + self.paths[i].hold_back_m;
+                let n = (lead_in / SAMPLE_M).ceil() as usize;
                 let lead_in = (1..=n).rev().map(|k| {
                     let s = -(k as f64) * SAMPLE_M;
                     Sample::new(s, first.pos + heading * s, heading)
@@ -1212,6 +1215,46 @@ mod tests {
         );
         let roomy = crossroads(priority());
         assert_eq!(roomy.junctions()[0].paths[W_STRAIGHT].hold_back_m, 0.0);
+    }
+
+    #[test]
+    fn a_turn_driven_wide_across_a_lanes_end_conflicts_with_a_car_there_back_to_its_hold_back() {
+        // The right turn from `n in` runs wide across the end of `w in`: a car on `w in` with
+        // its body in that sweep is in their conflict area, back to where it waits clear of
+        // it (half a body and its hold-back before the line), not only over the line.
+        let junction = JunctionSpec {
+            name: "x".into(),
+            control: priority(),
+            connections: movements(),
+            signal: None,
+        };
+        let net = RoadNetwork::build_with(&arms_ending(4.0), &[junction]).expect("valid");
+        let x = &net.junctions()[0];
+        let straight = &x.paths[W_STRAIGHT];
+        let conflict = straight
+            .conflicts
+            .iter()
+            .find(|c| c.other == N_RIGHT)
+            .expect("the straight on and the wide right turn conflict");
+        let waits_at = -0.5 * BODY_LENGTH_M - straight.hold_back_m;
+        assert!(
+            conflict.at_m < -0.5 * BODY_LENGTH_M - SAMPLE_M,
+            "{} (hold-back {})",
+            conflict.at_m,
+            straight.hold_back_m
+        );
+        assert!(
+            conflict.at_m >= waits_at - SAMPLE_M,
+            "{} {waits_at}",
+            conflict.at_m
+        );
+        // The turn's side of it starts on its path.
+        let other = x.paths[N_RIGHT]
+            .conflicts
+            .iter()
+            .find(|c| c.other == W_STRAIGHT)
+            .expect("both ways");
+        assert_eq!(other.other_at_m, conflict.at_m);
     }
 
     /// Every movement of [`arms`]: straight, left and right from each arm, in that order per arm
