@@ -1235,25 +1235,34 @@ mod tests {
         }
     }
 
+    /// No car on any path, and no signal: a scene of [`grid_corner`] with only `approaches`.
+    fn corner_scene<'a>(
+        network: &'a RoadNetwork,
+        approaches: &'a [Approach],
+        through: &'a [Vec<f64>],
+    ) -> Scene<'a> {
+        const NO_SIGNAL: &[Option<Vec<SignalState>>] = &[None];
+        static EMPTY: std::sync::LazyLock<LaneIndex> = std::sync::LazyLock::new(LaneIndex::default);
+        Scene {
+            network,
+            index: &EMPTY,
+            approaches,
+            signals: NO_SIGNAL,
+            through,
+        }
+    }
+
     #[test]
     fn a_yielding_car_takes_no_gap_shorter_than_it_needs_to_clear_a_slow_foes_long_area() {
         // At the corner the left turn's conflict area is long and taken slowly.
         let (network, through) = grid_corner();
         let corner = &network.junctions()[0];
         assert!(corner.gives_way(1, 0, None) && !corner.gives_way(0, 1, None));
-        let index = LaneIndex::default();
-        let signals = [None];
         // The right-turner standing at its line; the left-turner coming at 16 km/h.
         let waiting = corner_approach(1, 0.2, 0.0, true);
         let waits_for = |to_line_m: f64| {
             let approaches = [waiting, corner_approach(0, to_line_m, 4.5, false)];
-            let scene = Scene {
-                network: &network,
-                index: &index,
-                approaches: &approaches,
-                signals: &signals,
-                through: &through,
-            };
+            let scene = corner_scene(&network, &approaches, &through);
             let conflicts = &corner.paths[1].conflicts;
             scene
                 .gives_way_now(&waiting, conflicts.iter(), CRITICAL_GAP_S, None)
@@ -1275,18 +1284,10 @@ mod tests {
         // hold-back place instead, it is clear of the sweep and in nobody's way.
         let (network, through) = grid_corner();
         let corner = &network.junctions()[0];
-        let index = LaneIndex::default();
-        let signals = [None];
         let turner = corner_approach(1, 0.2, 0.0, true);
         let occupied = |to_line_m: f64| {
             let approaches = [turner, corner_approach(0, to_line_m, 0.0, true)];
-            let scene = Scene {
-                network: &network,
-                index: &index,
-                approaches: &approaches,
-                signals: &signals,
-                through: &through,
-            };
+            let scene = corner_scene(&network, &approaches, &through);
             let c = corner.paths[1]
                 .conflicts
                 .iter()

@@ -1168,17 +1168,22 @@ mod tests {
         ]
     }
 
-    #[test]
-    fn a_bend_tighter_than_full_lock_is_driven_wide_and_back_onto_the_lane_after() {
-        // Arms 4 m from the centre: the right turn from `n in` to `w out` bends on about
-        // 2.5 m, no car's lock.
+    /// A priority crossroads of [`movements`] with its arms 4 m from the centre.
+    fn tight_crossroads() -> RoadNetwork {
         let junction = JunctionSpec {
             name: "x".into(),
             control: priority(),
             connections: movements(),
             signal: None,
         };
-        let net = RoadNetwork::build_with(&arms_ending(4.0), &[junction]).expect("valid");
+        RoadNetwork::build_with(&arms_ending(4.0), &[junction]).expect("valid")
+    }
+
+    #[test]
+    fn a_bend_tighter_than_full_lock_is_driven_wide_and_back_onto_the_lane_after() {
+        // Arms 4 m from the centre: the right turn from `n in` to `w out` bends on about
+        // 2.5 m, no car's lock.
+        let net = tight_crossroads();
         let right = net
             .get(net.path_road(0, N_RIGHT).expect("path"))
             .expect("geometry");
@@ -1222,13 +1227,7 @@ mod tests {
         // The right turn from `n in` runs wide across the end of `w in`: a car on `w in` with
         // its body in that sweep is in their conflict area, back to where it waits clear of
         // it (half a body and its hold-back before the line), not only over the line.
-        let junction = JunctionSpec {
-            name: "x".into(),
-            control: priority(),
-            connections: movements(),
-            signal: None,
-        };
-        let net = RoadNetwork::build_with(&arms_ending(4.0), &[junction]).expect("valid");
+        let net = tight_crossroads();
         let x = &net.junctions()[0];
         let straight = &x.paths[W_STRAIGHT];
         let conflict = straight
