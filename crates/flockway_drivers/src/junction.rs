@@ -321,10 +321,10 @@ impl Scene<'_> {
                 }
                 coming.push((eta, foe_gone - eta, f.speed_mps));
             }
-            // Setting off: whatever its critical gap leaves, no foe may reach the conflict
-            // before it has cleared it, with the margin of a car going through a gap.
-            let own_clear_s = clear_by
-                .is_none()
+            // Setting off without a signal: whatever its critical gap leaves, no foe may reach
+            // the conflict before it has cleared it, with the margin of a car going through a
+            // gap. (At a signal a permitted movement turns through gaps as its green ends.)
+            let own_clear_s = (clear_by.is_none() && states.is_none())
                 .then(|| arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S);
             for &(eta, through_s, speed) in &coming {
                 // The critical gap is a headway, front to front: the foe's own time through
