@@ -321,11 +321,6 @@ impl Scene<'_> {
                 }
                 coming.push((eta, foe_gone - eta, f.speed_mps));
             }
-            // Setting off without a signal: whatever its critical gap leaves, no foe may reach
-            // the conflict before it has cleared it, with the margin of a car going through a
-            // gap. (At a signal a permitted movement turns through gaps as its green ends.)
-            let own_clear_s = (clear_by.is_none() && states.is_none())
-                .then(|| arrival_s(c.clear_m - centre, a.speed_mps) + CLEARING_MARGIN_S);
             for &(eta, through_s, speed) in &coming {
                 // The critical gap is a headway, front to front: the foe's own time through
                 // the conflict area is part of it; behind a foe that passes first, the gap is
@@ -334,10 +329,7 @@ impl Scene<'_> {
                 let needed_s = clear_by.map_or(gap_s, |c| gap_s.min(c));
                 let behind_lead =
                     clear_by.is_none() && lead.is_some_and(|l| l < eta && eta - l < critical_gap_s);
-                // A long conflict area a foe takes slowly (a tight turn) leaves a gap of the
-                // critical gap less its time through: shorter than a start needs.
-                let too_soon = own_clear_s.is_some_and(|own| eta < own);
-                if eta - mine < needed_s || behind_lead || too_soon {
+                if eta - mine < needed_s || behind_lead {
                     out.hold = true;
                     out.by_moving |= speed > STOPPED_MPS;
                 }
@@ -1250,31 +1242,6 @@ mod tests {
             signals: NO_SIGNAL,
             through,
         }
-    }
-
-    #[test]
-    fn a_yielding_car_takes_no_gap_shorter_than_it_needs_to_clear_a_slow_foes_long_area() {
-        // At the corner the left turn's conflict area is long and taken slowly.
-        let (network, through) = grid_corner();
-        let corner = &network.junctions()[0];
-        assert!(corner.gives_way(1, 0, None) && !corner.gives_way(0, 1, None));
-        // The right-turner standing at its line; the left-turner coming at 16 km/h.
-        let waiting = corner_approach(1, 0.2, 0.0, true);
-        let waits_for = |to_line_m: f64| {
-            let approaches = [waiting, corner_approach(0, to_line_m, 4.5, false)];
-            let scene = corner_scene(&network, &approaches, &through);
-            let conflicts = &corner.paths[1].conflicts;
-            scene
-                .gives_way_now(&waiting, conflicts.iter(), CRITICAL_GAP_S, None)
-                .hold
-        };
-        // 7 m out the left-turner is at the conflict in under 2 s, braking for its bend: less
-        // than the critical gap less its slow 3 s through the area leaves as enough, but about
-        // what the right-turner needs to clear it from a standstill.
-        assert!(waits_for(7.0));
-        assert!(waits_for(12.0));
-        // 40 m out it is no foe yet.
-        assert!(!waits_for(40.0));
     }
 
     #[test]
