@@ -821,7 +821,16 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
     }
     // Past the point of no return for a stream's gap it goes on (stopping would leave it in
     // the way); a body in the conflict area stops it whatever it costs.
-    if stop.is_finite() && !a.held && committed(a.speed_mps, stop - front) {
+    // A car already past its waiting place (held only now, while going) is judged against the
+    // area's start itself, the stop's `INSIDE_STOP_M` further on: if it cannot stop short of
+    // that, braking would leave it creeping into the area in the stream's way.
+    let left = stop - front;
+    let left = if left > 0.0 {
+        left
+    } else {
+        left + INSIDE_STOP_M
+    };
+    if stop.is_finite() && !a.held && committed(a.speed_mps, left) {
         stop = f64::INFINITY;
     }
     (
@@ -1266,6 +1275,35 @@ mod tests {
         assert!(hold_back > 1.0, "{hold_back}");
         assert!(occupied(0.2));
         assert!(!occupied(hold_back + 0.5));
+    }
+
+    #[test]
+    fn a_car_held_only_once_past_its_waiting_place_goes_on_if_it_cannot_stop_short_of_the_area() {
+        // The right-turner is on its path, just past where it would wait short of the left
+        // turn's area, when a left-turner it gives way to comes within its gap. Slow, or held
+        // already, it stops short of the area; going at 4 m/s it cannot (5.7 m/s² over the
+        // 1.4 m left), and braking would leave it creeping into the area as the foe arrives:
+        // it goes on, and the foe sees it in the area.
+        let (network, through) = grid_corner();
+        let c = *network.junctions()[0].paths[1]
+            .conflicts
+            .iter()
+            .find(|c| c.other == 0)
+            .expect("the turns conflict");
+        let stop = |speed_mps: f32, held: bool| {
+            let centre = c.at_m - INSIDE_STOP_M + 0.1;
+            let turner = Approach {
+                to_line_m: -(centre + 2.3),
+                inside: true,
+                ..corner_approach(1, 0.0, speed_mps, held)
+            };
+            let approaches = [turner, corner_approach(0, 12.0, 8.0, false)];
+            let scene = corner_scene(&network, &approaches, &through);
+            wait_inside(&scene, &turner, 4.5, false).0
+        };
+        assert!(stop(2.5, false).is_finite());
+        assert!(stop(4.0, true).is_finite());
+        assert_eq!(stop(4.0, false), f64::INFINITY);
     }
 
     #[test]
