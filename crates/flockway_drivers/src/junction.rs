@@ -234,6 +234,39 @@ impl Scene<'_> {
         (occupied, short, lead)
     }
 
+    /// Whether a vehicle on conflicting path `c.other`, whose green has ended, still comes
+    /// through conflict `c`: on the path and past the point of no return for it, or
+    /// approaching and going on at amber (unable to stop comfortably where it waits). A car
+    /// waiting inside the junction to complete a permitted turn lets these clear it first,
+    /// whatever the signals now rank.
+    fn foe_clearing(&self, a: &Approach, c: &Conflict) -> bool {
+        let j = a.junction;
+        let Some(state) = self.signals[j].as_deref().map(|s| s.get(c.other).copied()) else {
+            return false;
+        };
+        if !matches!(state, None | Some(SignalState::Red | SignalState::Amber)) {
+            return false;
+        }
+        let on_path = self.network.path_road(j, c.other).is_some_and(|foe_road| {
+            self.index
+                .lane(foe_road, 0)
+                .iter()
+                .any(|f| f.s_m <= c.other_at_m && committed(f.speed_mps, c.other_at_m - f.s_m))
+        });
+        let amber = state == Some(SignalState::Amber);
+        let hold_back = self.network.junctions()[j].paths[c.other].hold_back_m;
+        on_path
+            || (amber
+                && self.approaches.iter().any(|f| {
+                    f.junction == j
+                        && f.path == c.other
+                        && !f.inside
+                        && !f.held
+                        && f64::from(f.speed_mps).powi(2)
+                            > 2.0 * f64::from(AMBER_DECEL_MPS2) * (f.to_line_m - hold_back).max(0.1)
+                }))
+    }
+
     /// Whether vehicle `a` must wait for the streams it gives way to on conflicts `conflicts`
     /// of its path (the ones still ahead of it).
     fn gives_way_now<'c>(
@@ -814,9 +847,10 @@ fn wait_inside(scene: &Scene, a: &Approach, critical_gap_s: f64, released: bool)
             continue;
         }
         let b = scene.gives_way_now(a, std::iter::once(c), critical_gap_s, None);
-        if b.hold {
+        let clearing = scene.foe_clearing(a, c);
+        if b.hold || clearing {
             stop = stop.min(here);
-            by_moving |= b.by_moving;
+            by_moving |= b.by_moving || clearing;
         }
     }
     // Past the point of no return for a stream's gap it goes on (stopping would leave it in
@@ -1304,6 +1338,102 @@ mod tests {
         assert!(stop(2.5, false).is_finite());
         assert!(stop(4.0, true).is_finite());
         assert_eq!(stop(4.0, false), f64::INFINITY);
+    }
+
+    /// A signalised crossing of one-lane streets: `w` straight on into `e_out` (path 0), and
+    /// `e` turning left across it into `s_out` (path 1, a permitted turn). With each path's
+    /// speed.
+    fn permitted_left() -> (RoadNetwork, Vec<Vec<f64>>) {
+        use flockway_road::{
+            ConnectionSpec, Control, JunctionSpec, Phase, RoadSpec, SignalProgram,
+        };
+        use glam::DVec3;
+        let road = |name: &str, a: [f64; 2], b: [f64; 2]| {
+            RoadSpec::through(
+                name,
+                1,
+                50.0,
+                &[DVec3::new(a[0], a[1], 0.0), DVec3::new(b[0], b[1], 0.0)],
+            )
+        };
+        let roads = [
+            road("w", [-100.0, -1.6], [-8.0, -1.6]),
+            road("e_out", [8.0, -1.6], [100.0, -1.6]),
+            road("e", [100.0, 1.6], [8.0, 1.6]),
+            road("s_out", [-1.6, -8.0], [-1.6, -100.0]),
+        ];
+        let connection = |from: &str, to: &str| ConnectionSpec {
+            from: from.into(),
+            from_lane: 0,
+            to: to.into(),
+            to_lane: 0,
+        };
+        let phase = |duration_s: f64, state: &str| Phase {
+            duration_s,
+            state: state.into(),
+        };
+        let junction = JunctionSpec {
+            name: "j".into(),
+            control: Control::Signal,
+            connections: vec![connection("w", "e_out"), connection("e", "s_out")],
+            signal: Some(SignalProgram {
+                offset_s: 0.0,
+                phases: vec![phase(30.0, "Gg"), phase(3.0, "yy"), phase(30.0, "rr")],
+            }),
+        };
+        let network =
+            RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a crossing");
+        let through = vec![
+            (0..2)
+                .map(|k| through_mps(&network, network.path_road(0, k).expect("a path")))
+                .collect(),
+        ];
+        (network, through)
+    }
+
+    #[test]
+    fn a_car_waiting_inside_to_turn_lets_a_car_going_on_at_amber_clear_first() {
+        // The left-turner waits inside, short of the straight path, when the straight on's
+        // green ends: a car too near its line to stop at amber comes through all the same,
+        // and the turner waits for it though the signals no longer rank it first. One that
+        // stops (held, or far enough back to stop comfortably) does not hold it.
+        let (network, through) = permitted_left();
+        let c = *network.junctions()[0].paths[1]
+            .conflicts
+            .iter()
+            .find(|c| c.other == 0)
+            .expect("the paths cross");
+        let turner = Approach {
+            path: 1,
+            ..approach_at(c.at_m - 3.0, 0.0)
+        };
+        let stop = |state: SignalState, to_line_m: f64, held: bool| {
+            let foe = Approach {
+                entity: Entity::from_raw_u32(1).expect("an entity"),
+                path: 0,
+                to_line_m,
+                speed_mps: 12.0,
+                held,
+                inside: false,
+                ..turner
+            };
+            let approaches = [turner, foe];
+            let signals = [Some(vec![state, SignalState::GreenYield])];
+            static EMPTY: std::sync::LazyLock<LaneIndex> =
+                std::sync::LazyLock::new(LaneIndex::default);
+            let scene = Scene {
+                network: &network,
+                index: &EMPTY,
+                approaches: &approaches,
+                signals: &signals,
+                through: &through,
+            };
+            wait_inside(&scene, &turner, 4.5, false).0
+        };
+        assert!(stop(SignalState::Amber, 4.0, false).is_finite());
+        assert_eq!(stop(SignalState::Amber, 4.0, true), f64::INFINITY);
+        assert_eq!(stop(SignalState::Amber, 40.0, false), f64::INFINITY);
+        assert_eq!(stop(SignalState::Red, 4.0, false), f64::INFINITY);
     }
 
     #[test]
