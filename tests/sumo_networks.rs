@@ -49,14 +49,9 @@ use Outcome::{Imports, Refused, Runs};
 
 /// Every network in SUMO's `tools` directory (path under it) and what it does.
 const NETWORKS: [(&str, Outcome); 28] = [
-    (
-        "game/A10KW/osm.net.xml",
-        Runs {
-            most_contacts: 15.0,
-        },
-    ),
+    ("game/A10KW/osm.net.xml", Runs { most_contacts: 4.0 }),
     ("game/DRT/osm.net.xml", Runs { most_contacts: 0.0 }),
-    ("game/bs3d/bs.net.xml", Runs { most_contacts: 9.0 }),
+    ("game/bs3d/bs.net.xml", Runs { most_contacts: 2.0 }),
     (
         "game/corridor/corridor.net.xml",
         Runs { most_contacts: 0.0 },
@@ -469,7 +464,11 @@ fn the_thread_count_changes_no_byte_of_a_busy_town() {
         .as_f64()
         .expect("a figure");
     assert!(alive > 100.0, "busy enough to split over threads: {alive}");
-    assert!(outputs[0].1.len() > 1_000, "conflicts were recorded");
+    let conflict_rows = outputs[0].1.iter().filter(|&&b| b == b'\n').count() - 1;
+    assert!(
+        conflict_rows >= 5,
+        "conflicts were recorded: {conflict_rows}"
+    );
     assert!(
         outputs[0].0 == outputs[1].0,
         "the same telemetry on 1 and 3 threads"

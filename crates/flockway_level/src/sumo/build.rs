@@ -58,6 +58,7 @@ pub(super) fn level(
 
     let by_id: BTreeMap<&str, &Edge> = net.edges.iter().map(|e| (e.id.as_str(), e)).collect();
     let (links, at_node) = links_and_junctions(&by_id, connections);
+    trim_for_turns(&mut level.roads, &at_node, &links, &by_id);
     for ((from, to), lanes) in links {
         if let Some(road) = level.roads.iter_mut().find(|r| r.name == from) {
             road.links.push(LinkSpec { to, lanes });
@@ -335,6 +336,141 @@ fn road_of(e: &Edge) -> RoadSpec {
     road
 }
 
+/// The radius a turn across a junction needs, m: a sedan at full lock turns its centre on
+/// 4.1 m, and a driver's steering turns into a bend about a metre late.
+const TURN_RADIUS_M: f64 = 5.0;
+/// The most a road's end (or start) is pulled back for a turn, m, and the least of it left.
+const MAX_TRIM_M: f64 = 4.0;
+/// The least pull-back worth making, m (a turn a little tighter than [`TURN_RADIUS_M`] is still
+/// well within full lock).
+const MIN_TRIM_M: f64 = 0.5;
+/// The least length a road keeps when its ends are pulled back, as a share of its length.
+const KEEP_SHARE: f64 = 0.6;
+
+/// Pulls the ends of the roads back from a junction where one of its turns is tighter than a
+/// car can drive: netconvert ends lanes at the junction's edge, and at a small junction (one-lane
+/// streets meeting at a corner) a right turn from one lane end to the other is a bend of
+/// 1.5–2.5 m radius. A car can only drive that wide, into the oncoming lanes. With the road
+/// before the turn ending earlier and the one after it starting later, the turn across the
+/// junction gets room for a [`TURN_RADIUS_M`] arc (pulled back [`MAX_TRIM_M`] at most, and
+/// never below [`KEEP_SHARE`] of a road's length). Ends where a road simply goes on (a link)
+/// stay.
+fn trim_for_turns(
+    roads: &mut [RoadSpec],
+    at_node: &BTreeMap<String, Vec<&Connection>>,
+    links: &BTreeMap<(String, String), Vec<(u32, u32)>>,
+    by_id: &BTreeMap<&str, &Edge>,
+) {
+    // The pull-back each road's end and start needs, m.
+    let mut end: BTreeMap<&str, f64> = BTreeMap::new();
+    let mut start: BTreeMap<&str, f64> = BTreeMap::new();
+    let flat = |v: DVec3| DVec3::new(v.x, v.y, 0.0);
+    let cross = |a: DVec3, b: DVec3| a.x * b.y - a.y * b.x;
+    for c in at_node.values().flatten().filter(|c| !c.turn_back) {
+        let (Some(from), Some(to)) = (by_id.get(c.from.as_str()), by_id.get(c.to.as_str())) else {
+            continue;
+        };
+        let (a, b) = (
+            &from.lanes[c.from_lane as usize].shape,
+            &to.lanes[c.to_lane as usize].shape,
+        );
+        let (Some(&p0), Some(&p1)) = (a.last(), b.first()) else {
+            continue;
+        };
+        if a.len() < 2 || b.len() < 2 {
+            continue;
+        }
+        let t0 = flat(p0 - a[a.len() - 2]).normalize_or_zero();
+        let t1 = flat(b[1] - p1).normalize_or_zero();
+        let turn = libm::atan2(cross(t0, t1), t0.dot(t1)).abs();
+        // Nearly straight on, or turning back: no bend to make room for.
+        if !(0.5..=2.6).contains(&turn) {
+            continue;
+        }
+        // The corner where the lane lines meet: `a` along the lane before, `b` to the lane
+        // after.
+        let d = flat(p1 - p0);
+        let along_in = cross(d, t1) / cross(t0, t1);
+        let along_out = cross(t0, d) / cross(t0, t1);
+        if along_in < 0.0 || along_out < 0.0 {
+            continue;
+        }
+        let need = TURN_RADIUS_M * libm::tan(0.5 * turn);
+        if need - along_in > MIN_TRIM_M {
+            let e = end.entry(c.from.as_str()).or_default();
+            *e = e.max(need - along_in);
+        }
+        if need - along_out > MIN_TRIM_M {
+            let e = start.entry(c.to.as_str()).or_default();
+            *e = e.max(need - along_out);
+        }
+    }
+    let linked_from: BTreeSet<&str> = links.keys().map(|(f, _)| f.as_str()).collect();
+    let linked_to: BTreeSet<&str> = links.keys().map(|(_, t)| t.as_str()).collect();
+    for road in roads.iter_mut() {
+        let name = road.name.as_str();
+        let mut cut_end = if linked_from.contains(name) {
+            0.0
+        } else {
+            end.get(name).copied().unwrap_or(0.0)
+        };
+        let mut cut_start = if linked_to.contains(name) {
+            0.0
+        } else {
+            start.get(name).copied().unwrap_or(0.0)
+        };
+        if cut_end <= 0.0 && cut_start <= 0.0 {
+            continue;
+        }
+        let points: Vec<DVec3> = road.points.iter().map(|p| p.pos).collect();
+        let length: f64 = points.windows(2).map(|w| w[0].distance(w[1])).sum();
+        cut_end = cut_end.min(MAX_TRIM_M);
+        cut_start = cut_start.min(MAX_TRIM_M);
+        let most = (1.0 - KEEP_SHARE) * length;
+        if cut_end + cut_start > most {
+            let scale = most / (cut_end + cut_start);
+            cut_end *= scale;
+            cut_start *= scale;
+        }
+        let kept = cut_polyline(&points, cut_start, length - cut_end);
+        if kept.len() < 2 {
+            continue;
+        }
+        let template = road.points[0].clone();
+        road.points = kept
+            .into_iter()
+            .map(|pos| flockway_road::ControlPoint {
+                pos,
+                ..template.clone()
+            })
+            .collect();
+    }
+}
+
+/// The part of polyline `points` from `from_m` to `to_m` along it, its points closer than
+/// 10 cm to a cut dropped.
+fn cut_polyline(points: &[DVec3], from_m: f64, to_m: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(points.len());
+    let mut at = 0.0;
+    for w in points.windows(2) {
+        let len = w[0].distance(w[1]);
+        let (a, b) = (at, at + len);
+        let point = |s: f64| w[0] + (w[1] - w[0]) * ((s - a) / len.max(1e-9));
+        if out.is_empty() && from_m < b {
+            out.push(point(from_m.max(a)));
+        }
+        if !out.is_empty() {
+            if to_m <= b {
+                out.push(point(to_m));
+                break;
+            }
+            out.push(w[1]);
+        }
+        at = b;
+    }
+    dedup(out)
+}
+
 /// A polyline moved `d` metres to its left.
 fn offset_left(points: &[DVec3], d: f64) -> Vec<DVec3> {
     (0..points.len())
@@ -413,6 +549,49 @@ mod tests {
             format!(r#"<connection from="w" to="s" fromLane="0" toLane="0" dir="r"{}/>"#, tl(0)),
         ]
         .join("\n")
+    }
+
+    #[test]
+    fn roads_end_back_from_a_corner_whose_right_turn_is_tighter_than_a_car_can_turn() {
+        // One-lane streets at a corner as netgenerate draws them: lanes end 3.2 m from the
+        // corner, so the right turn from `a` into `b` is a 1.6 m bend; `a` also goes straight
+        // on into `c`.
+        let body = [
+            edge("a", "A", "J", 1, (100.0, 1.6), (3.2, 1.6)),
+            edge("b", "J", "B", 1, (1.6, 3.2), (1.6, 100.0)),
+            edge("c", "J", "C", 1, (-3.2, 1.6), (-100.0, 1.6)),
+            r#"<junction id="J" type="priority" x="0" y="0"/>"#.to_owned(),
+            r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="r"/>"#.to_owned(),
+            r#"<connection from="a" to="c" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+        ]
+        .join("\n");
+        let level = import(&body).expect("imports");
+        let road = |name: &str| level.road(name).expect("the road");
+        // Room for a 5 m arc: each side pulled back 5 − 1.6 = 3.4 m; the straight on's road
+        // stays where it was.
+        let end = road("a").points.last().expect("points").pos;
+        assert!((end.x - 6.6).abs() < 1e-9, "{end}");
+        let start = road("b").points[0].pos;
+        assert!((start.y - 6.6).abs() < 1e-9, "{start}");
+        assert_eq!(road("c").points[0].pos.x, -3.2);
+        // The turn is a bend a sedan can drive (its centre turns on 4.1 m at full lock).
+        let network = flockway_road::RoadNetwork::build_with(&level.roads, &level.junctions)
+            .expect("a network");
+        let k = level.junctions[0]
+            .connections
+            .iter()
+            .position(|c| c.to == "b")
+            .expect("the turn");
+        let turn = network
+            .get(network.path_road(0, k).expect("a path"))
+            .expect("its road");
+        let tightest = (0..=100)
+            .map(|i| {
+                turn.curvature_at(turn.length_m() * f64::from(i) / 100.0)
+                    .abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(tightest < 1.0 / 4.1, "{tightest}");
     }
 
     #[test]
