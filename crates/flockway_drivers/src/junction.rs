@@ -1213,45 +1213,72 @@ mod tests {
     /// 1.6 m (path 1), which a sedan can only drive wide, across the end of `n`. Both are
     /// major: the right turn gives way to the left one. With each path's speed.
     fn grid_corner() -> (RoadNetwork, Vec<Vec<f64>>) {
-        use flockway_road::{ConnectionSpec, Control, JunctionSpec, RoadSpec};
+        use flockway_road::Control;
+        two_paths(
+            [
+                ("n", [-1.6, 100.0], [-1.6, 3.2]),
+                ("e", [3.2, -1.6], [100.0, -1.6]),
+                ("w", [100.0, 1.6], [3.2, 1.6]),
+                ("up", [1.6, 3.2], [1.6, 100.0]),
+            ],
+            [("n", "e"), ("w", "up")],
+            Control::Priority {
+                major: vec!["n".into(), "w".into()],
+                stop: false,
+            },
+            None,
+        )
+    }
+
+    /// A junction `j` of four one-lane roads `(name, start, end)` and two connections (paths 0
+    /// and 1) under `control`, with each path's speed.
+    fn two_paths(
+        roads: [(&str, [f64; 2], [f64; 2]); 4],
+        connections: [(&str, &str); 2],
+        control: flockway_road::Control,
+        signal: Option<flockway_road::SignalProgram>,
+    ) -> (RoadNetwork, Vec<Vec<f64>>) {
+        use flockway_road::{ConnectionSpec, JunctionSpec, RoadSpec};
         use glam::DVec3;
-        let road = |name: &str, a: [f64; 2], b: [f64; 2]| {
+        let roads = roads.map(|(name, a, b)| {
             RoadSpec::through(
                 name,
                 1,
                 50.0,
                 &[DVec3::new(a[0], a[1], 0.0), DVec3::new(b[0], b[1], 0.0)],
             )
-        };
-        let roads = [
-            road("n", [-1.6, 100.0], [-1.6, 3.2]),
-            road("e", [3.2, -1.6], [100.0, -1.6]),
-            road("w", [100.0, 1.6], [3.2, 1.6]),
-            road("up", [1.6, 3.2], [1.6, 100.0]),
-        ];
-        let connection = |from: &str, to: &str| ConnectionSpec {
-            from: from.into(),
-            from_lane: 0,
-            to: to.into(),
-            to_lane: 0,
-        };
+        });
         let junction = JunctionSpec {
             name: "j".into(),
-            control: Control::Priority {
-                major: vec!["n".into(), "w".into()],
-                stop: false,
-            },
-            connections: vec![connection("n", "e"), connection("w", "up")],
-            signal: None,
+            control,
+            connections: connections
+                .iter()
+                .map(|&(from, to)| ConnectionSpec {
+                    from: from.into(),
+                    from_lane: 0,
+                    to: to.into(),
+                    to_lane: 0,
+                })
+                .collect(),
+            signal,
         };
         let network =
-            RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a corner");
+            RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a junction");
         let through = vec![
             (0..2)
                 .map(|k| through_mps(&network, network.path_road(0, k).expect("a path")))
                 .collect(),
         ];
         (network, through)
+    }
+
+    /// The conflict of path `k` of the network's junction with path `other`.
+    fn conflict_of(network: &RoadNetwork, k: usize, other: usize) -> Conflict {
+        *network.junctions()[0].paths[k]
+            .conflicts
+            .iter()
+            .find(|c| c.other == other)
+            .expect("the paths conflict")
     }
 
     /// A car of [`grid_corner`] approaching path `path`, not yet on it.
@@ -1298,12 +1325,7 @@ mod tests {
         let occupied = |to_line_m: f64| {
             let approaches = [turner, corner_approach(0, to_line_m, 0.0, true)];
             let scene = corner_scene(&network, &approaches, &through);
-            let c = corner.paths[1]
-                .conflicts
-                .iter()
-                .find(|c| c.other == 0)
-                .expect("the turns conflict");
-            scene.foes_on_path_at_line(&turner, c)
+            scene.foes_on_path_at_line(&turner, &conflict_of(&network, 1, 0))
         };
         let hold_back = corner.paths[0].hold_back_m;
         assert!(hold_back > 1.0, "{hold_back}");
@@ -1319,11 +1341,7 @@ mod tests {
         // 1.4 m left), and braking would leave it creeping into the area as the foe arrives:
         // it goes on, and the foe sees it in the area.
         let (network, through) = grid_corner();
-        let c = *network.junctions()[0].paths[1]
-            .conflicts
-            .iter()
-            .find(|c| c.other == 0)
-            .expect("the turns conflict");
+        let c = conflict_of(&network, 1, 0);
         let stop = |speed_mps: f32, held: bool| {
             let centre = c.at_m - INSIDE_STOP_M + 0.1;
             let turner = Approach {
@@ -1344,51 +1362,25 @@ mod tests {
     /// `e` turning left across it into `s_out` (path 1, a permitted turn). With each path's
     /// speed.
     fn permitted_left() -> (RoadNetwork, Vec<Vec<f64>>) {
-        use flockway_road::{
-            ConnectionSpec, Control, JunctionSpec, Phase, RoadSpec, SignalProgram,
-        };
-        use glam::DVec3;
-        let road = |name: &str, a: [f64; 2], b: [f64; 2]| {
-            RoadSpec::through(
-                name,
-                1,
-                50.0,
-                &[DVec3::new(a[0], a[1], 0.0), DVec3::new(b[0], b[1], 0.0)],
-            )
-        };
-        let roads = [
-            road("w", [-100.0, -1.6], [-8.0, -1.6]),
-            road("e_out", [8.0, -1.6], [100.0, -1.6]),
-            road("e", [100.0, 1.6], [8.0, 1.6]),
-            road("s_out", [-1.6, -8.0], [-1.6, -100.0]),
-        ];
-        let connection = |from: &str, to: &str| ConnectionSpec {
-            from: from.into(),
-            from_lane: 0,
-            to: to.into(),
-            to_lane: 0,
-        };
+        use flockway_road::{Control, Phase, SignalProgram};
         let phase = |duration_s: f64, state: &str| Phase {
             duration_s,
             state: state.into(),
         };
-        let junction = JunctionSpec {
-            name: "j".into(),
-            control: Control::Signal,
-            connections: vec![connection("w", "e_out"), connection("e", "s_out")],
-            signal: Some(SignalProgram {
+        two_paths(
+            [
+                ("w", [-100.0, -1.6], [-8.0, -1.6]),
+                ("e_out", [8.0, -1.6], [100.0, -1.6]),
+                ("e", [100.0, 1.6], [8.0, 1.6]),
+                ("s_out", [-1.6, -8.0], [-1.6, -100.0]),
+            ],
+            [("w", "e_out"), ("e", "s_out")],
+            Control::Signal,
+            Some(SignalProgram {
                 offset_s: 0.0,
                 phases: vec![phase(30.0, "Gg"), phase(3.0, "yy"), phase(30.0, "rr")],
             }),
-        };
-        let network =
-            RoadNetwork::build_with(&roads, std::slice::from_ref(&junction)).expect("a crossing");
-        let through = vec![
-            (0..2)
-                .map(|k| through_mps(&network, network.path_road(0, k).expect("a path")))
-                .collect(),
-        ];
-        (network, through)
+        )
     }
 
     #[test]
@@ -1398,11 +1390,7 @@ mod tests {
         // and the turner waits for it though the signals no longer rank it first. One that
         // stops (held, or far enough back to stop comfortably) does not hold it.
         let (network, through) = permitted_left();
-        let c = *network.junctions()[0].paths[1]
-            .conflicts
-            .iter()
-            .find(|c| c.other == 0)
-            .expect("the paths cross");
+        let c = conflict_of(&network, 1, 0);
         let turner = Approach {
             path: 1,
             ..approach_at(c.at_m - 3.0, 0.0)
