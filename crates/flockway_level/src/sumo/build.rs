@@ -18,6 +18,20 @@ use std::path::Path;
 /// Two lanes a connection joins whose ends are closer than this, m, continue one another (a
 /// simple join, a lane added or dropped along a road): the roads are linked, not a junction.
 const JOIN_GAP_M: f64 = 1.0;
+/// The largest turn, rad, from one lane into the next at a join that is still linked (10°):
+/// a link turns at a point, and a car cannot, so at a sharper kink it ran wide into the lane
+/// beside (the oncoming one, on a street of two one-way edges); joined at a junction instead,
+/// the two lanes are met by a curved path and their ends pulled back for it as at any turn.
+const MAX_LINK_KINK_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
+/// The least length, m, of both lanes of a kinked join for it to become a junction's path: each
+/// road gives up to [`MAX_TRIM_M`] of an end to the path, keeping [`KEEP_SHARE`] of itself.
+const MIN_KINKED_ROAD_M: f64 = 10.0;
+/// The radius, m, of the bend a kinked join's path is given room for (up to [`MAX_TRIM_M`] of
+/// each road).
+const KINK_RADIUS_M: f64 = 20.0;
+/// The least each road's end is pulled back for a kinked join, m: even scaled down to keep
+/// [`KEEP_SHARE`] of a road, the path's two ends stay further apart than a junction allows.
+const MIN_KINK_TRIM_M: f64 = 1.5;
 /// Seconds between vehicles a spawner of an imported network draws from, per lane.
 const SPAWN_INTERVAL_S: Range = Range {
     min: 8.0,
@@ -121,15 +135,25 @@ fn links_and_junctions<'c>(
 ) {
     let mut links: BTreeMap<(String, String), Vec<(u32, u32)>> = BTreeMap::new();
     let mut at_node: BTreeMap<String, Vec<&Connection>> = BTreeMap::new();
+    let mut kinked = Vec::new();
     for conn in connections {
         let (from, to) = (by_id[conn.from.as_str()], by_id[conn.to.as_str()]);
-        let end = from.lanes[conn.from_lane as usize].shape.last().copied();
-        let start = to.lanes[conn.to_lane as usize].shape.first().copied();
-        let joined = matches!((end, start), (Some(a), Some(b)) if a.distance(b) < JOIN_GAP_M);
+        let (before, after) = (
+            &from.lanes[conn.from_lane as usize].shape,
+            &to.lanes[conn.to_lane as usize].shape,
+        );
+        let joined = matches!((before.last(), after.first()), (Some(a), Some(b))
+            if a.distance(*b) < JOIN_GAP_M);
         // Joined lanes are linked even under a traffic light (a light where a road simply goes
         // on, for a crossing the importer leaves out): a link has no signal, so that light is
         // left out for them.
-        if joined {
+        if joined
+            && kink_rad(before, after) > MAX_LINK_KINK_RAD
+            && polyline_length(before) >= MIN_KINKED_ROAD_M
+            && polyline_length(after) >= MIN_KINKED_ROAD_M
+        {
+            kinked.push(conn);
+        } else if joined {
             links
                 .entry((conn.from.clone(), conn.to.clone()))
                 .or_default()
@@ -138,7 +162,44 @@ fn links_and_junctions<'c>(
             at_node.entry(from.to.clone()).or_default().push(conn);
         }
     }
+    // A kinked join becomes a junction's path only where its roads' ends can be pulled back for
+    // it: not where either end also goes straight on by a link.
+    let linked_from: BTreeSet<String> = links.keys().map(|(f, _)| f.clone()).collect();
+    let linked_to: BTreeSet<String> = links.keys().map(|(_, t)| t.clone()).collect();
+    for conn in kinked {
+        if linked_from.contains(&conn.from) || linked_to.contains(&conn.to) {
+            links
+                .entry((conn.from.clone(), conn.to.clone()))
+                .or_default()
+                .push((conn.from_lane, conn.to_lane));
+        } else {
+            let node = by_id[conn.from.as_str()].to.clone();
+            at_node.entry(node).or_default().push(conn);
+        }
+    }
     (links, at_node)
+}
+
+/// The turn, rad, between the last stretch of the lane shape `before` and the first of `after`
+/// (0 where either has no length).
+fn kink_rad(before: &[DVec3], after: &[DVec3]) -> f64 {
+    let (Some(a), Some(b)) = (
+        direction_from_first(before.iter().rev()),
+        direction_from_first(after.iter()),
+    ) else {
+        return 0.0;
+    };
+    // `a` points back along `before`: the kink is the angle off straight on.
+    (-a).angle_between(b)
+}
+
+/// The direction, in the plane, from the first of `points` to the next that is apart from it.
+fn direction_from_first<'p>(mut points: impl Iterator<Item = &'p DVec3>) -> Option<DVec3> {
+    let first = points.next()?.truncate();
+    points
+        .map(|p| p.truncate() - first)
+        .find(|d| d.length() > 1.0e-3)
+        .map(|d| d.extend(0.0))
 }
 
 /// The junction at the node `node` with the connections `conns` across it: its control from the
@@ -383,6 +444,15 @@ fn trim_for_turns(
         let t0 = flat(p0 - a[a.len() - 2]).normalize_or_zero();
         let t1 = flat(b[1] - p1).normalize_or_zero();
         let turn = libm::atan2(cross(t0, t1), t0.dot(t1)).abs();
+        if p0.distance(p1) < JOIN_GAP_M {
+            // A kinked join: both ends pulled back for a gentle bend.
+            let need = (KINK_RADIUS_M * libm::tan(0.5 * turn)).clamp(MIN_KINK_TRIM_M, MAX_TRIM_M);
+            let e = end.entry(c.from.as_str()).or_default();
+            *e = e.max(need);
+            let e = start.entry(c.to.as_str()).or_default();
+            *e = e.max(need);
+            continue;
+        }
         // Nearly straight on, or turning back: no bend to make room for.
         if !(0.5..=2.6).contains(&turn) {
             continue;
@@ -689,6 +759,44 @@ mod tests {
         )
         .expect("imports");
         assert_eq!(level.spawners[0].s_m, 1.5);
+    }
+
+    #[test]
+    fn a_join_that_turns_sharply_is_a_bend_across_a_junction_and_a_straight_one_a_link() {
+        // A one-way road `a` whose lane goes on into `b` turning 21.8° at a point (as where two
+        // one-way edges become a street's two directions); beside it, `c` goes on straight
+        // into `d` (a node is only left as it is with more than one way through it).
+        let body = [
+            edge("a", "A", "J", 1, (0.0, -40.0), (100.0, 0.0)),
+            edge("b", "J", "B", 1, (100.0, 0.0), (200.0, 0.0)),
+            edge("c", "C", "J", 1, (200.0, 3.2), (100.0, 3.2)),
+            edge("d", "J", "D", 1, (100.0, 3.2), (0.0, 3.2)),
+            r#"<junction id="J" type="priority" x="100" y="1.6"/>"#.to_owned(),
+            r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+            r#"<connection from="c" to="d" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+        ]
+        .join("\n");
+        let level = import(&body).expect("imports");
+        let road = |name: &str| level.road(name).expect("the road");
+        assert_eq!(road("c").links[0].to, "d");
+        assert!(road("a").links.is_empty());
+        let j = &level.junctions[0];
+        assert_eq!(j.connections.len(), 1);
+        assert_eq!(
+            (j.connections[0].from.as_str(), j.connections[0].to.as_str()),
+            ("a", "b")
+        );
+        // Each end pulled back for a 20 m bend: 20 tan(10.9°) = 3.85 m.
+        let (a_end, b_start) = (
+            road("a").points.last().expect("a point").pos,
+            road("b").points[0].pos,
+        );
+        assert!(
+            (a_end.distance(DVec3::new(100.0, 0.0, 0.0)) - 3.85).abs() < 0.01,
+            "{a_end}"
+        );
+        assert!((b_start.x - 103.85).abs() < 0.01, "{b_start}");
+        assert_eq!(road("c").points.last().expect("a point").pos.x, 100.0);
     }
 
     #[test]
