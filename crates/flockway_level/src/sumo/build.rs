@@ -163,19 +163,29 @@ fn links_and_junctions<'c>(
         }
     }
     // A kinked join becomes a junction's path only where its roads' ends can be pulled back for
-    // it: not where either end also goes straight on by a link.
-    let linked_from: BTreeSet<String> = links.keys().map(|(f, _)| f.clone()).collect();
-    let linked_to: BTreeSet<String> = links.keys().map(|(_, t)| t.clone()).collect();
-    for conn in kinked {
-        if linked_from.contains(&conn.from) || linked_to.contains(&conn.to) {
+    // it: not where either end also goes on by a link. A kinked join kept a link links its roads
+    // in turn, so this is repeated until no more are kept.
+    loop {
+        let linked_from: BTreeSet<&str> = links.keys().map(|(f, _)| f.as_str()).collect();
+        let linked_to: BTreeSet<&str> = links.keys().map(|(_, t)| t.as_str()).collect();
+        let (kept, rest): (Vec<&Connection>, Vec<&Connection>) =
+            kinked.into_iter().partition(|c| {
+                linked_from.contains(c.from.as_str()) || linked_to.contains(c.to.as_str())
+            });
+        kinked = rest;
+        if kept.is_empty() {
+            break;
+        }
+        for conn in kept {
             links
                 .entry((conn.from.clone(), conn.to.clone()))
                 .or_default()
                 .push((conn.from_lane, conn.to_lane));
-        } else {
-            let node = by_id[conn.from.as_str()].to.clone();
-            at_node.entry(node).or_default().push(conn);
         }
+    }
+    for conn in kinked {
+        let node = by_id[conn.from.as_str()].to.clone();
+        at_node.entry(node).or_default().push(conn);
     }
     (links, at_node)
 }
@@ -797,6 +807,34 @@ mod tests {
         );
         assert!((b_start.x - 103.85).abs() < 0.01, "{b_start}");
         assert_eq!(road("c").points.last().expect("a point").pos.x, 100.0);
+    }
+
+    #[test]
+    fn a_kinked_join_stays_a_link_when_its_road_goes_on_by_a_link_made_of_another_kinked_one() {
+        // Both lanes of `a` go on turning 21.8°, lane 0 into `b` and lane 1 into `c`; `d` goes
+        // straight on into `c`, so `a` into `c` stays a link, `a`'s end cannot be pulled back,
+        // and `a` into `b` must stay a link too (as a junction's path its lanes would meet).
+        let body = [
+            edge("a", "A", "J", 2, (0.0, -40.0), (100.0, 0.0)),
+            edge("b", "J", "B", 1, (100.0, 0.0), (200.0, 0.0)),
+            edge("c", "J", "C", 1, (98.81, 2.97), (200.0, 2.97)),
+            edge("d", "D", "J", 1, (0.0, 2.97), (98.81, 2.97)),
+            r#"<junction id="J" type="priority" x="100" y="1.5"/>"#.to_owned(),
+            r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+            r#"<connection from="a" to="c" fromLane="1" toLane="0" dir="s"/>"#.to_owned(),
+            r#"<connection from="d" to="c" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+        ]
+        .join("\n");
+        let level = import(&body).expect("imports");
+        let road = |name: &str| level.road(name).expect("the road");
+        let mut linked: Vec<&str> = road("a").links.iter().map(|l| l.to.as_str()).collect();
+        linked.sort_unstable();
+        assert_eq!(linked, ["b", "c"]);
+        assert!(
+            level.junctions.iter().all(|j| j.connections.is_empty()),
+            "{:?}",
+            level.junctions
+        );
     }
 
     #[test]
