@@ -84,9 +84,10 @@ struct Trip {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum DepartLane {
-    /// A lane that leads on along the route (SUMO's `best`, `free`, `allowed`).
+    /// A lane that leads on along the route (SUMO's `best`, `best_prob` - its default -,
+    /// `free`, `allowed`).
     Best,
-    /// The rightmost (SUMO's `first`, the default).
+    /// The rightmost (SUMO's `first`).
     First,
     /// One drawn at random.
     Random,
@@ -868,9 +869,14 @@ impl Reader<'_> {
         let Some(first) = self.routes.get(&route).and_then(|r| r.first()).cloned() else {
             return Err(format!("unknown route `{route}`"));
         };
+        // Without the attribute a vehicle departs as SUMO (1.28) departs it by default
+        // (`--default.departlane best_prob`, `--default.departspeed avg`): on a lane that leads
+        // on, at the speed the traffic there allows.
         let lane = match node.attribute("departLane") {
-            None | Some("first") => DepartLane::First,
-            Some("best" | "free" | "allowed" | "best_prob" | "first_allowed") => DepartLane::Best,
+            Some("first") => DepartLane::First,
+            None | Some("best" | "free" | "allowed" | "best_prob" | "first_allowed") => {
+                DepartLane::Best
+            }
             Some("random") => DepartLane::Random,
             Some(v) => {
                 let k: usize = v.trim().parse().map_err(|_| {
@@ -898,8 +904,7 @@ impl Reader<'_> {
             )?),
         };
         let speed_kmh = match node.attribute("departSpeed") {
-            None => Some(0.0),
-            Some("max" | "desired" | "speedLimit" | "last" | "avg" | "random") => None,
+            None | Some("max" | "desired" | "speedLimit" | "last" | "avg" | "random") => None,
             Some(v) => Some(
                 v.trim()
                     .parse::<f64>()
@@ -1253,6 +1258,43 @@ mod tests {
         assert_eq!(arrive.len(), 1);
         assert!(arrive[0].arrivals_only);
         assert!(crate::validate(&level).is_empty());
+    }
+
+    /// A two-lane edge `a` whose left lane alone goes on to `b`, its right lane to `c`.
+    const FORK: &str = r#"<net>
+<edge id="a" from="A" to="J"><lane index="0" speed="13.89" shape="0,-1.6 100,-1.6"/>
+<lane index="1" speed="13.89" shape="0,1.6 100,1.6"/></edge>
+<edge id="b" from="J" to="B"><lane index="0" speed="13.89" shape="110,0 200,0"/></edge>
+<edge id="c" from="J" to="C"><lane index="0" speed="13.89" shape="105,-8 105,-100"/></edge>
+<connection from="a" to="b" fromLane="1" toLane="0" dir="s"/>
+<connection from="a" to="c" fromLane="0" toLane="0" dir="r"/>
+</net>"#;
+
+    /// Without `departLane` and `departSpeed` a vehicle departs as SUMO departs it by default:
+    /// on a lane that leads on along its route, at the speed the road allows; `first` and a
+    /// speed given keep lane 0 and that speed.
+    #[test]
+    fn a_vehicle_departs_by_default_on_a_lane_that_leads_on_at_speed() {
+        let rou = r#"<routes>
+<trip id="plain" depart="0" from="a" to="b"/>
+<trip id="given" depart="5" from="a" to="b" departLane="first" departSpeed="0"/>
+</routes>"#;
+        let files = [(PathBuf::from("t.rou.xml"), rou.to_owned())];
+        let (level, report) =
+            import_sumo(FORK, Path::new("t.net.xml"), "t", &files).expect("imports");
+        assert_eq!(report.vehicles, 2);
+        let departs: Vec<(u32, f64, Option<f64>)> = level
+            .spawners
+            .iter()
+            .flat_map(|s| {
+                s.departures
+                    .iter()
+                    .map(move |d| (s.lane, d.time_s, d.speed_kmh))
+            })
+            .collect();
+        assert_eq!(departs.len(), 2, "{departs:?}");
+        assert!(departs.contains(&(1, 0.0, None)), "{departs:?}");
+        assert!(departs.contains(&(0, 5.0, Some(0.0))), "{departs:?}");
     }
 
     #[test]
