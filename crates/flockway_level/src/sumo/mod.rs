@@ -8,7 +8,8 @@
 //!   its right of way (`traffic_light` → `Signal` with the `tlLogic` program, `priority` and
 //!   `priority_stop` → `Priority` with the incoming edges of the highest priority as major (the
 //!   two that arrive most nearly head-on when more tie),
-//!   `right_before_left` → `RightBeforeLeft`, `allway_stop` → `AllWayStop`).
+//!   `right_before_left` → `RightBeforeLeft`, `allway_stop` → `AllWayStop`; any other type,
+//!   `unregulated` among them, as `priority`: cars that would touch must give way somehow).
 //! - Where one edge simply goes on as another (a lane added or dropped: a motorway's
 //!   acceleration and deceleration lanes), or two lanes meet, the roads are linked rather than
 //!   joined through a junction.
