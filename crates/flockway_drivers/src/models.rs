@@ -490,6 +490,17 @@ impl HumanDriver {
     }
 }
 
+/// How far off its lane's centre a driver lets its car drift, m: beyond it, however gently it
+/// keeps its lane (its `road_weight_per_s`), the pull back grows at least at
+/// [`FIRM_ROAD_WEIGHT_PER_S`]. A gentle pull alone left a car swinging a metre out of a turn
+/// drifting for seconds, into the oncoming lane of a two-way street; within the drift it still
+/// weaves as gently as it likes (the spread of speeds in mixed traffic comes partly from that).
+pub const LANE_DRIFT_M: f32 = 0.4;
+
+/// The pull back towards its lane's centre, m/s per m, that every driver keeps to beyond
+/// [`LANE_DRIFT_M`]: the lane-keeping car's (`flock_lanes.ron`).
+pub const FIRM_ROAD_WEIGHT_PER_S: f32 = 1.5;
+
 /// Lane following for a car in `lane`: speed matching along the lane direction plus road
 /// following towards the lane centre (the pull capped at `max_lateral_mps`), and the lane's
 /// curvature a little ahead for the steering feed-forward. Returns
@@ -525,7 +536,15 @@ pub fn lane_following(
         }
         _ => 0.0,
     };
-    let pull = (error * road_weight_per_s).clamp(-max_lateral_mps, max_lateral_mps);
+    // Beyond its drift the pull grows as the lane-keeping car's does, whatever the driver's own.
+    let firmer = FIRM_ROAD_WEIGHT_PER_S - road_weight_per_s;
+    let drift = error.abs() - LANE_DRIFT_M;
+    let back = if firmer > 0.0 && drift > 0.0 {
+        firmer * drift * error.signum()
+    } else {
+        0.0
+    };
+    let pull = (error * road_weight_per_s + back).clamp(-max_lateral_mps, max_lateral_mps);
     (
         dir,
         dir * (target_speed_mps * speed_weight) + left * pull,
@@ -764,6 +783,38 @@ fn within_edges(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Within [`LANE_DRIFT_M`] of its lane's centre a gentle driver pulls back at its own
+    /// weight; beyond it the pull grows as the lane-keeping car's does; a car as firm as that
+    /// keeps its own pull, and the cap still holds.
+    #[test]
+    fn a_gentle_driver_pulls_back_firmly_once_it_has_drifted() {
+        use flockway_road::{RoadId, RoadNetwork, RoadSpec};
+        let road = RoadSpec::through(
+            "a",
+            2,
+            50.0,
+            &[glam::DVec3::ZERO, glam::DVec3::new(400.0, 0.0, 0.0)],
+        );
+        let network = RoadNetwork::build(&[road]).expect("valid road");
+        let g = network.get(RoadId(0)).expect("road");
+        let centre = lane_offset(g.frame_at(0.0).width_m, 2, 0);
+        // The sideways part of the desired velocity of a car `off` metres left of lane 0's
+        // centre, pulling at `weight` per second, capped at 5 m/s.
+        let pull = |off: f64, weight: f32| {
+            let track = RoadTrack::new(RoadId(0), g, 100.0, centre + off);
+            let (_, base, _) = lane_following(g, &track, 0, 10.0, 10.0, 1.0, weight, 5.0, 0.6);
+            base.dot(track.left)
+        };
+        let close = |a: f32, b: f32| (a - b).abs() < 1e-4;
+        assert!(close(pull(0.3, 0.5), -0.15), "{}", pull(0.3, 0.5));
+        // 0.5 × 1 m and (1.5 − 0.5) × the 0.6 m beyond the drift.
+        assert!(close(pull(1.0, 0.5), -1.1), "{}", pull(1.0, 0.5));
+        assert!(close(pull(-1.0, 0.5), 1.1), "{}", pull(-1.0, 0.5));
+        assert!(close(pull(1.0, 1.5), -1.5), "{}", pull(1.0, 1.5));
+        // 3 m off: 0.5 × 3 + 1 × 2.6, under the cap.
+        assert!(close(pull(3.0, 0.5), -4.1), "{}", pull(3.0, 0.5));
+    }
 
     /// The avoidance pushes four at a time sum to the scalar loop's bits (a NaN to a NaN), over
     /// neighbours of every count up to a few fours: ahead and behind, ±0 gaps, overlapping
