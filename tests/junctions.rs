@@ -555,3 +555,51 @@ fn a_spawner_behind_a_standing_queue_launches_cars_no_faster_than_they_can_stop(
     let last = first.last().expect("cars").1;
     assert!(last < 11.0, "the last car came in at {last} m/s: {first:?}");
 }
+
+/// A minor road only 10 m long (as where a map's street is cut short before a junction) whose
+/// spawner, half way along it, has no speed of its own: its cars give way to a busy major road.
+const SHORT_MINOR: &str = r#"(
+    version: 1,
+    name: "short_minor",
+    seed: 1,
+    duration_s: 60.0,
+    roads: [
+        (name: "m in", speed_limit_kmh: 50.0, points: [(pos: (-300.0, -1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (-8.0, -1.75, 0.0))]),
+        (name: "m out", speed_limit_kmh: 50.0, points: [(pos: (8.0, -1.75, 0.0), guardrail_left: false, guardrail_right: false), (pos: (300.0, -1.75, 0.0))]),
+        (name: "s in", speed_limit_kmh: 50.0, points: [(pos: (1.75, -18.0, 0.0), guardrail_left: false, guardrail_right: false), (pos: (1.75, -8.0, 0.0))]),
+    ],
+    junctions: [
+        (name: "t", control: Priority(major: ["m in"]),
+            connections: [(from: "m in", to: "m out"), (from: "s in", to: "m out")]),
+    ],
+    vehicle_types: [(name: "sedan", path: "vehicles/sedan.ron")],
+    driver_profiles: [(name: "autonomous", model: FlockLanes, vehicle: "sedan", params: "drivers/flock_lanes.ron")],
+    spawners: [
+        (name: "major", road: "m in", s_m: 5.0, interval_s: (min: 3.0, max: 3.0), profiles: [(profile: "autonomous", weight: 1.0)], speed_kmh: 50.0),
+        (name: "minor", road: "s in", s_m: 5.0, interval_s: (min: 6.0, max: 6.0), profiles: [(profile: "autonomous", weight: 1.0)]),
+    ],
+    destroyers: [(name: "out", place: OnRoad(road: "m out", s_m: 280.0))],
+    telemetry: (period_s: 0.1),
+)"#;
+
+#[test]
+fn a_car_created_close_before_a_line_where_it_gives_way_can_stop_at_it() {
+    let (m, rows) = run_text("short_minor", SHORT_MINOR);
+    assert_eq!(m["collisions"], 0.0, "{m:#?}");
+    // Each minor car when first seen: no faster than it can stop at the line from, braking as
+    // for a stop line (2.5 m/s^2 over 10 - 5 - 2.3 - 1 m: 2.9 m/s), not at the road's 13.9.
+    let mut first: Vec<(String, f64)> = Vec::new();
+    for (_, id, road, _, speed) in &rows {
+        if road == "s in" && !first.iter().any(|(f, _)| f == id) {
+            first.push((id.clone(), *speed));
+        }
+    }
+    assert!(first.len() >= 3, "{first:?}");
+    assert!(first.iter().all(|(_, v)| *v < 3.5), "{first:?}");
+    // And they get through: every minor car but the last few reaches the major road.
+    let through = first
+        .iter()
+        .filter(|(id, _)| rows.iter().any(|r| &r.1 == id && r.2 == "m out"))
+        .count();
+    assert!(through + 2 >= first.len(), "{through} of {}", first.len());
+}

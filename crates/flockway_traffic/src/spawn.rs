@@ -5,8 +5,10 @@ use crate::trips::TripLog;
 use crate::zones::Travel;
 use bevy_ecs::prelude::*;
 use flockway_core::{EntityRng, IdKind, RngStreams, SimClock, StableId, TICKS_PER_SECOND};
-use flockway_drivers::{DriverLabel, DriverSpec, LaneIndex, LaneSignal, Route};
-use flockway_road::{RoadId, RoadNetwork, lane_offset};
+use flockway_drivers::{
+    DriverLabel, DriverSpec, LaneIndex, LaneSignal, Route, STOP_LINE_DECEL_MPS2, STOP_LINE_MARGIN_M,
+};
+use flockway_road::{Control, Junction, RoadId, RoadNetwork, lane_offset};
 use flockway_vehicle::{SpawnError, VehicleSpawn, VehicleType, spawn_vehicle};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -305,6 +307,22 @@ fn upstream_blocked(
     false
 }
 
+/// Whether a car taking path `k` of `junction` may have to stop at its line: under a signal, at
+/// an all-way stop, at a stop sign, or where it gives way to a path it crosses or merges with.
+fn may_stop_at(junction: &Junction, k: usize) -> bool {
+    match junction.spec.control {
+        Control::Signal | Control::AllWayStop => true,
+        _ => {
+            junction.must_stop(k)
+                || junction.paths.get(k).is_some_and(|p| {
+                    p.conflicts
+                        .iter()
+                        .any(|c| junction.gives_way(k, c.other, None))
+                })
+        }
+    }
+}
+
 /// Runs every spawner that is due: if its spot is clear, it spawns one vehicle (applied at the
 /// end of the system, in spawner order) and draws its next interval; otherwise it waits.
 pub fn run_spawners(
@@ -368,7 +386,15 @@ pub fn run_spawners(
         // slower one would have no room to brake.
         let ahead = behind + SPAWN_GAP_S * speed_guess;
         index.within(sp.road, sp.lane, sp.s_m, behind, ahead, None, &mut near);
-        if !near.is_empty() {
+        // On a short road the spot reaches past its end: a car just gone on into the junction
+        // (on any path from this lane) or the road beyond holds it too.
+        let past_end = network
+            .get(sp.road)
+            .is_some_and(|g| g.length_m() - sp.s_m < ahead)
+            && index
+                .leader(sp.road, sp.lane, sp.s_m, Entity::PLACEHOLDER, ahead, None)
+                .is_some();
+        if !near.is_empty() || past_end {
             sp.waited_ticks += 1;
             continue;
         }
@@ -411,7 +437,38 @@ pub fn run_spawners(
             sp.waited_ticks += 1;
             continue;
         }
-        let wanted = speed_mps.unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6);
+        // A route is drawn only when there is a choice, so a spawner's stream stays as it was
+        // for levels without routes.
+        let route = match (departure.as_ref().and_then(|d| d.route), sp.routes.len()) {
+            (Some(k), n) if k < n => Some(k),
+            (_, 0) => None,
+            (_, 1) => Some(0),
+            _ => {
+                let weights: Vec<f64> = sp.routes.iter().map(|r| r.weight).collect();
+                sp.rng.weighted_index(&weights)
+            }
+        }
+        .map(|k| Route::along(sp.routes[k].name.clone(), sp.routes[k].roads.clone()));
+        let next = route.as_ref().and_then(Route::next_road);
+        // Where the road ends at a junction the car may have to stop at, never faster than it
+        // can stop at the line from, braking as for a stop line: a car created close before
+        // it at the limit would be past the point of no return at once, and drive into the
+        // junction without giving way.
+        let line_cap = network
+            .junction_ahead(sp.road, sp.lane, sp.s_m, next, 0.5 * length)
+            .filter(|a| {
+                network
+                    .junctions()
+                    .get(a.junction)
+                    .is_some_and(|j| may_stop_at(j, a.path))
+            })
+            .map_or(f32::INFINITY, |a| {
+                let room = (a.to_line_m - STOP_LINE_MARGIN_M).max(0.0);
+                (2.0 * f64::from(STOP_LINE_DECEL_MPS2) * room).sqrt() as f32
+            });
+        let wanted = speed_mps
+            .unwrap_or(geometry.speed_limit_kmh() as f32 / 3.6)
+            .min(line_cap);
         // Behind a queue (a car ahead at 5 m/s or less), never faster than it
         // can brake from, firmly, to that car's speed before it reaches it: a spawner feeding a
         // queue would otherwise launch cars into it. A spawner with no speed of its own starts
@@ -423,6 +480,15 @@ pub fn run_spawners(
         let v = f64::from(wanted);
         let reach = v * v / (2.0 * SPAWN_BRAKE_MPS2) + behind;
         index.within(sp.road, sp.lane, sp.s_m, 0.0, reach, None, &mut near);
+        // Past the road's end too, along the car's route: on a short road the car ahead may
+        // be on the junction's path or the road beyond already.
+        if geometry.length_m() - sp.s_m < reach
+            && let Some(beyond) =
+                index.leader(sp.road, sp.lane, sp.s_m, Entity::PLACEHOLDER, reach, next)
+            && near.last().is_none_or(|n| beyond.gap_m > n.gap_m)
+        {
+            near.push(beyond);
+        }
         let c = sp.choices[choice].clone();
         let envelope =
             (speed_mps.is_none() || c.driver.rear_weight() <= 0.0).then(|| *c.driver.safety());
@@ -447,18 +513,6 @@ pub fn run_spawners(
             })
             .fold(wanted, f32::min);
         let (road, s_m, lane) = (sp.road, sp.s_m, sp.lane);
-        // A route is drawn only when there is a choice, so a spawner's stream stays as it was
-        // for levels without routes.
-        let route = match (departure.as_ref().and_then(|d| d.route), sp.routes.len()) {
-            (Some(k), n) if k < n => Some(k),
-            (_, 0) => None,
-            (_, 1) => Some(0),
-            _ => {
-                let weights: Vec<f64> = sp.routes.iter().map(|r| r.weight).collect();
-                sp.rng.weighted_index(&weights)
-            }
-        }
-        .map(|k| Route::along(sp.routes[k].name.clone(), sp.routes[k].roads.clone()));
         commands.queue(move |world: &mut World| {
             let spawn = VehicleSpawn::new(c.vehicle, road, s_m)
                 .lateral(lateral)
