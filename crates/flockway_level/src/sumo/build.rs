@@ -11,7 +11,7 @@ use crate::schema::{
 };
 use crate::template::{AUTONOMOUS_PROFILE, reference_profiles, reference_vehicle_types};
 use flockway_road::{ConnectionSpec, Control, JunctionSpec, LinkSpec, RoadSpec, SignalProgram};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -96,6 +96,7 @@ pub(super) fn level(
                 .to_owned(),
         ));
     }
+    lengthen_short_sources(&mut level, &fringe);
     add_traffic(&mut level, &fringe);
     level.telemetry.stats_from_s = 60.0;
     level.expect = ["collisions == 0", "vehicles_spawned > 0"]
@@ -318,6 +319,92 @@ fn signal_program(
     Ok(program)
 }
 
+/// The shortest a road that traffic enters the network by is made, m: a car created on it
+/// stands before the line at its end with room to stop there. A map's street cut a few metres
+/// (or, between two nodes netconvert left apart, centimetres) before a junction would otherwise
+/// have its cars created with their fronts in the junction.
+const SOURCE_MIN_M: f64 = 12.0;
+
+/// Lengthens each source road shorter than [`SOURCE_MIN_M`] backwards, along its first
+/// stretch's direction, where the added stretch keeps clear of every other road's surface (no
+/// car comes onto a source from anywhere, so its start can move back).
+fn lengthen_short_sources(level: &mut Level, fringe: &Fringe) {
+    let half_width = |r: &RoadSpec| 0.5 * f64::from(r.lanes) * r.lane_width_m;
+    for e in &fringe.sources {
+        let roads = &level.roads;
+        let Some(i) = roads.iter().position(|r| r.name == e.id) else {
+            continue;
+        };
+        // The roads it leads onto meet its end, not the stretch added at its start.
+        let onto: BTreeSet<&str> = roads[i]
+            .links
+            .iter()
+            .map(|l| l.to.as_str())
+            .chain(
+                level
+                    .junctions
+                    .iter()
+                    .flat_map(|j| &j.connections)
+                    .filter(|c| c.from == e.id)
+                    .map(|c| c.to.as_str()),
+            )
+            .collect();
+        let points: Vec<DVec3> = roads[i].points.iter().map(|p| p.pos).collect();
+        let length = polyline_length(&points);
+        let dir = (points[1] - points[0]).normalize_or_zero();
+        if length >= SOURCE_MIN_M || dir == DVec3::ZERO {
+            continue;
+        }
+        let start = points[0] - dir * (SOURCE_MIN_M - length);
+        let (a0, a1) = (start.truncate(), points[0].truncate());
+        let half = half_width(&roads[i]);
+        let clear = roads.iter().enumerate().all(|(j, r)| {
+            j == i
+                || onto.contains(r.name.as_str())
+                || r.points.windows(2).all(|w| {
+                    segments_apart_m(a0, a1, w[0].pos.truncate(), w[1].pos.truncate())
+                        >= half + half_width(r) - 0.1
+                })
+        });
+        if clear {
+            let road = &mut level.roads[i];
+            let first = road.points[0].clone();
+            road.points.insert(
+                0,
+                flockway_road::ControlPoint {
+                    pos: start,
+                    tangent: None,
+                    ..first
+                },
+            );
+        }
+    }
+}
+
+/// The shortest distance between the segments `a0`–`a1` and `b0`–`b1` on the ground, m (0
+/// where they cross).
+fn segments_apart_m(a0: DVec2, a1: DVec2, b0: DVec2, b1: DVec2) -> f64 {
+    let side = |o: DVec2, p: DVec2, q: DVec2| (p - o).perp_dot(q - o);
+    let (d1, d2) = (side(b0, b1, a0), side(b0, b1, a1));
+    let (d3, d4) = (side(a0, a1, b0), side(a0, a1, b1));
+    if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+        return 0.0;
+    }
+    let to_segment = |p: DVec2, s0: DVec2, s1: DVec2| {
+        let d = s1 - s0;
+        let t = if d.length_squared() > 0.0 {
+            ((p - s0).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        p.distance(s0 + t * d)
+    };
+    to_segment(a0, b0, b1)
+        .min(to_segment(a1, b0, b1))
+        .min(to_segment(b0, a0, a1))
+        .min(to_segment(b1, a0, a1))
+}
+
 /// Traffic where the network is open: a spawner on every lane of each source, its vehicles
 /// routed to every sink it reaches (the fewest edges there), and a destroyer near the end of
 /// each sink.
@@ -342,7 +429,14 @@ fn add_traffic(level: &mut Level, fringe: &Fringe) {
             } else {
                 e.id.clone()
             };
-            let s_m = SPAWN_AT_M.min(0.5 * polyline_length(&e.lanes[lane as usize].shape));
+            // Along the road as lengthened, where it was.
+            let length = level
+                .roads
+                .iter()
+                .find(|r| r.name == e.id)
+                .map(|r| polyline_length(&r.points.iter().map(|p| p.pos).collect::<Vec<_>>()))
+                .unwrap_or_else(|| polyline_length(&e.lanes[lane as usize].shape));
+            let s_m = SPAWN_AT_M.min(0.5 * length);
             level.spawners.push(SpawnerSpec {
                 routes: routes.clone(),
                 ..SpawnerSpec::new(&name, &e.id, lane, s_m, SPAWN_INTERVAL_S, shares.clone())
@@ -758,7 +852,7 @@ mod tests {
     }
 
     #[test]
-    fn a_spawner_on_a_short_edge_stands_half_way_along_it() {
+    fn a_short_entry_edge_is_lengthened_back_so_that_its_cars_start_before_its_end() {
         let level = import(
             &[
                 edge("a", "A", "J", 1, (0.0, 0.0), (3.0, 0.0)),
@@ -768,7 +862,37 @@ mod tests {
             .join("\n"),
         )
         .expect("imports");
-        assert_eq!(level.spawners[0].s_m, 1.5);
+        let a = level.road("a").expect("the road");
+        assert_eq!(a.points[0].pos, DVec3::new(3.0 - SOURCE_MIN_M, 0.0, 0.0));
+        assert_eq!(
+            a.points.last().map(|p| p.pos),
+            Some(DVec3::new(3.0, 0.0, 0.0))
+        );
+        assert_eq!(level.spawners[0].s_m, SPAWN_AT_M);
+    }
+
+    #[test]
+    fn a_short_entry_edge_stays_as_it_is_where_lengthened_it_would_cross_another_road() {
+        // `c` runs north-south 5 m behind `a`'s start: `a` stays 3 m long, its spawner half
+        // way along it.
+        let level = import(
+            &[
+                edge("a", "A", "J", 1, (0.0, 0.0), (3.0, 0.0)),
+                edge("b", "J", "B", 1, (3.0, 0.0), (100.0, 0.0)),
+                edge("c", "C", "D", 1, (-5.0, -50.0), (-5.0, 50.0)),
+                r#"<connection from="a" to="b" fromLane="0" toLane="0" dir="s"/>"#.to_owned(),
+            ]
+            .join("\n"),
+        )
+        .expect("imports");
+        let a = level.road("a").expect("the road");
+        assert_eq!(a.points.len(), 2);
+        let spawner = level
+            .spawners
+            .iter()
+            .find(|s| s.road == "a")
+            .expect("a spawner");
+        assert_eq!(spawner.s_m, 1.5);
     }
 
     #[test]
