@@ -90,6 +90,16 @@ pub(crate) fn crossings(roads: &[CrossingRoad]) -> Vec<(RoadId, RoadId)> {
     found.into_iter().collect()
 }
 
+/// The shortest distance between the segments `a0`–`a1` and `b0`–`b1` on the ground plan, m:
+/// 0 where they cross or touch.
+pub fn segments_apart_m(a0: DVec2, a1: DVec2, b0: DVec2, b1: DVec2) -> f64 {
+    if segments_cross(a0, a1, b0, b1) {
+        0.0
+    } else {
+        segment_distance(a0, a1, b0, b1)
+    }
+}
+
 /// Whether the segments `a0`–`a1` and `b0`–`b1` cross (touching at an end counts).
 fn segments_cross(a0: DVec2, a1: DVec2, b0: DVec2, b1: DVec2) -> bool {
     let side = |o: DVec2, p: DVec2, q: DVec2| (p - o).perp_dot(q - o);

@@ -12,6 +12,7 @@
 //! direction of travel; lane 0 is the rightmost lane.
 
 mod crossing;
+pub use crossing::segments_apart_m;
 mod error;
 mod geometry;
 mod grid;

@@ -11,7 +11,7 @@ use crate::schema::{
 };
 use crate::template::{AUTONOMOUS_PROFILE, reference_profiles, reference_vehicle_types};
 use flockway_road::{ConnectionSpec, Control, JunctionSpec, LinkSpec, RoadSpec, SignalProgram};
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -362,8 +362,12 @@ fn lengthen_short_sources(level: &mut Level, fringe: &Fringe) {
             j == i
                 || onto.contains(r.name.as_str())
                 || r.points.windows(2).all(|w| {
-                    segments_apart_m(a0, a1, w[0].pos.truncate(), w[1].pos.truncate())
-                        >= half + half_width(r) - 0.1
+                    flockway_road::segments_apart_m(
+                        a0,
+                        a1,
+                        w[0].pos.truncate(),
+                        w[1].pos.truncate(),
+                    ) >= half + half_width(r) - 0.1
                 })
         });
         if clear {
@@ -379,30 +383,6 @@ fn lengthen_short_sources(level: &mut Level, fringe: &Fringe) {
             );
         }
     }
-}
-
-/// The shortest distance between the segments `a0`–`a1` and `b0`–`b1` on the ground, m (0
-/// where they cross).
-fn segments_apart_m(a0: DVec2, a1: DVec2, b0: DVec2, b1: DVec2) -> f64 {
-    let side = |o: DVec2, p: DVec2, q: DVec2| (p - o).perp_dot(q - o);
-    let (d1, d2) = (side(b0, b1, a0), side(b0, b1, a1));
-    let (d3, d4) = (side(a0, a1, b0), side(a0, a1, b1));
-    if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
-        return 0.0;
-    }
-    let to_segment = |p: DVec2, s0: DVec2, s1: DVec2| {
-        let d = s1 - s0;
-        let t = if d.length_squared() > 0.0 {
-            ((p - s0).dot(d) / d.length_squared()).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        p.distance(s0 + t * d)
-    };
-    to_segment(a0, b0, b1)
-        .min(to_segment(a1, b0, b1))
-        .min(to_segment(b0, a0, a1))
-        .min(to_segment(b1, a0, a1))
 }
 
 /// Traffic where the network is open: a spawner on every lane of each source, its vehicles
