@@ -51,7 +51,7 @@ use Outcome::{Imports, Refused, Runs};
 const NETWORKS: [(&str, Outcome); 28] = [
     ("game/A10KW/osm.net.xml", Runs { most_contacts: 4.0 }),
     ("game/DRT/osm.net.xml", Runs { most_contacts: 0.0 }),
-    ("game/bs3d/bs.net.xml", Runs { most_contacts: 2.0 }),
+    ("game/bs3d/bs.net.xml", Runs { most_contacts: 1.0 }),
     (
         "game/corridor/corridor.net.xml",
         Runs { most_contacts: 0.0 },
@@ -293,8 +293,9 @@ networks! {
 
 /// How long the OpenStreetMap town runs, s: its fringe fills it with hundreds of cars.
 const TOWN_SECONDS: f64 = 40.0;
-/// The vehicle contacts the town has in [`TOWN_SECONDS`] s today (a known defect, as above).
-const TOWN_CONTACTS: f64 = 1.0;
+/// The vehicle contacts the town has in [`TOWN_SECONDS`] s today: none (its contacts come
+/// later, as its streets jam; a known defect, as above).
+const TOWN_CONTACTS: f64 = 0.0;
 
 /// The options docs/import.md recommends for netconvert on OpenStreetMap.
 const OSM_OPTIONS: [&str; 8] = [
