@@ -349,14 +349,14 @@ fn lengthen_short_sources(level: &mut Level, fringe: &Fringe) {
                     .map(|c| c.to.as_str()),
             )
             .collect();
-        let points: Vec<DVec3> = roads[i].points.iter().map(|p| p.pos).collect();
-        let length = polyline_length(&points);
-        let dir = (points[1] - points[0]).normalize_or_zero();
+        let length = road_length_m(&roads[i]);
+        let (p0, p1) = (roads[i].points[0].pos, roads[i].points[1].pos);
+        let dir = (p1 - p0).normalize_or_zero();
         if length >= SOURCE_MIN_M || dir == DVec3::ZERO {
             continue;
         }
-        let start = points[0] - dir * (SOURCE_MIN_M - length);
-        let (a0, a1) = (start.truncate(), points[0].truncate());
+        let start = p0 - dir * (SOURCE_MIN_M - length);
+        let (a0, a1) = (start.truncate(), p0.truncate());
         let half = half_width(&roads[i]);
         let clear = roads.iter().enumerate().all(|(j, r)| {
             j == i
@@ -414,7 +414,7 @@ fn add_traffic(level: &mut Level, fringe: &Fringe) {
                 .roads
                 .iter()
                 .find(|r| r.name == e.id)
-                .map(|r| polyline_length(&r.points.iter().map(|p| p.pos).collect::<Vec<_>>()))
+                .map(road_length_m)
                 .unwrap_or_else(|| polyline_length(&e.lanes[lane as usize].shape));
             let s_m = SPAWN_AT_M.min(0.5 * length);
             level.spawners.push(SpawnerSpec {
@@ -456,6 +456,14 @@ fn issue_at(issue: &crate::Issue, level: &Level, net: &Net) -> Option<At> {
 /// The length of a polyline, m.
 pub(super) fn polyline_length(points: &[DVec3]) -> f64 {
     points.windows(2).map(|w| w[0].distance(w[1])).sum()
+}
+
+/// The length of a road's polyline through its points, m.
+fn road_length_m(road: &RoadSpec) -> f64 {
+    road.points
+        .windows(2)
+        .map(|w| w[0].pos.distance(w[1].pos))
+        .sum()
 }
 
 /// A road for an edge: its centre line midway between its outer lanes (SUMO gives each lane's
